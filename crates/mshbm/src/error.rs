@@ -1,0 +1,83 @@
+//! Typed errors of the library. Every error that comes from user data names where the bad
+//! value came from (file and field, or file and line), so the CLI can print one clear line.
+
+use std::path::{Path, PathBuf};
+
+/// Result alias used throughout the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Everything that can go wrong in the library.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{}: {message}", file.display())]
+    Io { file: PathBuf, message: String },
+
+    /// A model file is not valid TOML.
+    #[error("{}: malformed TOML: {message}", file.display())]
+    Toml { file: PathBuf, message: String },
+
+    /// A field of a model file (or of a programmatic model) has a bad value.
+    #[error("{}: field `{field}`: {message}", file.display())]
+    Field {
+        file: PathBuf,
+        field: String,
+        message: String,
+    },
+
+    /// A Matrix Market file is malformed.
+    #[error("{}, line {line}: {message}", file.display())]
+    MatrixMarket {
+        file: PathBuf,
+        line: usize,
+        message: String,
+    },
+
+    /// A `--set key=value` override could not be applied.
+    #[error("override `{assignment}`: {message}")]
+    Override { assignment: String, message: String },
+
+    /// A parameter passed by the caller (not from a model file) is invalid.
+    #[error("invalid {name}: {message}")]
+    InvalidArgument { name: String, message: String },
+
+    /// Mass redistribution failed (degenerate moment system, or the result is not
+    /// positive definite on the DOFs that keep mass).
+    #[error("mass redistribution: {0}")]
+    Redistribution(String),
+
+    /// A matrix that must be positive definite (or invertible) is not.
+    #[error("{0}")]
+    Singular(String),
+
+    /// A numerical algorithm failed for a reason that is not the user's input.
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+}
+
+impl Error {
+    /// A field error for `file`.
+    pub fn field(file: &Path, field: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Field {
+            file: file.to_path_buf(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// An I/O error for `file`.
+    pub fn io(file: &Path, err: impl std::fmt::Display) -> Self {
+        Error::Io {
+            file: file.to_path_buf(),
+            message: err.to_string(),
+        }
+    }
+
+    /// An invalid caller-supplied argument.
+    pub fn argument(name: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::InvalidArgument {
+            name: name.into(),
+            message: message.into(),
+        }
+    }
+}

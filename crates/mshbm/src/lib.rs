@@ -1,0 +1,18 @@
+//! # mshbm
+//!
+//! Periodic solutions and nonlinear frequency response diagrams of mechanical systems with
+//! unilateral contact, by the Mixed Shooting–Harmonic Balance Method (MS-HBM) of Schreyer &
+//! Leine ("Mixed Shooting-HBM: a periodic solution solver for unilaterally constrained
+//! systems"). Equation numbers in the docs refer to that paper.
+//!
+//! The library does all numerics and never prints; the `mshbm` binary is in `mshbm-cli`.
+
+pub mod dense;
+pub mod error;
+pub mod fe;
+pub mod model;
+pub mod modes;
+pub mod sparse;
+
+pub use error::{Error, Result};
+pub use model::{MassKind, Model, System};

@@ -1,0 +1,387 @@
+//! Model files (TOML) and `--set key=value` overrides.
+//!
+//! Two kinds, chosen by the top-level `kind` key:
+//!
+//! * `kind = "bar"` — the paper's clamped bar (see [`crate::model::bar`]):
+//!   ```toml
+//!   kind = "bar"
+//!   [bar]
+//!   elements = 100        # number of two-node elements
+//!   length = 20.0         # total length [mm]
+//!   density = 9e-9        # [t/mm^3]
+//!   young = 2.1e5         # Young's modulus [MPa]
+//!   area = 1.0            # cross-section [mm^2]
+//!   clamped_end = "left"  # "left" (x = 0) or "right"; the contact is at the other end
+//!   [load]
+//!   amplitude = 4000.0    # harmonic force F cos(wt) [N], along +x
+//!   position = 10.0       # where it acts [mm] (or `node = 50`)
+//!   [contact]
+//!   gap = 0.2             # initial gap g0 [mm]; omit the table for no contact
+//!   [damping]
+//!   alpha = 0.0           # C = alpha M_used + beta K [1/s], [s]
+//!   beta = 0.0
+//!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
+//!   ```
+//! * `kind = "matrices"` — a general model from Matrix Market files (paths relative to the
+//!   model file; DOFs numbered from 0, DOF = node * dofs_per_node + component):
+//!   ```toml
+//!   kind = "matrices"
+//!   [matrices]
+//!   mass = "M.mtx"
+//!   stiffness = "K.mtx"
+//!   # damping = "C.mtx"
+//!   [mesh]
+//!   dofs_per_node = 1
+//!   coordinates = "nodes.txt"   # one node per line, 1-3 numbers; or inline [[x], [x], ...]
+//!   dirichlet = [0]
+//!   [[contacts]]                # g = sum_i w_i q_{dofs_i} + gap >= 0
+//!   dofs = [100]
+//!   w = [-1.0]
+//!   gap = 0.2
+//!   [load]
+//!   harmonic = [[50, 4000.0]]   # (dof, amplitude) pairs of F cos(wt); or harmonic_file = "f.mtx"
+//!   constant = []               # (dof, value) pairs; or constant_file = "f0.mtx"
+//!   # acceleration = [-9810.0]  # uniform acceleration per component, load = M_used (1 ⊗ a)
+//!   [damping]
+//!   alpha = 0.0
+//!   ```
+//!
+//! Unknown keys are errors. Errors name the file and the field.
+
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use crate::error::{Error, Result};
+use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
+use crate::model::matrix_market::read_matrix;
+use crate::model::{Contact, Damping, Model};
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct DampingSection {
+    #[serde(default)]
+    alpha: f64,
+    #[serde(default)]
+    beta: f64,
+    first_mode_ratio: Option<f64>,
+}
+
+impl From<DampingSection> for Damping {
+    fn from(d: DampingSection) -> Self {
+        Damping {
+            alpha: d.alpha,
+            beta: d.beta,
+            first_mode_ratio: d.first_mode_ratio,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BarFile {
+    #[allow(dead_code)]
+    kind: String,
+    name: Option<String>,
+    bar: BarSection,
+    load: BarLoad,
+    contact: Option<BarContact>,
+    #[serde(default)]
+    damping: DampingSection,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BarSection {
+    elements: usize,
+    length: f64,
+    density: f64,
+    young: f64,
+    area: f64,
+    #[serde(default = "default_clamped_end")]
+    clamped_end: ClampedEnd,
+}
+
+fn default_clamped_end() -> ClampedEnd {
+    ClampedEnd::Left
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BarLoad {
+    amplitude: f64,
+    node: Option<usize>,
+    position: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BarContact {
+    gap: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MatricesFile {
+    #[allow(dead_code)]
+    kind: String,
+    name: Option<String>,
+    matrices: MatricesSection,
+    mesh: MeshSection,
+    #[serde(default)]
+    contacts: Vec<ContactSection>,
+    #[serde(default)]
+    load: LoadSection,
+    #[serde(default)]
+    damping: DampingSection,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MatricesSection {
+    mass: String,
+    stiffness: String,
+    damping: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Coordinates {
+    File(String),
+    Inline(Vec<Vec<f64>>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshSection {
+    #[serde(default = "one")]
+    dofs_per_node: usize,
+    coordinates: Coordinates,
+    #[serde(default)]
+    dirichlet: Vec<usize>,
+}
+
+fn one() -> usize {
+    1
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ContactSection {
+    dofs: Vec<usize>,
+    w: Vec<f64>,
+    gap: f64,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct LoadSection {
+    #[serde(default)]
+    harmonic: Vec<(usize, f64)>,
+    harmonic_file: Option<String>,
+    #[serde(default)]
+    constant: Vec<(usize, f64)>,
+    constant_file: Option<String>,
+    acceleration: Option<Vec<f64>>,
+}
+
+/// Read a model file, apply `overrides` (`key=value`, dotted paths) and build the model.
+pub fn load_model(path: &Path, overrides: &[String]) -> Result<Model> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse_model(&text, path, overrides)
+}
+
+/// Parse model-file text (`path` locates relative matrix files and names errors).
+pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Model> {
+    let mut value: toml::Value = toml::from_str(text).map_err(|e| Error::Toml {
+        file: path.to_path_buf(),
+        message: e.to_string().trim().replace('\n', " "),
+    })?;
+    for o in overrides {
+        apply_override(&mut value, o)?;
+    }
+    let kind = value
+        .get("kind")
+        .ok_or_else(|| Error::field(path, "kind", "missing (expected \"bar\" or \"matrices\")"))?
+        .as_str()
+        .ok_or_else(|| Error::field(path, "kind", "must be a string (\"bar\" or \"matrices\")"))?
+        .to_string();
+    match kind.as_str() {
+        "bar" => {
+            let f: BarFile = deserialize(value, path)?;
+            bar_model(f, path)
+        }
+        "matrices" => {
+            let f: MatricesFile = deserialize(value, path)?;
+            matrices_model(f, path)
+        }
+        other => Err(Error::field(path, "kind", format!("unknown kind \"{other}\" (expected \"bar\" or \"matrices\")"))),
+    }
+}
+
+fn deserialize<T: serde::de::DeserializeOwned>(value: toml::Value, path: &Path) -> Result<T> {
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let field = e.path().to_string();
+        let field = if field == "." { "(top level)".to_string() } else { field };
+        Error::field(path, field, e.into_inner().to_string())
+    })
+}
+
+fn bar_model(f: BarFile, path: &Path) -> Result<Model> {
+    let force_location = match (f.load.node, f.load.position) {
+        (Some(n), None) => ForceLocation::Node(n),
+        (None, Some(x)) => ForceLocation::Position(x),
+        _ => return Err(Error::field(path, "load", "give exactly one of `node` and `position`")),
+    };
+    let params = BarParameters {
+        elements: f.bar.elements,
+        length: f.bar.length,
+        density: f.bar.density,
+        young: f.bar.young,
+        area: f.bar.area,
+        clamped_end: f.bar.clamped_end,
+        force_amplitude: f.load.amplitude,
+        force_location,
+        gap: f.contact.map(|c| c.gap),
+        damping: f.damping.into(),
+    };
+    let mut model = params.build(path)?;
+    if let Some(name) = f.name {
+        model.name = name;
+    }
+    Ok(model)
+}
+
+fn relative(path: &Path, name: &str) -> PathBuf {
+    path.parent().unwrap_or(Path::new(".")).join(name)
+}
+
+fn read_vector(path: &Path, field: &str, file: &str, n: usize) -> Result<Vec<f64>> {
+    let a = read_matrix(&relative(path, file))?;
+    if a.ncols() != 1 || a.nrows() != n {
+        return Err(Error::field(path, field, format!("{file} is {}×{}, expected a {n}×1 vector", a.nrows(), a.ncols())));
+    }
+    let mut v = vec![0.0; n];
+    for (i, _, x) in a.iter() {
+        v[i] += x;
+    }
+    Ok(v)
+}
+
+fn pairs_to_vector(path: &Path, field: &str, pairs: &[(usize, f64)], n: usize) -> Result<Vec<f64>> {
+    let mut v = vec![0.0; n];
+    for &(d, x) in pairs {
+        if d >= n {
+            return Err(Error::field(path, field, format!("DOF {d} out of range (the model has DOFs 0..{})", n.saturating_sub(1))));
+        }
+        v[d] += x;
+    }
+    Ok(v)
+}
+
+fn read_coordinates(path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
+    let full = relative(path, file);
+    let text = std::fs::read_to_string(&full).map_err(|e| Error::io(&full, e))?;
+    let mut out = Vec::new();
+    for (k, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
+            continue;
+        }
+        let row: std::result::Result<Vec<f64>, _> =
+            t.split(|c: char| c == ',' || c.is_whitespace()).filter(|w| !w.is_empty()).map(str::parse).collect();
+        let row = row.map_err(|_| Error::MatrixMarket {
+            file: full.clone(),
+            line: k + 1,
+            message: format!("expected 1 to 3 numbers, found `{t}`"),
+        })?;
+        out.push(row);
+    }
+    Ok(out)
+}
+
+fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
+    let stiffness = read_matrix(&relative(path, &f.matrices.stiffness))?;
+    let mass = read_matrix(&relative(path, &f.matrices.mass))?;
+    let damping_matrix = f.matrices.damping.as_ref().map(|c| read_matrix(&relative(path, c))).transpose()?;
+    let n = stiffness.nrows();
+    let coordinates = match &f.mesh.coordinates {
+        Coordinates::File(file) => read_coordinates(path, file)?,
+        Coordinates::Inline(c) => c.clone(),
+    };
+    let load_vector = |field: &str, pairs: &[(usize, f64)], file: &Option<String>| -> Result<Vec<f64>> {
+        match (pairs.is_empty(), file) {
+            (_, None) => pairs_to_vector(path, field, pairs, n),
+            (true, Some(file)) => read_vector(path, &format!("{field}_file"), file, n),
+            (false, Some(_)) => Err(Error::field(path, field, format!("give either `{field}` or `{field}_file`, not both"))),
+        }
+    };
+    let harmonic_load = load_vector("load.harmonic", &f.load.harmonic, &f.load.harmonic_file)?;
+    let constant_load = load_vector("load.constant", &f.load.constant, &f.load.constant_file)?;
+    let model = Model {
+        source: path.to_path_buf(),
+        name: f.name.unwrap_or_else(|| path.display().to_string()),
+        mass,
+        stiffness,
+        damping_matrix,
+        coordinates,
+        dofs_per_node: f.mesh.dofs_per_node,
+        dirichlet: f.mesh.dirichlet,
+        contacts: f.contacts.into_iter().map(|c| Contact { dofs: c.dofs, w: c.w, gap: c.gap }).collect(),
+        harmonic_load,
+        constant_load,
+        acceleration: f.load.acceleration,
+        damping: f.damping.into(),
+    };
+    model.validate()?;
+    Ok(model)
+}
+
+/// Apply one `key=value` override to a parsed model file. The key is a dotted path
+/// (`contact.gap`, `damping.alpha`, `contacts.0.gap` for the first element of an array);
+/// the value is parsed as a TOML value (number, boolean, array, quoted string) and taken
+/// as a bare string otherwise. Missing tables on the path are created; a key that the
+/// model does not know is then reported when the model is read.
+pub fn apply_override(root: &mut toml::Value, assignment: &str) -> Result<()> {
+    let err = |message: &str| Error::Override {
+        assignment: assignment.to_string(),
+        message: message.to_string(),
+    };
+    let (key, raw) = assignment.split_once('=').ok_or_else(|| err("expected key=value"))?;
+    let key = key.trim();
+    let raw = raw.trim();
+    if key.is_empty() || key.split('.').any(str::is_empty) {
+        return Err(err("the key must be a dotted path such as `contact.gap`"));
+    }
+    let value = toml::from_str::<toml::Table>(&format!("v = {raw}"))
+        .ok()
+        .and_then(|mut t| t.remove("v"))
+        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+    let parts: Vec<&str> = key.split('.').collect();
+    let mut node = root;
+    for (k, part) in parts.iter().enumerate() {
+        let last = k + 1 == parts.len();
+        node = match node {
+            toml::Value::Table(t) => {
+                if last {
+                    t.insert(part.to_string(), value);
+                    return Ok(());
+                }
+                t.entry(part.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()))
+            }
+            toml::Value::Array(a) => {
+                let i: usize = part.parse().map_err(|_| err(&format!("`{part}` is not an array index")))?;
+                let len = a.len();
+                let slot = a.get_mut(i).ok_or_else(|| err(&format!("index {i} out of range (array has {len} elements)")))?;
+                if last {
+                    *slot = value;
+                    return Ok(());
+                }
+                slot
+            }
+            _ => return Err(err(&format!("`{}` is not a table", parts[..k].join(".")))),
+        };
+    }
+    Ok(())
+}
+

@@ -1,0 +1,212 @@
+//! Mechanical models `M q'' + C q' + K q = f_ex(t) + W λ` (paper eq. 1/17) with unilateral
+//! contacts, as read from model files or built in code.
+//!
+//! A [`Model`] holds the *unconstrained* finite-element matrices (all DOFs, Dirichlet DOFs
+//! included, as mass redistribution needs them) plus the data that turn it into a problem:
+//! Dirichlet DOFs, contacts, loads and damping. [`Model::system`] applies a mass choice
+//! (consistent or redistributed), builds the damping and removes the Dirichlet DOFs, giving
+//! the [`System`] the methods work on.
+//!
+//! DOFs are numbered from 0; DOF `node * dofs_per_node + component`.
+
+pub mod bar;
+pub mod file;
+pub mod matrix_market;
+mod system;
+
+pub use system::{MassKind, System};
+
+use std::path::PathBuf;
+
+use crate::error::{Error, Result};
+use crate::sparse::SparseMatrix;
+
+/// A unilateral contact: gap `g = Σ_i w_i q_{dofs_i} + gap ≥ 0`, force `+w λ` on the
+/// structure with `λ ≥ 0` (paper eqs. 23–24, METHODS §0).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Contact {
+    /// DOFs the gap depends on (model numbering).
+    pub dofs: Vec<usize>,
+    /// `∂g/∂q` for each of `dofs` (a column of `W`).
+    pub w: Vec<f64>,
+    /// Initial gap `g0` (model length unit).
+    pub gap: f64,
+}
+
+/// Rayleigh-type damping `C = alpha·M + beta·K (+ C_file)`, where `M` is the mass matrix
+/// the method uses (redistributed for the redistributed MS-HBM, consistent otherwise).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Damping {
+    /// Mass-proportional coefficient (1/s).
+    pub alpha: f64,
+    /// Stiffness-proportional coefficient (s). Couples into the contact DOFs, so the
+    /// redistributed method refuses it.
+    pub beta: f64,
+    /// If set, `alpha = 2 ζ ω₁` with `ω₁` the first eigenfrequency (rad/s) of the system
+    /// with the mass the method uses and all contacts open, so that the first mode has
+    /// modal damping ratio `ζ` (mass-proportional damping gives `ζ_k = alpha / (2 ω_k)`).
+    pub first_mode_ratio: Option<f64>,
+}
+
+/// A complete model (see the module docs).
+#[derive(Clone, Debug)]
+pub struct Model {
+    /// Where the model came from (file path, or a description for built-in models); used
+    /// in error messages.
+    pub source: PathBuf,
+    /// Human-readable name.
+    pub name: String,
+    /// Consistent mass matrix of the unconstrained mesh.
+    pub mass: SparseMatrix,
+    /// Stiffness matrix of the unconstrained mesh.
+    pub stiffness: SparseMatrix,
+    /// Optional explicit damping matrix, added to the Rayleigh part.
+    pub damping_matrix: Option<SparseMatrix>,
+    /// Node coordinates (dimension 1, 2 or 3), for mass redistribution.
+    pub coordinates: Vec<Vec<f64>>,
+    /// DOFs per node.
+    pub dofs_per_node: usize,
+    /// DOFs fixed to zero.
+    pub dirichlet: Vec<usize>,
+    /// Unilateral contacts.
+    pub contacts: Vec<Contact>,
+    /// Amplitude of the harmonic load `f(t) = harmonic_load · cos(ωt)`, one entry per DOF.
+    pub harmonic_load: Vec<f64>,
+    /// Constant load, one entry per DOF.
+    pub constant_load: Vec<f64>,
+    /// Optional uniform acceleration field (one value per component, e.g. gravity
+    /// `[-9810]` in mm/s²); its load `M_used (1 ⊗ a)` uses the mass the method uses, so
+    /// that free flight stays rigid with a redistributed mass (METHODS §2.5).
+    pub acceleration: Option<Vec<f64>>,
+    /// Damping.
+    pub damping: Damping,
+}
+
+impl Model {
+    /// Number of DOFs of the unconstrained mesh.
+    pub fn n_dofs(&self) -> usize {
+        self.stiffness.nrows()
+    }
+
+    /// Number of nodes.
+    pub fn n_nodes(&self) -> usize {
+        self.coordinates.len()
+    }
+
+    /// Nodes that carry a contact DOF (these become massless under redistribution).
+    pub fn contact_nodes(&self) -> Vec<usize> {
+        let mut nodes: Vec<usize> = self
+            .contacts
+            .iter()
+            .flat_map(|c| c.dofs.iter().map(|&d| d / self.dofs_per_node))
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        nodes
+    }
+
+    /// Check the consistency of the model; errors name the field (with the model's source).
+    pub fn validate(&self) -> Result<()> {
+        let file = &self.source;
+        let n = self.n_dofs();
+        let square = |name: &str, a: &SparseMatrix| -> Result<()> {
+            if a.nrows() != a.ncols() {
+                return Err(Error::field(file, name, format!("matrix is not square ({}×{})", a.nrows(), a.ncols())));
+            }
+            if a.nrows() != n {
+                return Err(Error::field(file, name, format!("matrix is {}×{}, the stiffness matrix is {n}×{n}", a.nrows(), a.ncols())));
+            }
+            if let Some((i, j)) = a.asymmetry(1e-10) {
+                return Err(Error::field(
+                    file,
+                    name,
+                    format!("matrix is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)", i + 1, j + 1, a.get(i, j), j + 1, i + 1, a.get(j, i)),
+                ));
+            }
+            Ok(())
+        };
+        square("matrices.stiffness", &self.stiffness)?;
+        square("matrices.mass", &self.mass)?;
+        if let Some(c) = &self.damping_matrix {
+            square("matrices.damping", c)?;
+        }
+        if n == 0 {
+            return Err(Error::field(file, "matrices.stiffness", "the model has no DOFs"));
+        }
+        if self.dofs_per_node == 0 {
+            return Err(Error::field(file, "mesh.dofs_per_node", "must be at least 1"));
+        }
+        if self.coordinates.len() * self.dofs_per_node != n {
+            return Err(Error::field(
+                file,
+                "mesh.coordinates",
+                format!("{} nodes × {} DOFs per node = {} DOFs, but the matrices have {n}", self.coordinates.len(), self.dofs_per_node, self.coordinates.len() * self.dofs_per_node),
+            ));
+        }
+        let dim = self.coordinates.first().map_or(0, Vec::len);
+        if !(1..=3).contains(&dim) {
+            return Err(Error::field(file, "mesh.coordinates", format!("nodes must have 1, 2 or 3 coordinates, found {dim}")));
+        }
+        for (k, c) in self.coordinates.iter().enumerate() {
+            if c.len() != dim || c.iter().any(|v| !v.is_finite()) {
+                return Err(Error::field(file, "mesh.coordinates", format!("node {k}: expected {dim} finite coordinates, found {c:?}")));
+            }
+        }
+        for (k, &d) in self.dirichlet.iter().enumerate() {
+            if d >= n {
+                return Err(Error::field(file, format!("mesh.dirichlet[{k}]"), format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1)));
+            }
+        }
+        for (k, c) in self.contacts.iter().enumerate() {
+            let field = |f: &str| format!("contacts[{k}].{f}");
+            if c.dofs.is_empty() {
+                return Err(Error::field(file, field("dofs"), "a contact needs at least one DOF"));
+            }
+            if c.dofs.len() != c.w.len() {
+                return Err(Error::field(file, field("w"), format!("{} coefficients for {} DOFs", c.w.len(), c.dofs.len())));
+            }
+            for &d in &c.dofs {
+                if d >= n {
+                    return Err(Error::field(file, field("dofs"), format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1)));
+                }
+                if self.dirichlet.contains(&d) {
+                    return Err(Error::field(file, field("dofs"), format!("DOF {d} is also a Dirichlet DOF")));
+                }
+            }
+            if c.w.iter().any(|v| !v.is_finite()) || c.w.iter().all(|&v| v == 0.0) {
+                return Err(Error::field(file, field("w"), "the gap gradient must be finite and non-zero"));
+            }
+            if !c.gap.is_finite() {
+                return Err(Error::field(file, field("gap"), "must be finite"));
+            }
+        }
+        for (name, v) in [("load.harmonic", &self.harmonic_load), ("load.constant", &self.constant_load)] {
+            if v.len() != n {
+                return Err(Error::field(file, name, format!("load vector has {} entries for {n} DOFs", v.len())));
+            }
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(Error::field(file, name, "load values must be finite"));
+            }
+        }
+        if let Some(a) = &self.acceleration {
+            if a.len() != self.dofs_per_node || a.iter().any(|x| !x.is_finite()) {
+                return Err(Error::field(file, "load.acceleration", format!("expected {} finite values (one per DOF of a node)", self.dofs_per_node)));
+            }
+        }
+        let d = &self.damping;
+        for (name, v) in [("damping.alpha", d.alpha), ("damping.beta", d.beta)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::field(file, name, format!("must be a finite non-negative number, got {v}")));
+            }
+        }
+        if let Some(z) = d.first_mode_ratio {
+            if !(z.is_finite() && z >= 0.0) {
+                return Err(Error::field(file, "damping.first_mode_ratio", format!("must be a finite non-negative number, got {z}")));
+            }
+            if d.alpha != 0.0 {
+                return Err(Error::field(file, "damping.first_mode_ratio", "set either `alpha` or `first_mode_ratio`, not both"));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,156 @@
+//! The system the methods solve: a mass choice applied, damping built, Dirichlet DOFs
+//! removed, and DOFs split into the linear part `L` and the nonlinear part `N` (paper
+//! eq. 3 / eq. 23).
+
+use crate::error::{Error, Result};
+use crate::fe::redistribution::{expand_to_dofs, redistribute_scalar_mass, scalar_mass};
+use crate::model::Model;
+use crate::modes::first_angular_frequency;
+use crate::sparse::SparseMatrix;
+
+/// Which mass matrix a method uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MassKind {
+    /// The consistent mass of the model.
+    Consistent,
+    /// The redistributed mass with a massless contact boundary (paper eq. 21).
+    Redistributed,
+}
+
+/// A contact in system numbering.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SystemContact {
+    /// `(system DOF, ∂g/∂q)` pairs.
+    pub w: Vec<(usize, f64)>,
+    /// Initial gap `g0`.
+    pub gap: f64,
+}
+
+/// A model with its mass choice applied and Dirichlet DOFs removed.
+#[derive(Clone, Debug)]
+pub struct System {
+    pub mass_kind: MassKind,
+    /// Mass (redistributed or consistent), free DOFs only.
+    pub mass: SparseMatrix,
+    pub stiffness: SparseMatrix,
+    /// `alpha M + beta K (+ C_file)` on the free DOFs.
+    pub damping: SparseMatrix,
+    /// Model DOF of each system DOF.
+    pub model_dof: Vec<usize>,
+    /// System DOFs of the nonlinear part `N`: all DOFs of the contact nodes (with a
+    /// redistributed mass they are exactly the massless DOFs).
+    pub nonlinear_dofs: Vec<usize>,
+    /// System DOFs of the linear part `L`: all others.
+    pub linear_dofs: Vec<usize>,
+    pub contacts: Vec<SystemContact>,
+    /// Cosine amplitude of the harmonic load, system numbering.
+    pub harmonic_load: Vec<f64>,
+    /// Constant load (including the acceleration field's load), system numbering.
+    pub constant_load: Vec<f64>,
+    /// Mass-proportional damping coefficient actually used (1/s).
+    pub alpha: f64,
+    /// Stiffness-proportional damping coefficient used (s).
+    pub beta: f64,
+}
+
+impl Model {
+    /// The mass matrix of the unconstrained mesh for `kind`.
+    pub fn mass_matrix(&self, kind: MassKind) -> Result<SparseMatrix> {
+        match kind {
+            MassKind::Consistent => Ok(self.mass.clone()),
+            MassKind::Redistributed => {
+                let scalar = scalar_mass(&self.mass, self.dofs_per_node).map_err(|why| {
+                    Error::Redistribution(format!(
+                        "{}: the mass matrix is not the same for every component of a node ({why}); redistribution needs M = m ⊗ I",
+                        self.source.display()
+                    ))
+                })?;
+                let r = redistribute_scalar_mass(&scalar, &self.coordinates, &self.contact_nodes())?;
+                Ok(expand_to_dofs(&r, self.dofs_per_node))
+            }
+        }
+    }
+
+    /// Build the [`System`] for a mass choice (see the module docs).
+    pub fn system(&self, kind: MassKind) -> Result<System> {
+        self.validate()?;
+        let n = self.n_dofs();
+        let full_mass = self.mass_matrix(kind)?;
+        let mut fixed = vec![false; n];
+        self.dirichlet.iter().for_each(|&d| fixed[d] = true);
+        let model_dof: Vec<usize> = (0..n).filter(|&d| !fixed[d]).collect();
+        let mut system_of = vec![usize::MAX; n];
+        for (s, &d) in model_dof.iter().enumerate() {
+            system_of[d] = s;
+        }
+        let mass = full_mass.submatrix(&model_dof, &model_dof);
+        let stiffness = self.stiffness.submatrix(&model_dof, &model_dof);
+
+        let contact_nodes = self.contact_nodes();
+        let dpn = self.dofs_per_node;
+        let nonlinear_dofs: Vec<usize> = contact_nodes
+            .iter()
+            .flat_map(|&node| (0..dpn).map(move |c| node * dpn + c))
+            .filter(|&d| !fixed[d])
+            .map(|d| system_of[d])
+            .collect();
+        let mut is_nonlinear = vec![false; model_dof.len()];
+        nonlinear_dofs.iter().for_each(|&s| is_nonlinear[s] = true);
+        let linear_dofs: Vec<usize> = (0..model_dof.len()).filter(|&s| !is_nonlinear[s]).collect();
+
+        let alpha = match self.damping.first_mode_ratio {
+            Some(zeta) if zeta > 0.0 => 2.0 * zeta * first_angular_frequency(&mass, &stiffness)?,
+            _ => self.damping.alpha,
+        };
+        let beta = self.damping.beta;
+        let mut damping = SparseMatrix::linear_combination(alpha, &mass, beta, &stiffness);
+        if let Some(c) = &self.damping_matrix {
+            damping = SparseMatrix::linear_combination(1.0, &damping, 1.0, &c.submatrix(&model_dof, &model_dof));
+        }
+
+        let restrict = |v: &[f64]| -> Vec<f64> { model_dof.iter().map(|&d| v[d]).collect() };
+        let harmonic_load = restrict(&self.harmonic_load);
+        let mut constant_load = restrict(&self.constant_load);
+        if let Some(a) = &self.acceleration {
+            let field: Vec<f64> = (0..n).map(|d| a[d % dpn]).collect();
+            let f = full_mass.mul_vec(&field);
+            for (s, &d) in model_dof.iter().enumerate() {
+                constant_load[s] += f[d];
+            }
+        }
+        let contacts = self
+            .contacts
+            .iter()
+            .map(|c| SystemContact {
+                w: c.dofs.iter().zip(&c.w).map(|(&d, &w)| (system_of[d], w)).collect(),
+                gap: c.gap,
+            })
+            .collect();
+        Ok(System {
+            mass_kind: kind,
+            mass,
+            stiffness,
+            damping,
+            model_dof,
+            nonlinear_dofs,
+            linear_dofs,
+            contacts,
+            harmonic_load,
+            constant_load,
+            alpha,
+            beta,
+        })
+    }
+}
+
+impl System {
+    /// Number of free DOFs.
+    pub fn n_dofs(&self) -> usize {
+        self.model_dof.len()
+    }
+
+    /// System DOF of a model DOF, `None` for a Dirichlet DOF or one out of range.
+    pub fn system_dof(&self, model_dof: usize) -> Option<usize> {
+        self.model_dof.iter().position(|&d| d == model_dof)
+    }
+}

@@ -1,0 +1,218 @@
+//! A small compressed-sparse-column matrix of `f64` that the models are stored in.
+//!
+//! It owns the few operations the models need (assembly from triplets, sub-blocks by index
+//! sets, products, linear combinations, symmetry checks) and converts to `faer` for
+//! factorizations. Row indices within a column are sorted and unique; explicit zeros that a
+//! file stores are kept, because they are part of the sparsity pattern that mass
+//! redistribution must preserve.
+
+use faer::sparse::{SparseColMat, SymbolicSparseColMat};
+use faer::Mat;
+
+/// Compressed sparse column matrix.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SparseMatrix {
+    nrows: usize,
+    ncols: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl SparseMatrix {
+    /// Assemble from `(row, col, value)` triplets; duplicates are summed.
+    ///
+    /// # Panics
+    /// If an index is out of range (callers validate user indices first).
+    pub fn from_triplets(nrows: usize, ncols: usize, triplets: &[(usize, usize, f64)]) -> Self {
+        let mut sorted: Vec<(usize, usize, f64)> = triplets.to_vec();
+        for &(i, j, _) in &sorted {
+            assert!(i < nrows && j < ncols, "triplet ({i}, {j}) out of range");
+        }
+        sorted.sort_by(|a, b| (a.1, a.0).cmp(&(b.1, b.0)));
+        let mut col_ptr = vec![0usize; ncols + 1];
+        let mut row_idx = Vec::with_capacity(sorted.len());
+        let mut values: Vec<f64> = Vec::with_capacity(sorted.len());
+        let mut last: Option<(usize, usize)> = None;
+        for (i, j, v) in sorted {
+            if last == Some((i, j)) {
+                *values.last_mut().expect("entry exists") += v;
+            } else {
+                row_idx.push(i);
+                values.push(v);
+                col_ptr[j + 1] += 1;
+                last = Some((i, j));
+            }
+        }
+        for j in 0..ncols {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        SparseMatrix {
+            nrows,
+            ncols,
+            col_ptr,
+            row_idx,
+            values,
+        }
+    }
+
+    /// Convert a dense matrix, keeping entries with `|a_ij| > 0`.
+    pub fn from_dense(a: &Mat<f64>) -> Self {
+        let mut t = Vec::new();
+        for j in 0..a.ncols() {
+            for i in 0..a.nrows() {
+                let v = a[(i, j)];
+                if v != 0.0 {
+                    t.push((i, j, v));
+                }
+            }
+        }
+        Self::from_triplets(a.nrows(), a.ncols(), &t)
+    }
+
+    /// The `n × n` zero matrix (empty pattern).
+    pub fn zeros(nrows: usize, ncols: usize) -> Self {
+        Self::from_triplets(nrows, ncols, &[])
+    }
+
+    pub fn nrows(&self) -> usize {
+        self.nrows
+    }
+
+    pub fn ncols(&self) -> usize {
+        self.ncols
+    }
+
+    /// Number of stored entries (including stored zeros).
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Entry `(i, j)`, zero when not stored.
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let range = self.col_ptr[j]..self.col_ptr[j + 1];
+        match self.row_idx[range.clone()].binary_search(&i) {
+            Ok(k) => self.values[range.start + k],
+            Err(_) => 0.0,
+        }
+    }
+
+    /// Whether `(i, j)` is in the stored pattern.
+    pub fn is_stored(&self, i: usize, j: usize) -> bool {
+        let range = self.col_ptr[j]..self.col_ptr[j + 1];
+        self.row_idx[range].binary_search(&i).is_ok()
+    }
+
+    /// All stored entries as `(row, col, value)`, column by column.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+        (0..self.ncols).flat_map(move |j| {
+            (self.col_ptr[j]..self.col_ptr[j + 1]).map(move |k| (self.row_idx[k], j, self.values[k]))
+        })
+    }
+
+    /// The triplets of this matrix.
+    pub fn triplets(&self) -> Vec<(usize, usize, f64)> {
+        self.iter().collect()
+    }
+
+    /// `y = A x`.
+    pub fn mul_vec(&self, x: &[f64]) -> Vec<f64> {
+        assert_eq!(x.len(), self.ncols);
+        let mut y = vec![0.0; self.nrows];
+        for (i, j, v) in self.iter() {
+            y[i] += v * x[j];
+        }
+        y
+    }
+
+    /// `alpha A + beta B` (patterns united).
+    pub fn linear_combination(alpha: f64, a: &SparseMatrix, beta: f64, b: &SparseMatrix) -> Self {
+        assert_eq!((a.nrows, a.ncols), (b.nrows, b.ncols));
+        let mut t: Vec<(usize, usize, f64)> = a.iter().map(|(i, j, v)| (i, j, alpha * v)).collect();
+        t.extend(b.iter().map(|(i, j, v)| (i, j, beta * v)));
+        Self::from_triplets(a.nrows, a.ncols, &t)
+    }
+
+    /// `alpha A`.
+    pub fn scaled(&self, alpha: f64) -> Self {
+        let mut out = self.clone();
+        out.values.iter_mut().for_each(|v| *v *= alpha);
+        out
+    }
+
+    /// The sub-block `A[rows, cols]` (rows and cols are index lists of this matrix).
+    pub fn submatrix(&self, rows: &[usize], cols: &[usize]) -> Self {
+        let mut row_map = vec![usize::MAX; self.nrows];
+        for (k, &r) in rows.iter().enumerate() {
+            row_map[r] = k;
+        }
+        let mut t = Vec::new();
+        for (jn, &j) in cols.iter().enumerate() {
+            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let i = row_map[self.row_idx[k]];
+                if i != usize::MAX {
+                    t.push((i, jn, self.values[k]));
+                }
+            }
+        }
+        Self::from_triplets(rows.len(), cols.len(), &t)
+    }
+
+    /// Dense copy.
+    pub fn to_dense(&self) -> Mat<f64> {
+        let mut a = Mat::zeros(self.nrows, self.ncols);
+        for (i, j, v) in self.iter() {
+            a[(i, j)] += v;
+        }
+        a
+    }
+
+    /// Largest absolute stored value (0 for an empty matrix).
+    pub fn max_abs(&self) -> f64 {
+        self.values.iter().fold(0.0, |m, v| m.max(v.abs()))
+    }
+
+    /// The first entry `(i, j)` with `|a_ij - a_ji| > tol * max|a|`, if any.
+    pub fn asymmetry(&self, rel_tol: f64) -> Option<(usize, usize)> {
+        if self.nrows != self.ncols {
+            return Some((0, 0));
+        }
+        let tol = rel_tol * self.max_abs();
+        self.iter()
+            .find(|&(i, j, v)| (v - self.get(j, i)).abs() > tol)
+            .map(|(i, j, _)| (i, j))
+    }
+
+    /// Conversion to a `faer` sparse matrix, for factorizations.
+    pub fn to_faer(&self) -> SparseColMat<usize, f64> {
+        let symbolic = SymbolicSparseColMat::new_checked(
+            self.nrows,
+            self.ncols,
+            self.col_ptr.clone(),
+            None,
+            self.row_idx.clone(),
+        );
+        SparseColMat::new(symbolic, self.values.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triplets_sum_duplicates_and_blocks_extract() {
+        let a = SparseMatrix::from_triplets(3, 3, &[(0, 0, 1.0), (2, 1, 2.0), (0, 0, 3.0), (1, 2, 5.0)]);
+        assert_eq!(a.get(0, 0), 4.0);
+        assert_eq!(a.get(2, 1), 2.0);
+        assert_eq!(a.get(1, 1), 0.0);
+        assert_eq!(a.nnz(), 3);
+        let b = a.submatrix(&[2, 0], &[1, 0]);
+        assert_eq!(b.get(0, 0), 2.0);
+        assert_eq!(b.get(1, 1), 4.0);
+        assert_eq!(a.mul_vec(&[1.0, 1.0, 1.0]), vec![4.0, 5.0, 2.0]);
+        assert_eq!(a.asymmetry(1e-12), Some((2, 1)));
+        let f = a.to_faer();
+        assert_eq!(f.to_dense()[(1, 2)], 5.0);
+    }
+}
