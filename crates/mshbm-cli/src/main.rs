@@ -1,1 +1,46 @@
-fn main(){}
+//! `mshbm`: periodic solutions and frequency response diagrams of mechanical systems with
+//! unilateral contact (Mixed Shooting–Harmonic Balance Method). All numerics live in the
+//! `mshbm` library; this binary parses arguments, reports progress and writes files.
+
+mod commands;
+mod output;
+mod plot;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Periodic solutions of mechanical systems with unilateral contact (MS-HBM).
+///
+/// Units are those of the model file (the paper's bar: mm, t, s, N, MPa); frequencies are
+/// always in Hz. DOFs are numbered from 0.
+#[derive(Parser, Debug)]
+#[command(name = "mshbm", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Eigenfrequencies [Hz] of the consistent and the redistributed (massless contact
+    /// boundary) model and their relative difference (the paper's Fig. 8).
+    Modes(commands::modes::ModesArgs),
+    /// Write the model as Matrix Market matrices and a `kind = "matrices"` model file.
+    Export(commands::export::ExportArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Modes(args) => commands::modes::run(args),
+        Command::Export(args) => commands::export::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -29,7 +29,7 @@ impl SparseMatrix {
         for &(i, j, _) in &sorted {
             assert!(i < nrows && j < ncols, "triplet ({i}, {j}) out of range");
         }
-        sorted.sort_by(|a, b| (a.1, a.0).cmp(&(b.1, b.0)));
+        sorted.sort_by_key(|a| (a.1, a.0));
         let mut col_ptr = vec![0usize; ncols + 1];
         let mut row_idx = Vec::with_capacity(sorted.len());
         let mut values: Vec<f64> = Vec::with_capacity(sorted.len());

@@ -223,7 +223,10 @@ fn deserialize<T: serde::de::DeserializeOwned>(value: toml::Value, path: &Path) 
     serde_path_to_error::deserialize(value).map_err(|e| {
         let field = e.path().to_string();
         let field = if field == "." { "(top level)".to_string() } else { field };
-        Error::field(path, field, e.into_inner().to_string())
+        // the TOML deserializer appends "\nin `table`"; the path already says where
+        let message = e.into_inner().to_string();
+        let message = message.lines().next().unwrap_or_default().trim().to_string();
+        Error::field(path, field, message)
     })
 }
 
@@ -300,10 +303,33 @@ fn read_coordinates(path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
     Ok(out)
 }
 
+/// Read a square symmetric matrix; errors name the model file, the field and the matrix file.
+fn read_square_symmetric(path: &Path, field: &str, file: &str) -> Result<crate::sparse::SparseMatrix> {
+    let a = read_matrix(&relative(path, file))?;
+    if a.nrows() != a.ncols() {
+        return Err(Error::field(path, field, format!("{file} is {}×{}, not square", a.nrows(), a.ncols())));
+    }
+    if let Some((i, j)) = a.asymmetry(1e-10) {
+        return Err(Error::field(
+            path,
+            field,
+            format!("{file} is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)", i + 1, j + 1, a.get(i, j), j + 1, i + 1, a.get(j, i)),
+        ));
+    }
+    Ok(a)
+}
+
 fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
-    let stiffness = read_matrix(&relative(path, &f.matrices.stiffness))?;
-    let mass = read_matrix(&relative(path, &f.matrices.mass))?;
-    let damping_matrix = f.matrices.damping.as_ref().map(|c| read_matrix(&relative(path, c))).transpose()?;
+    let stiffness = read_square_symmetric(path, "matrices.stiffness", &f.matrices.stiffness)?;
+    let mass = read_square_symmetric(path, "matrices.mass", &f.matrices.mass)?;
+    let damping_matrix = f.matrices.damping.as_ref().map(|c| read_square_symmetric(path, "matrices.damping", c)).transpose()?;
+    for (field, file, a) in [("matrices.mass", &f.matrices.mass, &mass)].into_iter().chain(
+        f.matrices.damping.as_ref().zip(damping_matrix.as_ref()).map(|(file, a)| ("matrices.damping", file, a)),
+    ) {
+        if a.nrows() != stiffness.nrows() {
+            return Err(Error::field(path, field, format!("{file} is {0}×{0}, the stiffness matrix is {1}×{1}", a.nrows(), stiffness.nrows())));
+        }
+    }
     let n = stiffness.nrows();
     let coordinates = match &f.mesh.coordinates {
         Coordinates::File(file) => read_coordinates(path, file)?,

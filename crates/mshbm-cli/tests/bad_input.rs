@@ -1,0 +1,175 @@
+//! Bad input gets one clear error line naming the file and the field, a non-zero exit,
+//! and never a panic.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+/// Run `mshbm args…`, expect failure, return stderr.
+fn fails(args: &[&str]) -> String {
+    let out = Command::cargo_bin("mshbm").unwrap().args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success(), "expected failure for {args:?}; stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "panic for {args:?}: {stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one error line for {args:?}, got: {stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    stderr
+}
+
+/// A general model in a temporary directory, with the bar's matrices unless replaced.
+struct GeneralModel {
+    dir: tempfile::TempDir,
+}
+
+impl GeneralModel {
+    fn new() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["mass.mtx", "stiffness.mtx", "nodes.txt", "harmonic_load.mtx", "constant_load.mtx", "model.toml"] {
+            std::fs::copy(examples().join("bar_matrices").join(f), dir.path().join(f)).unwrap();
+        }
+        GeneralModel { dir }
+    }
+    fn write(&self, name: &str, text: &str) {
+        std::fs::write(self.dir.path().join(name), text).unwrap();
+    }
+    fn edit_toml(&self, from: &str, to: &str) {
+        let p = self.dir.path().join("model.toml");
+        let s = std::fs::read_to_string(&p).unwrap();
+        assert!(s.contains(from), "fixture lacks {from}");
+        std::fs::write(p, s.replace(from, to)).unwrap();
+    }
+    fn toml(&self) -> String {
+        self.dir.path().join("model.toml").display().to_string()
+    }
+}
+
+fn bar_with(from: &str, to: &str) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let s = std::fs::read_to_string(examples().join("clamped_bar.toml")).unwrap();
+    assert!(s.contains(from), "fixture lacks {from}");
+    let p = dir.path().join("bar.toml");
+    std::fs::write(&p, s.replace(from, to)).unwrap();
+    let p = p.display().to_string();
+    (dir, p)
+}
+
+#[test]
+fn missing_model_file() {
+    let err = fails(&["modes", "no/such/model.toml"]);
+    assert!(err.contains("no/such/model.toml"), "{err}");
+}
+
+#[test]
+fn malformed_toml() {
+    let (_d, p) = bar_with("[bar]", "[bar");
+    let err = fails(&["modes", &p]);
+    assert!(err.contains("bar.toml") && err.contains("malformed TOML"), "{err}");
+}
+
+#[test]
+fn unknown_key() {
+    let (_d, p) = bar_with("area = 1.0", "area = 1.0\nwidth = 3.0");
+    let err = fails(&["modes", &p]);
+    assert!(err.contains("bar.toml") && err.contains("width") && err.contains("bar"), "{err}");
+}
+
+#[test]
+fn unknown_key_through_set() {
+    let p = examples().join("clamped_bar.toml").display().to_string();
+    let err = fails(&["modes", &p, "--set", "contact.gapp=0.1"]);
+    assert!(err.contains("gapp"), "{err}");
+}
+
+#[test]
+fn negative_density() {
+    let (_d, p) = bar_with("density = 9e-9", "density = -9e-9");
+    let err = fails(&["modes", &p]);
+    assert!(err.contains("bar.toml") && err.contains("bar.density") && err.contains("positive"), "{err}");
+}
+
+#[test]
+fn non_square_matrix() {
+    let m = GeneralModel::new();
+    m.write("mass.mtx", "%%MatrixMarket matrix coordinate real general\n3 2 1\n1 1 1.0\n");
+    let err = fails(&["modes", &m.toml()]);
+    assert!(err.contains("model.toml") && err.contains("matrices.mass") && err.contains("not square"), "{err}");
+}
+
+#[test]
+fn non_symmetric_matrix() {
+    let m = GeneralModel::new();
+    let k = std::fs::read_to_string(examples().join("bar_matrices/stiffness.mtx")).unwrap();
+    // turn the symmetric file into a general one with one extra off-diagonal entry
+    let lines: Vec<&str> = k.lines().collect();
+    let mut general = Vec::new();
+    for e in &lines[2..] {
+        general.push(e.to_string());
+        let w: Vec<&str> = e.split_whitespace().collect();
+        if w[0] != w[1] {
+            general.push(format!("{} {} {}", w[1], w[0], w[2]));
+        }
+    }
+    general.push("1 3 5.0".into());
+    let size: Vec<&str> = lines[1].split_whitespace().collect();
+    let text = format!(
+        "%%MatrixMarket matrix coordinate real general\n{} {} {}\n{}\n",
+        size[0],
+        size[1],
+        general.len(),
+        general.join("\n")
+    );
+    m.write("stiffness.mtx", &text);
+    let err = fails(&["modes", &m.toml()]);
+    assert!(err.contains("matrices.stiffness") && err.contains("not symmetric"), "{err}");
+}
+
+#[test]
+fn size_mismatch_between_matrices_and_coordinates() {
+    let m = GeneralModel::new();
+    m.write("nodes.txt", "0.0\n0.2\n0.4\n");
+    let err = fails(&["modes", &m.toml()]);
+    assert!(err.contains("model.toml") && err.contains("mesh.coordinates"), "{err}");
+}
+
+#[test]
+fn size_mismatch_between_matrices() {
+    let m = GeneralModel::new();
+    m.write("mass.mtx", "%%MatrixMarket matrix coordinate real symmetric\n3 3 1\n1 1 1.0\n");
+    let err = fails(&["modes", &m.toml()]);
+    assert!(err.contains("matrices.mass") && err.contains("3×3"), "{err}");
+}
+
+#[test]
+fn contact_dof_out_of_range() {
+    let m = GeneralModel::new();
+    m.edit_toml("dofs = [100]", "dofs = [101]");
+    let err = fails(&["modes", &m.toml()]);
+    assert!(err.contains("contacts[0].dofs") && err.contains("out of range"), "{err}");
+}
+
+#[test]
+fn malformed_matrix_market_line() {
+    let m = GeneralModel::new();
+    m.write("mass.mtx", "%%MatrixMarket matrix coordinate real symmetric\n101 101 1\n1 1 abc\n");
+    let err = fails(&["modes", &m.toml()]);
+    assert!(err.contains("mass.mtx, line 3"), "{err}");
+}
+
+#[test]
+fn count_larger_than_the_number_of_dofs() {
+    let p = examples().join("clamped_bar.toml").display().to_string();
+    let err = fails(&["modes", &p, "--count", "500"]);
+    assert!(err.contains("count") && err.contains("500"), "{err}");
+}
+
+#[test]
+fn bad_override_syntax() {
+    let p = examples().join("clamped_bar.toml").display().to_string();
+    let err = fails(&["modes", &p, "--set", "contact.gap"]);
+    assert!(err.contains("key=value"), "{err}");
+}

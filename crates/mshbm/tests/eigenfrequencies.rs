@@ -1,0 +1,112 @@
+//! Eigenfrequencies of the paper's bar against the continuum (analytic) values, and the
+//! effect of mass redistribution against the paper's 60335 Hz.
+
+use std::path::{Path, PathBuf};
+
+use mshbm::model::bar::BarParameters;
+use mshbm::model::file::load_model;
+use mshbm::modes::{eigenfrequencies_hz, first_angular_frequency};
+use mshbm::MassKind;
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn bar_frequencies(elements: usize, kind: MassKind, count: usize) -> Vec<f64> {
+    let mut p = BarParameters::paper();
+    p.elements = elements;
+    let s = p.build(Path::new("bar")).unwrap().system(kind).unwrap();
+    eigenfrequencies_hz(&s.mass, &s.stiffness, count).unwrap()
+}
+
+/// Clamped–free bar: f_k = (2k − 1) c / (4L).
+fn continuum_hz(k: usize) -> f64 {
+    let p = BarParameters::paper();
+    (2 * k - 1) as f64 * p.wave_speed() / (4.0 * p.length)
+}
+
+#[test]
+fn consistent_first_eigenfrequency_matches_continuum() {
+    let f = bar_frequencies(100, MassKind::Consistent, 1)[0];
+    let exact = continuum_hz(1);
+    assert!((f / exact - 1.0).abs() < 1e-4, "f1 = {f}, continuum {exact}");
+}
+
+#[test]
+fn consistent_eigenfrequencies_converge_at_second_order() {
+    let coarse = bar_frequencies(100, MassKind::Consistent, 10);
+    let fine = bar_frequencies(200, MassKind::Consistent, 10);
+    let finer = bar_frequencies(400, MassKind::Consistent, 10);
+    for k in 0..10 {
+        let exact = continuum_hz(k + 1);
+        let (e1, e2, e3) = (coarse[k] - exact, fine[k] - exact, finer[k] - exact);
+        // consistent mass over-estimates; error ~ h^2, so halving h divides it by 4
+        assert!(e1 > 0.0 && e2 > 0.0 && e3 > 0.0, "mode {}: errors {e1} {e2} {e3}", k + 1);
+        for ratio in [e1 / e2, e2 / e3] {
+            assert!((ratio - 4.0).abs() < 0.1, "mode {}: error ratio {ratio}", k + 1);
+        }
+    }
+}
+
+#[test]
+fn redistributed_first_eigenfrequency_is_the_papers() {
+    let f = bar_frequencies(100, MassKind::Redistributed, 1)[0];
+    assert!((f - 60335.0).abs() < 1.0, "f1 = {f} Hz, paper: 60335 Hz");
+}
+
+#[test]
+fn redistribution_shift_of_the_first_30_modes_is_small() {
+    // The paper's Fig. 8 claim: the shift is negligible (well under 1 %).
+    let a = bar_frequencies(100, MassKind::Consistent, 30);
+    let b = bar_frequencies(100, MassKind::Redistributed, 30);
+    for k in 0..30 {
+        let rel = b[k] / a[k] - 1.0;
+        assert!(rel.abs() < 5e-3, "mode {}: {rel}", k + 1);
+    }
+}
+
+#[test]
+fn matrices_model_of_the_bar_equals_the_built_in_bar() {
+    let built_in = load_model(&examples().join("clamped_bar.toml"), &[]).unwrap();
+    let general = load_model(&examples().join("bar_matrices/model.toml"), &[]).unwrap();
+    for kind in [MassKind::Consistent, MassKind::Redistributed] {
+        let a = built_in.system(kind).unwrap();
+        let b = general.system(kind).unwrap();
+        let fa = eigenfrequencies_hz(&a.mass, &a.stiffness, 30).unwrap();
+        let fb = eigenfrequencies_hz(&b.mass, &b.stiffness, 30).unwrap();
+        for (x, y) in fa.iter().zip(&fb) {
+            assert!((x / y - 1.0).abs() < 1e-10, "{kind:?}: {x} vs {y}");
+        }
+        assert_eq!(a.harmonic_load, b.harmonic_load);
+        assert_eq!(a.contacts, b.contacts);
+        assert_eq!(a.nonlinear_dofs, b.nonlinear_dofs);
+    }
+}
+
+#[test]
+fn first_mode_damping_ratio_sets_alpha_from_the_first_eigenfrequency() {
+    let overrides = ["damping.first_mode_ratio=0.01".to_string()];
+    let model = load_model(&examples().join("clamped_bar.toml"), &overrides).unwrap();
+    for kind in [MassKind::Consistent, MassKind::Redistributed] {
+        let s = model.system(kind).unwrap();
+        // independent reference: the dense eigen solver
+        let f1 = eigenfrequencies_hz(&s.mass, &s.stiffness, 1).unwrap()[0];
+        let expected = 2.0 * 0.01 * 2.0 * std::f64::consts::PI * f1;
+        assert!((s.alpha / expected - 1.0).abs() < 1e-9, "{kind:?}: alpha {} vs {expected}", s.alpha);
+        let w1 = first_angular_frequency(&s.mass, &s.stiffness).unwrap();
+        assert!((w1 / (2.0 * std::f64::consts::PI * f1) - 1.0).abs() < 1e-10);
+    }
+}
+
+#[test]
+fn overrides_change_gap_and_damping() {
+    let path = examples().join("clamped_bar.toml");
+    let m = load_model(&path, &["contact.gap=0".into(), "damping.alpha=7587.7".into()]).unwrap();
+    assert_eq!(m.contacts[0].gap, 0.0);
+    assert_eq!(m.damping.alpha, 7587.7);
+    let s = m.system(MassKind::Redistributed).unwrap();
+    let expected = s.mass.get(10, 10) * 7587.7;
+    assert!((s.damping.get(10, 10) - expected).abs() <= 1e-15 * expected.abs());
+    let g0 = load_model(&examples().join("clamped_bar_gap0.toml"), &[]).unwrap();
+    assert_eq!(g0.contacts[0].gap, 0.0);
+}
