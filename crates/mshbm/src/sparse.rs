@@ -185,14 +185,24 @@ impl SparseMatrix {
 
     /// Conversion to a `faer` sparse matrix, for factorizations.
     pub fn to_faer(&self) -> SparseColMat<usize, f64> {
-        let symbolic = SymbolicSparseColMat::new_checked(
-            self.nrows,
-            self.ncols,
-            self.col_ptr.clone(),
-            None,
-            self.row_idx.clone(),
-        );
-        SparseColMat::new(symbolic, self.values.clone())
+        SparseColMat::new(self.faer_symbolic(), self.values.clone())
+    }
+
+    /// The `faer` sparsity structure of this matrix.
+    pub fn faer_symbolic(&self) -> SymbolicSparseColMat<usize> {
+        SymbolicSparseColMat::new_checked(self.nrows, self.ncols, self.col_ptr.clone(), None, self.row_idx.clone())
+    }
+
+    /// The values of `self` at the stored entries of `pattern` (zero where `self` has no
+    /// entry), aligned with `pattern`'s storage order.
+    pub fn values_on_pattern(&self, pattern: &SparseMatrix) -> Vec<f64> {
+        pattern.iter().map(|(i, j, _)| self.get(i, j)).collect()
+    }
+
+    /// The union of the sparsity patterns of `matrices` (values zero).
+    pub fn union_pattern(nrows: usize, ncols: usize, matrices: &[&SparseMatrix]) -> Self {
+        let t: Vec<(usize, usize, f64)> = matrices.iter().flat_map(|m| m.iter().map(|(i, j, _)| (i, j, 0.0))).collect();
+        Self::from_triplets(nrows, ncols, &t)
     }
 }
 

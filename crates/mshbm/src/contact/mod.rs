@@ -1,0 +1,3 @@
+//! Contact laws and their solvers.
+
+pub mod lcp;

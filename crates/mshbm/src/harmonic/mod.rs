@@ -1,0 +1,228 @@
+//! Fourier basis, sampling and exact interval integrals (paper eqs. 4–5, 9, 33–35;
+//! METHODS §0).
+//!
+//! Convention: `q(τ) = q⁰ + Σ_{k=1..H} q^{c,k} cos kτ + q^{s,k} sin kτ` in normalised time
+//! `τ = ωt ∈ [0, 2π)`; coefficients ordered `[q⁰, q^{c,1}, q^{s,1}, …, q^{c,H}, q^{s,H}]`
+//! (index `0`, `2k−1`, `2k`). For a set of DOFs the vector is harmonic-major: coefficient
+//! `c` of DOF `i` is entry `c·n + i`. The mean uses `1/2π` (not `2/T` as the paper's
+//! eq. 33 prints).
+//!
+//! A Fourier coefficient is a weighted integral `q̂_m = w_m/(2π) ∫ q(τ) b_m(τ) dτ` with
+//! `w_0 = 1`, `w_m = 2`. For a piecewise representation `q(τ) = Σ_c B_c b_c(τ)` on an
+//! interval, the contribution is `Σ_c B_c Γ_mc` with the *Gram block*
+//! `Γ_mc = w_m/(2π) ∫_I b_m b_c dτ`; with samples, `Γ_mc = w_m/N b_m(τ_j) b_c(τ_j)` (the DFT).
+//! Both quadratures of the MS-HBM are sums of such blocks.
+
+use std::f64::consts::PI;
+
+/// Number of coefficients `2H + 1`.
+pub fn n_coefficients(harmonics: usize) -> usize {
+    2 * harmonics + 1
+}
+
+/// Basis row `b(τ) = [1, cos τ, sin τ, …, cos Hτ, sin Hτ]`, written into `out`.
+pub fn basis_into(harmonics: usize, tau: f64, out: &mut [f64]) {
+    out[0] = 1.0;
+    for k in 1..=harmonics {
+        let (s, c) = (k as f64 * tau).sin_cos();
+        out[2 * k - 1] = c;
+        out[2 * k] = s;
+    }
+}
+
+/// Basis row `b(τ)`.
+pub fn basis(harmonics: usize, tau: f64) -> Vec<f64> {
+    let mut b = vec![0.0; n_coefficients(harmonics)];
+    basis_into(harmonics, tau, &mut b);
+    b
+}
+
+/// Derivative `db/dτ`.
+pub fn basis_derivative(harmonics: usize, tau: f64) -> Vec<f64> {
+    let mut b = vec![0.0; n_coefficients(harmonics)];
+    for k in 1..=harmonics {
+        let (s, c) = (k as f64 * tau).sin_cos();
+        b[2 * k - 1] = -(k as f64) * s;
+        b[2 * k] = k as f64 * c;
+    }
+    b
+}
+
+/// Value of the scalar trigonometric polynomial with coefficients `coef` at `τ`.
+pub fn evaluate(coef: &[f64], tau: f64) -> f64 {
+    let h = (coef.len() - 1) / 2;
+    let mut v = coef[0];
+    for k in 1..=h {
+        let (s, c) = (k as f64 * tau).sin_cos();
+        v += coef[2 * k - 1] * c + coef[2 * k] * s;
+    }
+    v
+}
+
+/// Weight `w_m` of coefficient `m` (1 for the mean, 2 otherwise).
+pub fn weight(m: usize) -> f64 {
+    if m == 0 {
+        1.0
+    } else {
+        2.0
+    }
+}
+
+/// Equidistant sampling of one period: `τ_j = 2πj/N`.
+#[derive(Clone, Debug)]
+pub struct Sampling {
+    pub harmonics: usize,
+    pub taus: Vec<f64>,
+    /// `basis[j]` = `b(τ_j)`.
+    pub basis: Vec<Vec<f64>>,
+}
+
+impl Sampling {
+    /// `samples ≥ 2H + 1` is the caller's responsibility (checked by the methods).
+    pub fn new(harmonics: usize, samples: usize) -> Self {
+        let taus: Vec<f64> = (0..samples).map(|j| 2.0 * PI * j as f64 / samples as f64).collect();
+        let basis = taus.iter().map(|&t| basis(harmonics, t)).collect();
+        Sampling { harmonics, taus, basis }
+    }
+
+    pub fn len(&self) -> usize {
+        self.taus.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.taus.is_empty()
+    }
+
+    /// DFT weight row of sample `j`: `w_m b_m(τ_j) / N` (METHODS §0).
+    pub fn dft_row(&self, j: usize) -> Vec<f64> {
+        let n = self.len() as f64;
+        self.basis[j].iter().enumerate().map(|(m, b)| weight(m) * b / n).collect()
+    }
+
+    /// Fourier coefficients of scalar samples (the DFT of METHODS §0).
+    pub fn dft(&self, samples: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; n_coefficients(self.harmonics)];
+        let n = self.len() as f64;
+        for (j, &v) in samples.iter().enumerate() {
+            for (m, b) in self.basis[j].iter().enumerate() {
+                out[m] += weight(m) * b * v / n;
+            }
+        }
+        out
+    }
+
+    /// Add the Gram block of sample `j` (`Γ_mc += w_m b_m b_c / N`) to `gram` (row-major).
+    pub fn add_sample_gram(&self, j: usize, gram: &mut [f64]) {
+        let nc = n_coefficients(self.harmonics);
+        let n = self.len() as f64;
+        let b = &self.basis[j];
+        for m in 0..nc {
+            let f = weight(m) * b[m] / n;
+            for c in 0..nc {
+                gram[m * nc + c] += f * b[c];
+            }
+        }
+    }
+}
+
+/// Add the exact Gram block of the interval `[a, b]` (`Γ_mc += w_m/(2π) ∫_a^b b_m b_c dτ`,
+/// row-major) to `gram` — the closed-form Fourier integrals of eqs. (33)–(35).
+pub fn add_interval_gram(harmonics: usize, a: f64, b: f64, gram: &mut [f64]) {
+    let nc = n_coefficients(harmonics);
+    // ∫ cos pτ and ∫ sin pτ over [a, b] for p = 0..2H
+    let mut ic = vec![0.0; 2 * harmonics + 1];
+    let mut is = vec![0.0; 2 * harmonics + 1];
+    ic[0] = b - a;
+    for p in 1..=2 * harmonics {
+        let pf = p as f64;
+        let (sb, cb) = (pf * b).sin_cos();
+        let (sa, ca) = (pf * a).sin_cos();
+        ic[p] = (sb - sa) / pf;
+        is[p] = (ca - cb) / pf;
+    }
+    let int_cos = |p: isize| ic[p.unsigned_abs()];
+    let int_sin = |p: isize| if p >= 0 { is[p as usize] } else { -is[(-p) as usize] };
+    // ∫ b_m b_c for basis functions described as (kind, k): kind 0 = constant, 1 = cos, 2 = sin
+    let describe = |m: usize| -> (u8, isize) {
+        if m == 0 {
+            (0, 0)
+        } else if m % 2 == 1 {
+            (1, m.div_ceil(2) as isize)
+        } else {
+            (2, (m / 2) as isize)
+        }
+    };
+    let product = |m: usize, c: usize| -> f64 {
+        let (km, k) = describe(m);
+        let (kc, l) = describe(c);
+        match (km, kc) {
+            (0, 0) => ic[0],
+            (0, 1) => int_cos(l),
+            (1, 0) => int_cos(k),
+            (0, 2) => int_sin(l),
+            (2, 0) => int_sin(k),
+            (1, 1) => 0.5 * (int_cos(k - l) + int_cos(k + l)),
+            (2, 2) => 0.5 * (int_cos(k - l) - int_cos(k + l)),
+            // cos kτ sin lτ = ½[sin (k+l)τ − sin (k−l)τ]
+            (1, 2) => 0.5 * (int_sin(k + l) - int_sin(k - l)),
+            (2, 1) => 0.5 * (int_sin(k + l) - int_sin(l - k)),
+            _ => unreachable!(),
+        }
+    };
+    for m in 0..nc {
+        let f = weight(m) / (2.0 * PI);
+        for c in 0..nc {
+            gram[m * nc + c] += f * product(m, c);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dft_inverts_synthesis() {
+        let h = 4;
+        let s = Sampling::new(h, 2 * h + 1);
+        let coef: Vec<f64> = (0..2 * h + 1).map(|i| (i as f64 * 0.37).sin() + 0.1).collect();
+        let samples: Vec<f64> = s.taus.iter().map(|&t| evaluate(&coef, t)).collect();
+        let back = s.dft(&samples);
+        for (a, b) in coef.iter().zip(&back) {
+            assert!((a - b).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn interval_grams_sum_to_identity_and_match_quadrature() {
+        let h = 3;
+        let nc = n_coefficients(h);
+        // over the whole period the Gram matrix is the identity (orthogonality)
+        let mut full = vec![0.0; nc * nc];
+        add_interval_gram(h, 0.3, 0.3 + 2.0 * PI, &mut full);
+        for m in 0..nc {
+            for c in 0..nc {
+                let e = if m == c { 1.0 } else { 0.0 };
+                assert!((full[m * nc + c] - e).abs() < 1e-13, "({m},{c}) {}", full[m * nc + c]);
+            }
+        }
+        // on a sub-interval, compare with a fine midpoint rule
+        let (a, b) = (0.4, 1.9);
+        let mut exact = vec![0.0; nc * nc];
+        add_interval_gram(h, a, b, &mut exact);
+        let n = 200_000;
+        let mut approx = vec![0.0; nc * nc];
+        for j in 0..n {
+            let t = a + (j as f64 + 0.5) * (b - a) / n as f64;
+            let bt = basis(h, t);
+            for m in 0..nc {
+                for c in 0..nc {
+                    approx[m * nc + c] += weight(m) / (2.0 * PI) * bt[m] * bt[c] * (b - a) / n as f64;
+                }
+            }
+        }
+        for (x, y) in exact.iter().zip(&approx) {
+            assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+        }
+    }
+}

@@ -1,0 +1,3 @@
+//! Periodic-solution methods, each an implementor of [`crate::problem::PeriodicProblem`].
+
+pub mod redistributed;

@@ -1,0 +1,540 @@
+//! The redistributed MS-HBM (paper Sections 3.1–3.2): with a massless contact boundary the
+//! nonlinear subsystem is static, so a periodic solution is fully described by the Fourier
+//! coefficients `x = q̂_N` of the contact-node DOFs (eq. 31) and solves the connectivity
+//! condition `R(x) = x − FFT(q_N(t)) = 0` (eq. 30).
+//!
+//! Per frequency (eq. 25): for each harmonic `k` the L-part dynamic stiffness
+//! `A_k = K_LL − (kω)² M̄_LL + i kω C_LL` is factored once, and the affine map from `x` to the
+//! load on the contact subsystem `b(τ) = −K_NL q_L(τ) + f_N(τ)` is precomputed: with the
+//! complex amplitude `z_k = a_k − i b_k` of harmonic `k` of `x`,
+//! `K_NL q̂_L,k = u0_k − G_k z_k`, `G_k = K_NL A_k⁻¹ K_LN`, `u0_k = K_NL A_k⁻¹ f_L,k`.
+//! No factorization happens inside the per-sample loop.
+//!
+//! Per evaluation: the static contact problem (eqs. 26–29) is solved per sample or per
+//! interval ([`quadrature`]), giving `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`. The
+//! semi-analytical Jacobian (eqs. 32–44; METHODS §5) is
+//! `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`, where `∂B/∂x` is block-diagonal per harmonic
+//! (`[[Re G_k, Im G_k], [−Im G_k, Re G_k]]`), and
+//! `∂R/∂ω = −Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂ω` with
+//! `∂(K_NL q̂_L,k)/∂ω = −K_NL A_k⁻¹ (∂A_k/∂ω) q̂_L,k`.
+
+pub mod quadrature;
+pub mod static_contact;
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+
+use crate::error::{Error, Result};
+use crate::harmonic::{basis, evaluate, n_coefficients, Sampling};
+use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
+use crate::model::{MassKind, Model, System};
+use crate::problem::{Linearization, PeriodicProblem};
+use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::sparse::SparseMatrix;
+use quadrature::{integrate, load_at, Integration, Quadrature};
+use static_contact::StaticContact;
+
+/// Default number of samples per period for `H` harmonics: `max(256, 16 (2H + 1))`, enough to
+/// resolve the kinks of `q_N(t)` (sampled quadrature) and to locate the switching times
+/// (exact quadrature).
+pub fn default_samples(harmonics: usize) -> usize {
+    (16 * n_coefficients(harmonics)).max(256)
+}
+
+/// Settings of the redistributed MS-HBM.
+#[derive(Clone, Debug)]
+pub struct RedistributedOptions {
+    /// Number of harmonics `H ≥ 1`.
+    pub harmonics: usize,
+    /// Samples per period `N_s ≥ 2H + 1` (`None`: [`default_samples`]).
+    pub samples: Option<usize>,
+    pub quadrature: Quadrature,
+}
+
+struct FrequencyData {
+    omega: f64,
+    factors: HarmonicFactors,
+    /// `G_k` (`n × n`, row-major) for `k = 0..=H`.
+    g: Vec<Vec<c64>>,
+    /// `u0_k` (`n`).
+    u0: Vec<Vec<c64>>,
+}
+
+/// The redistributed MS-HBM for one model.
+pub struct RedistributedMsHbm {
+    system: System,
+    harmonics: usize,
+    sampling: Sampling,
+    quadrature: Quadrature,
+    linear: LinearPart,
+    /// `K_NL` (`n_N × n_L`) and `K_LN`.
+    k_nl: SparseMatrix,
+    k_ln: SparseMatrix,
+    harmonic_load_l: Vec<f64>,
+    constant_load_l: Vec<f64>,
+    harmonic_load_n: Vec<f64>,
+    constant_load_n: Vec<f64>,
+    contact: StaticContact,
+    frequency: Option<FrequencyData>,
+    length_scale: f64,
+}
+
+fn zero() -> c64 {
+    c64::new(0.0, 0.0)
+}
+
+impl RedistributedMsHbm {
+    /// Set up the method for `model` (mass redistribution, partition, checks).
+    pub fn new(model: &Model, options: &RedistributedOptions) -> Result<Self> {
+        let h = options.harmonics;
+        if h == 0 {
+            return Err(Error::argument("harmonics", "must be at least 1"));
+        }
+        let samples = options.samples.unwrap_or_else(|| default_samples(h));
+        if samples < n_coefficients(h) {
+            return Err(Error::argument("samples", format!("{samples} samples cannot resolve {h} harmonics: need at least 2H+1 = {}", n_coefficients(h))));
+        }
+        if model.contacts.is_empty() {
+            return Err(Error::argument("model", "the model has no contact; the redistributed MS-HBM needs at least one"));
+        }
+        let system = model.system(MassKind::Redistributed)?;
+        let (nl, ll) = (&system.nonlinear_dofs, &system.linear_dofs);
+        let all: Vec<usize> = (0..system.n_dofs()).collect();
+        if system.damping.submatrix(nl, &all).iter().any(|(_, _, v)| v != 0.0) {
+            return Err(Error::field(
+                &model.source,
+                "damping",
+                "the redistributed MS-HBM needs damping that does not act on the massless contact DOFs (C_NN = C_NL = 0); \
+                 stiffness-proportional damping (beta) or a damping matrix touching the contact nodes makes the contact subsystem dynamic. \
+                 Use mass-proportional damping (damping.alpha or damping.first_mode_ratio)",
+            ));
+        }
+        let k_nn = system.stiffness.submatrix(nl, nl);
+        let n = nl.len();
+        let nc = system.contacts.len();
+        let mut w = vec![0.0; n * nc];
+        for (c, contact) in system.contacts.iter().enumerate() {
+            for &(dof, coeff) in &contact.w {
+                let i = nl.iter().position(|&d| d == dof).expect("contact DOFs are in N");
+                w[i * nc + c] += coeff;
+            }
+        }
+        let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
+        let contact = StaticContact::new(&k_nn, w, gap.clone())?;
+        let linear = LinearPart::new(system.mass.submatrix(ll, ll), system.damping.submatrix(ll, ll), system.stiffness.submatrix(ll, ll))?;
+        let pick = |v: &[f64], idx: &[usize]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
+        // length scale: the largest gap or static deflection of the contact DOFs
+        let static_deflection = {
+            let llt = system.stiffness.to_faer().sp_cholesky(faer::Side::Lower).map_err(|_| Error::Singular("the stiffness matrix is singular (the structure is not held)".into()))?;
+            let f: Vec<f64> = system.harmonic_load.iter().zip(&system.constant_load).map(|(a, b)| a.abs() + b.abs()).collect();
+            let mut rhs = Mat::<f64>::from_fn(f.len(), 1, |i, _| f[i]);
+            llt.solve_in_place(rhs.as_mut());
+            nl.iter().fold(0.0f64, |m, &i| m.max(rhs[(i, 0)].abs()))
+        };
+        let gap_scale = gap.iter().fold(0.0f64, |m, g| m.max(g.abs()));
+        let length_scale = if gap_scale.max(static_deflection) > 0.0 { gap_scale.max(static_deflection) } else { 1.0 };
+        Ok(RedistributedMsHbm {
+            k_nl: system.stiffness.submatrix(nl, ll),
+            k_ln: system.stiffness.submatrix(ll, nl),
+            harmonic_load_l: pick(&system.harmonic_load, ll),
+            constant_load_l: pick(&system.constant_load, ll),
+            harmonic_load_n: pick(&system.harmonic_load, nl),
+            constant_load_n: pick(&system.constant_load, nl),
+            harmonics: h,
+            sampling: Sampling::new(h, samples),
+            quadrature: options.quadrature,
+            linear,
+            contact,
+            frequency: None,
+            length_scale,
+            system,
+        })
+    }
+
+    /// The system (redistributed mass, Dirichlet DOFs removed).
+    pub fn system(&self) -> &System {
+        &self.system
+    }
+
+    pub fn harmonics(&self) -> usize {
+        self.harmonics
+    }
+
+    pub fn samples(&self) -> usize {
+        self.sampling.len()
+    }
+
+    fn n(&self) -> usize {
+        self.system.nonlinear_dofs.len()
+    }
+
+    /// Complex load amplitude on L for harmonic k (`f_L,0` constant, `f_L,1` the harmonic load).
+    fn load_l(&self, k: usize) -> Option<Vec<c64>> {
+        let v = match k {
+            0 => &self.constant_load_l,
+            1 => &self.harmonic_load_l,
+            _ => return None,
+        };
+        v.iter().any(|&x| x != 0.0).then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
+    }
+
+    fn prepare(&mut self, omega: f64) -> Result<()> {
+        if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
+            return Ok(());
+        }
+        if !(omega.is_finite() && omega > 0.0) {
+            return Err(Error::argument("frequency", format!("must be positive, got {} Hz", omega / (2.0 * std::f64::consts::PI))));
+        }
+        let factors = self.linear.factor(omega, self.harmonics)?;
+        let n = self.n();
+        let nl = self.linear.n_dofs();
+        let mut g = Vec::with_capacity(self.harmonics + 1);
+        let mut u0 = Vec::with_capacity(self.harmonics + 1);
+        let k_ln = self.k_ln.to_dense();
+        for k in 0..=self.harmonics {
+            let mut y = Mat::<c64>::from_fn(nl, n, |i, j| c64::new(k_ln[(i, j)], 0.0));
+            factors.solve_in_place(k, &mut y)?;
+            let mut gk = vec![zero(); n * n];
+            for (i, l, v) in self.k_nl.iter() {
+                for j in 0..n {
+                    gk[i * n + j] += y[(l, j)] * v;
+                }
+            }
+            g.push(gk);
+            let mut uk = vec![zero(); n];
+            if let Some(f) = self.load_l(k) {
+                let mut y = Mat::<c64>::from_fn(nl, 1, |i, _| f[i]);
+                factors.solve_in_place(k, &mut y)?;
+                for (i, l, v) in self.k_nl.iter() {
+                    uk[i] += y[(l, 0)] * v;
+                }
+            }
+            u0.push(uk);
+        }
+        self.frequency = Some(FrequencyData { omega, factors, g, u0 });
+        Ok(())
+    }
+
+    /// Coefficients `B` (harmonic-major, `c·n + i`) of the load `b(τ)` on the contact
+    /// subsystem for the unknowns `x`.
+    fn load_coefficients(&self, x: &[f64]) -> Vec<f64> {
+        let f = self.frequency.as_ref().expect("prepared");
+        let n = self.n();
+        let mut b = vec![0.0; n * n_coefficients(self.harmonics)];
+        for i in 0..n {
+            b[i] = -f.u0[0][i].re + self.constant_load_n[i] + (0..n).map(|j| f.g[0][i * n + j].re * x[j]).sum::<f64>();
+        }
+        for k in 1..=self.harmonics {
+            let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+            let g = &f.g[k];
+            for i in 0..n {
+                let mut bc = -f.u0[k][i].re;
+                let mut bs = f.u0[k][i].im;
+                if k == 1 {
+                    bc += self.harmonic_load_n[i];
+                }
+                for j in 0..n {
+                    let (gr, gi) = (g[i * n + j].re, g[i * n + j].im);
+                    let (a, s) = (x[ci + j], x[si + j]);
+                    bc += gr * a + gi * s;
+                    bs += -gi * a + gr * s;
+                }
+                b[ci + i] = bc;
+                b[si + i] = bs;
+            }
+        }
+        b
+    }
+
+    /// `∂B/∂ω` at `x` (two sparse solves per harmonic).
+    fn load_frequency_derivative(&self, x: &[f64]) -> Result<Vec<f64>> {
+        let f = self.frequency.as_ref().expect("prepared");
+        let n = self.n();
+        let nl = self.linear.n_dofs();
+        let mut db = vec![0.0; n * n_coefficients(self.harmonics)];
+        for k in 1..=self.harmonics {
+            let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+            // q̂_L,k = A⁻¹ (f_L,k − K_LN z_k)
+            let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
+            for (l, j, v) in self.k_ln.iter() {
+                rhs[l] -= c64::new(x[ci + j], -x[si + j]) * v;
+            }
+            let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
+            f.factors.solve_in_place(k, &mut q)?;
+            let qv: Vec<c64> = (0..nl).map(|i| q[(i, 0)]).collect();
+            let w = dynamic_stiffness_derivative_times(&self.linear, k, f.omega, &qv);
+            let mut v = Mat::<c64>::from_fn(nl, 1, |i, _| w[i]);
+            f.factors.solve_in_place(k, &mut v)?;
+            let mut du = vec![zero(); n];
+            for (i, l, kv) in self.k_nl.iter() {
+                du[i] -= v[(l, 0)] * kv;
+            }
+            for i in 0..n {
+                db[ci + i] = -du[i].re;
+                db[si + i] = du[i].im;
+            }
+        }
+        Ok(db)
+    }
+
+    /// `Σ_A (P_A B Γ_Aᵀ + with_offset · s_A Γ_A[:,0]ᵀ)`.
+    fn assemble_coefficients(&self, integration: &Integration, b: &[f64], with_offset: bool) -> Vec<f64> {
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let mut q = vec![0.0; n * nc];
+        let mut bg = vec![0.0; n];
+        for group in &integration.groups {
+            let p = &group.set.compliance;
+            for m in 0..nc {
+                bg.iter_mut().for_each(|v| *v = 0.0);
+                for c in 0..nc {
+                    let gmc = group.gram[m * nc + c];
+                    if gmc != 0.0 {
+                        for i in 0..n {
+                            bg[i] += b[c * n + i] * gmc;
+                        }
+                    }
+                }
+                for i in 0..n {
+                    let mut s: f64 = (0..n).map(|j| p[i * n + j] * bg[j]).sum();
+                    if with_offset {
+                        s += group.set.offset[i] * group.gram[m * nc];
+                    }
+                    q[m * n + i] += s;
+                }
+            }
+        }
+        q
+    }
+
+    fn evaluate(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Integration, Vec<f64>)> {
+        if x.len() != self.dimension() {
+            return Err(Error::argument("x", format!("expected {} unknowns, got {}", self.dimension(), x.len())));
+        }
+        self.prepare(omega)?;
+        let b = self.load_coefficients(x);
+        let integration = integrate(&mut self.contact, &b, &self.sampling, self.quadrature)?;
+        let q = self.assemble_coefficients(&integration, &b, true);
+        let r: Vec<f64> = x.iter().zip(&q).map(|(a, c)| a - c).collect();
+        Ok((r, integration, b))
+    }
+
+    /// `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`.
+    fn jacobian_matrix(&self, integration: &Integration) -> Mat<f64> {
+        let f = self.frequency.as_ref().expect("prepared");
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let dim = n * nc;
+        let mut jac = Mat::<f64>::identity(dim, dim);
+        let mut pg_re = vec![0.0; n * n];
+        let mut pg_im = vec![0.0; n * n];
+        for group in &integration.groups {
+            let p = &group.set.compliance;
+            for k in 0..=self.harmonics {
+                // P G_k (real and imaginary parts)
+                for i in 0..n {
+                    for j in 0..n {
+                        let (mut re, mut im) = (0.0, 0.0);
+                        for l in 0..n {
+                            re += p[i * n + l] * f.g[k][l * n + j].re;
+                            im += p[i * n + l] * f.g[k][l * n + j].im;
+                        }
+                        pg_re[i * n + j] = re;
+                        pg_im[i * n + j] = im;
+                    }
+                }
+                for m in 0..nc {
+                    if k == 0 {
+                        let gm = group.gram[m * nc];
+                        if gm != 0.0 {
+                            for i in 0..n {
+                                for j in 0..n {
+                                    jac[(m * n + i, j)] -= gm * pg_re[i * n + j];
+                                }
+                            }
+                        }
+                        continue;
+                    }
+                    let (cc, ss) = (2 * k - 1, 2 * k);
+                    let (gc, gs) = (group.gram[m * nc + cc], group.gram[m * nc + ss]);
+                    if gc == 0.0 && gs == 0.0 {
+                        continue;
+                    }
+                    for i in 0..n {
+                        for j in 0..n {
+                            let (re, im) = (pg_re[i * n + j], pg_im[i * n + j]);
+                            jac[(m * n + i, cc * n + j)] -= gc * re - gs * im;
+                            jac[(m * n + i, ss * n + j)] -= gc * im + gs * re;
+                        }
+                    }
+                }
+            }
+        }
+        jac
+    }
+
+    /// The contact-free linear response at `ω` (the initial guess).
+    pub fn linear_response(&mut self, omega: f64) -> Result<Vec<f64>> {
+        self.prepare(omega)?;
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let open = vec![false; self.contact.n_contacts()];
+        let set = self.contact.active_set(&open)?;
+        let mut gram = vec![0.0; nc * nc];
+        (0..nc).for_each(|m| gram[m * nc + m] = 1.0);
+        let integration = Integration {
+            groups: vec![quadrature::Group { set, gram }],
+            sample_group: vec![],
+            switches: vec![],
+        };
+        // R(x) = x − P B(x) is affine for the open set: one Newton step from 0 solves it
+        let zero_x = vec![0.0; n * nc];
+        let b = self.load_coefficients(&zero_x);
+        let q0 = self.assemble_coefficients(&integration, &b, true);
+        let jac = self.jacobian_matrix(&integration);
+        let r0: Vec<f64> = q0.iter().map(|v| -v).collect();
+        crate::continuation::newton::newton_direction(&jac, &r0)
+    }
+
+    /// `q̂_L,k` for the model DOF at L-index `l` (coefficients `[a0, a1, b1, …]`).
+    fn linear_dof_coefficients(&self, x: &[f64], l: usize) -> Result<Vec<f64>> {
+        let f = self.frequency.as_ref().expect("prepared");
+        let n = self.n();
+        let nl = self.linear.n_dofs();
+        let mut out = vec![0.0; n_coefficients(self.harmonics)];
+        for k in 0..=self.harmonics {
+            let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
+            for (r, j, v) in self.k_ln.iter() {
+                let z = if k == 0 { c64::new(x[j], 0.0) } else { c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j]) };
+                rhs[r] -= z * v;
+            }
+            let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
+            f.factors.solve_in_place(k, &mut q)?;
+            if k == 0 {
+                out[0] = q[(l, 0)].re;
+            } else {
+                out[2 * k - 1] = q[(l, 0)].re;
+                out[2 * k] = -q[(l, 0)].im;
+            }
+        }
+        Ok(out)
+    }
+}
+
+impl PeriodicProblem for RedistributedMsHbm {
+    fn dimension(&self) -> usize {
+        self.n() * n_coefficients(self.harmonics)
+    }
+
+    fn length_scale(&self) -> f64 {
+        self.length_scale
+    }
+
+    fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
+        self.linear_response(omega)
+    }
+
+    fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+        Ok(self.evaluate(x, omega)?.0)
+    }
+
+    fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+        let (residual, integration, _) = self.evaluate(x, omega)?;
+        let jacobian = self.jacobian_matrix(&integration);
+        let db = self.load_frequency_derivative(x)?;
+        let dq = self.assemble_coefficients(&integration, &db, false);
+        let d_omega = dq.iter().map(|v| -v).collect();
+        Ok(Linearization { residual, jacobian, d_omega })
+    }
+
+    fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+        let (residual, integration, b) = self.evaluate(x, omega)?;
+        let n = self.n();
+        let h = self.harmonics;
+        let nc = n_coefficients(h);
+        let mut basis_buf = vec![0.0; nc];
+        // time series at the samples and, for extremes, at the switching times
+        let mut series_at = |tau: f64, contact: &mut StaticContact| -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+            let load = load_at(&b, n, h, tau, &mut basis_buf);
+            let set = contact.solve(&load)?;
+            let q = set.displacement(&load);
+            let lambda = set.force(&load);
+            let gaps = contact.gaps(&q);
+            Ok((q, lambda, gaps))
+        };
+        let mut q_s = Vec::new();
+        let mut f_s = Vec::new();
+        let mut g_s = Vec::new();
+        for &tau in &self.sampling.taus {
+            let (q, l, g) = series_at(tau, &mut self.contact)?;
+            q_s.push(q);
+            f_s.push(l);
+            g_s.push(g);
+        }
+        let mut q_extra = Vec::new();
+        for s in &integration.switches {
+            q_extra.push(series_at(s.tau, &mut self.contact)?.0);
+        }
+        let nl_dofs = self.system.nonlinear_dofs.clone();
+        let model_dof = |s: usize| self.system.model_dof[s];
+        let coefficients_of_n = |i: usize| -> Vec<f64> { (0..nc).map(|c| x[c * n + i]).collect() };
+        let extremes = |i: usize| -> (f64, f64) {
+            q_s.iter().chain(&q_extra).fold((f64::NEG_INFINITY, f64::INFINITY), |(mx, mn), q| (mx.max(q[i]), mn.min(q[i])))
+        };
+        let contacts: Vec<ContactSeries> = self
+            .system
+            .contacts
+            .iter()
+            .enumerate()
+            .map(|(c, contact)| {
+                let dof_s = contact.w[0].0;
+                let i = nl_dofs.iter().position(|&d| d == dof_s).expect("contact DOF in N");
+                let (max, min) = extremes(i);
+                ContactSeries {
+                    dof: model_dof(dof_s),
+                    coefficients: coefficients_of_n(i),
+                    displacement: q_s.iter().map(|q| q[i]).collect(),
+                    gap: g_s.iter().map(|g| g[c]).collect(),
+                    force: f_s.iter().map(|l| l[c]).collect(),
+                    max,
+                    min,
+                }
+            })
+            .collect();
+        let response = match self.system.system_dof(response_dof) {
+            None => {
+                if response_dof >= self.system.model_dof.len() + self.system.model_dof.iter().filter(|_| false).count() && response_dof >= self.system.model_dof.iter().max().map_or(0, |m| m + 1) {
+                    return Err(Error::argument("dof", format!("DOF {response_dof} does not exist in the model")));
+                }
+                DofResponse { dof: response_dof, coefficients: vec![0.0; nc], max: 0.0, min: 0.0 }
+            }
+            Some(s) => {
+                if let Some(i) = nl_dofs.iter().position(|&d| d == s) {
+                    let (max, min) = extremes(i);
+                    DofResponse { dof: response_dof, coefficients: coefficients_of_n(i), max, min }
+                } else {
+                    let l = self.system.linear_dofs.iter().position(|&d| d == s).expect("L or N");
+                    let coefficients = self.linear_dof_coefficients(x, l)?;
+                    let fine = Sampling::new(h, self.sampling.len().max(64 * h));
+                    let (max, min) = fine.taus.iter().map(|&t| evaluate(&coefficients, t)).fold((f64::NEG_INFINITY, f64::INFINITY), |(a, b), v| (a.max(v), b.min(v)));
+                    DofResponse { dof: response_dof, coefficients, max, min }
+                }
+            }
+        };
+        let _ = basis(h, 0.0);
+        Ok(PeriodicSolution {
+            frequency_hz: omega / (2.0 * std::f64::consts::PI),
+            harmonics: h,
+            samples: self.sampling.len(),
+            quadrature: self.quadrature.name().to_string(),
+            method: "redistributed".to_string(),
+            converged: false,
+            iterations: 0,
+            residual_norm: residual.iter().fold(0.0f64, |m, v| m.max(v.abs())) / self.length_scale,
+            time_s: self.sampling.taus.iter().map(|t| t / omega).collect(),
+            contact_dofs: self.system.contacts.iter().map(|c| model_dof(c.w[0].0)).collect(),
+            contacts,
+            response,
+        })
+    }
+}

@@ -1,0 +1,231 @@
+//! Fourier coefficients of the contact displacement `q_N(τ)` (paper eqs. 33–35), by either
+//! quadrature:
+//!
+//! * **sampled** — the DFT over `N_s` equidistant samples (the paper's implementation);
+//! * **exact** — the period is cut at the switching times of the active set (roots of the
+//!   gaps of open contacts and of the forces of closed ones, which are trigonometric
+//!   polynomials between switches), and the Fourier integrals are done in closed form on
+//!   each interval. No aliasing; the residual is continuously differentiable.
+//!
+//! Both give, per distinct active set `A`, a Gram block `Γ_A` (see [`crate::harmonic`]) such
+//! that `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`, where `B` holds the Fourier coefficients of
+//! the load `b(τ) = −K_NL q_L(τ) + f_N(τ)` on the contact subsystem. The semi-analytical
+//! Jacobian follows the same sum (eqs. 36–38: the interval end points drop out because
+//! `q_N` is continuous).
+//!
+//! Switching times are located from a grid of `N_s` points: a contact that opens and closes
+//! again between two grid points is not seen (increase `--samples` for very short events).
+
+use std::collections::HashMap;
+use std::rc::Rc;
+
+use super::static_contact::{ActiveSet, StaticContact};
+use crate::error::Result;
+use crate::harmonic::{add_interval_gram, basis_into, evaluate, n_coefficients, Sampling};
+
+/// How the Fourier coefficients of `q_N(t)` are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quadrature {
+    /// Closed-form integrals between located switching times.
+    Exact,
+    /// DFT over equidistant samples.
+    Sampled,
+}
+
+impl Quadrature {
+    pub fn name(self) -> &'static str {
+        match self {
+            Quadrature::Exact => "exact",
+            Quadrature::Sampled => "sampled",
+        }
+    }
+}
+
+/// Samples sharing one active set, with their summed Gram block.
+pub struct Group {
+    pub set: Rc<ActiveSet>,
+    /// `Γ_A`, `(2H+1)²`, row-major.
+    pub gram: Vec<f64>,
+}
+
+/// A located change of active set.
+#[derive(Clone, Copy, Debug)]
+pub struct Switch {
+    /// Normalised time `τ ∈ [0, 2π)`.
+    pub tau: f64,
+}
+
+/// The active-set decomposition of one period.
+pub struct Integration {
+    pub groups: Vec<Group>,
+    /// Group of each grid sample.
+    pub sample_group: Vec<usize>,
+    /// Located switching times (exact quadrature only).
+    pub switches: Vec<Switch>,
+}
+
+/// Load `b(τ)` from its coefficients (`load[c·n + i]`).
+pub fn load_at(load: &[f64], n: usize, harmonics: usize, tau: f64, basis: &mut [f64]) -> Vec<f64> {
+    basis_into(harmonics, tau, basis);
+    let mut b = vec![0.0; n];
+    for (c, &bc) in basis.iter().enumerate() {
+        for i in 0..n {
+            b[i] += load[c * n + i] * bc;
+        }
+    }
+    b
+}
+
+struct Groups {
+    index: HashMap<Vec<bool>, usize>,
+    groups: Vec<Group>,
+    size: usize,
+}
+
+impl Groups {
+    fn of(&mut self, set: &Rc<ActiveSet>) -> usize {
+        if let Some(&g) = self.index.get(&set.closed) {
+            return g;
+        }
+        self.groups.push(Group {
+            set: set.clone(),
+            gram: vec![0.0; self.size * self.size],
+        });
+        self.index.insert(set.closed.clone(), self.groups.len() - 1);
+        self.groups.len() - 1
+    }
+}
+
+/// Trigonometric coefficients of the validity indicator of `set` under the load `load`
+/// (`n_c` rows of `2H+1`).
+fn indicator_coefficients(set: &ActiveSet, load: &[f64], n: usize, nc: usize, ncoef: usize) -> Vec<Vec<f64>> {
+    (0..nc)
+        .map(|c| {
+            let row = &set.indicator[c * n..(c + 1) * n];
+            let mut coef: Vec<f64> = (0..ncoef).map(|m| (0..n).map(|i| row[i] * load[m * n + i]).sum()).collect();
+            coef[0] += set.indicator_offset[c];
+            coef
+        })
+        .collect()
+}
+
+/// First root in `(a, end]` of a trigonometric polynomial that is negative at `end`.
+fn first_root(coef: &[f64], a: f64, end: f64) -> f64 {
+    const SCAN: usize = 8;
+    let mut left = a;
+    let mut right = end;
+    for l in 1..=SCAN {
+        let p = a + (end - a) * l as f64 / SCAN as f64;
+        if evaluate(coef, p) < 0.0 {
+            right = p;
+            break;
+        }
+        left = p;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (left + right);
+        if mid <= left || mid >= right {
+            break;
+        }
+        if evaluate(coef, mid) < 0.0 {
+            right = mid;
+        } else {
+            left = mid;
+        }
+    }
+    right
+}
+
+/// Decompose one period into active-set groups.
+pub fn integrate(contact: &mut StaticContact, load: &[f64], sampling: &Sampling, quadrature: Quadrature) -> Result<Integration> {
+    let h = sampling.harmonics;
+    let ncoef = n_coefficients(h);
+    let n = contact.n_dofs();
+    let nc = contact.n_contacts();
+    let mut basis = vec![0.0; ncoef];
+    let mut groups = Groups {
+        index: HashMap::new(),
+        groups: Vec::new(),
+        size: ncoef,
+    };
+    let mut sets = Vec::with_capacity(sampling.len());
+    let mut sample_group = Vec::with_capacity(sampling.len());
+    for &tau in &sampling.taus {
+        let b = load_at(load, n, h, tau, &mut basis);
+        let set = contact.solve(&b)?;
+        sample_group.push(groups.of(&set));
+        sets.push(set);
+    }
+    let mut switches = Vec::new();
+    match quadrature {
+        Quadrature::Sampled => {
+            for (j, &g) in sample_group.iter().enumerate() {
+                sampling.add_sample_gram(j, &mut groups.groups[g].gram);
+            }
+        }
+        Quadrature::Exact => {
+            let ns = sampling.len();
+            let two_pi = 2.0 * std::f64::consts::PI;
+            let mut set = sets[0].clone();
+            let mut run_start = 0.0;
+            for j in 0..ns {
+                let mut a = sampling.taus[j];
+                let end = if j + 1 < ns { sampling.taus[j + 1] } else { two_pi };
+                // a set carried over from the previous cell that the LCP disagrees with at
+                // this grid point is replaced by the LCP's (a double switch was missed)
+                if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&set, load, n, nc, ncoef, a) {
+                    let g = groups.of(&set);
+                    add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
+                    run_start = a;
+                    set = sets[j].clone();
+                }
+                let mut guard = 0;
+                loop {
+                    let coefs = indicator_coefficients(&set, load, n, nc, ncoef);
+                    let mut earliest: Option<(f64, usize)> = None;
+                    for (c, coef) in coefs.iter().enumerate() {
+                        if evaluate(coef, end) < 0.0 {
+                            let r = first_root(coef, a, end);
+                            if earliest.is_none_or(|(t, _)| r < t) {
+                                earliest = Some((r, c));
+                            }
+                        }
+                    }
+                    let Some((root, component)) = earliest else { break };
+                    let g = groups.of(&set);
+                    add_interval_gram(h, run_start, root, &mut groups.groups[g].gram);
+                    switches.push(Switch { tau: root });
+                    run_start = root;
+                    guard += 1;
+                    let next = if root - a <= 1e-13 * two_pi || guard > 2 * nc + 4 {
+                        // no progress: ask the LCP just after the root
+                        let t = root + 1e-9 * (end - root);
+                        let b = load_at(load, n, h, t, &mut basis);
+                        contact.solve(&b)?
+                    } else {
+                        let mut closed = set.closed.clone();
+                        closed[component] = !closed[component];
+                        contact.active_set(&closed)?
+                    };
+                    a = root;
+                    if guard > 4 * nc + 8 {
+                        set = next;
+                        break;
+                    }
+                    set = next;
+                }
+            }
+            let g = groups.of(&set);
+            add_interval_gram(h, run_start, two_pi, &mut groups.groups[g].gram);
+        }
+    }
+    Ok(Integration {
+        groups: groups.groups,
+        sample_group,
+        switches,
+    })
+}
+
+fn indicator_holds(set: &ActiveSet, load: &[f64], n: usize, nc: usize, ncoef: usize, tau: f64) -> bool {
+    indicator_coefficients(set, load, n, nc, ncoef).iter().all(|c| evaluate(c, tau) >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs()))))
+}

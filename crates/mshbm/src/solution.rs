@@ -1,0 +1,63 @@
+//! A periodic solution as reported to users (`mshbm solve --json`, FRD points).
+
+use serde::{Deserialize, Serialize};
+
+/// Time series and harmonics of one contact.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ContactSeries {
+    /// The contact's (first) DOF, model numbering.
+    pub dof: usize,
+    /// Fourier coefficients `[a0, a1, b1, …, aH, bH]` of that DOF's displacement.
+    pub coefficients: Vec<f64>,
+    /// Displacement of the DOF at `time_s`.
+    pub displacement: Vec<f64>,
+    /// Gap `g = Wᵀ q + g0` at `time_s`.
+    pub gap: Vec<f64>,
+    /// Contact force `λ ≥ 0` at `time_s`.
+    pub force: Vec<f64>,
+    /// Max and min of the displacement over the period (of the time signal, not of the
+    /// truncated series).
+    pub max: f64,
+    pub min: f64,
+}
+
+/// Harmonics and extremes of the response DOF.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct DofResponse {
+    /// Model DOF.
+    pub dof: usize,
+    pub coefficients: Vec<f64>,
+    pub max: f64,
+    pub min: f64,
+}
+
+/// One periodic solution.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct PeriodicSolution {
+    pub frequency_hz: f64,
+    pub harmonics: usize,
+    pub samples: usize,
+    pub quadrature: String,
+    pub method: String,
+    pub converged: bool,
+    pub iterations: usize,
+    /// `‖R‖_∞` relative to the problem's length scale.
+    pub residual_norm: f64,
+    /// Sample times over one period [s].
+    pub time_s: Vec<f64>,
+    /// Model DOFs of the contacts (first DOF of each).
+    pub contact_dofs: Vec<usize>,
+    pub contacts: Vec<ContactSeries>,
+    pub response: DofResponse,
+}
+
+impl DofResponse {
+    /// `√(a1² + b1²)`, the first-harmonic amplitude.
+    pub fn amplitude_h1(&self) -> f64 {
+        if self.coefficients.len() >= 3 {
+            self.coefficients[1].hypot(self.coefficients[2])
+        } else {
+            0.0
+        }
+    }
+}
