@@ -26,6 +26,9 @@ enum Command {
     /// Eigenfrequencies [Hz] of the consistent and the redistributed (massless contact
     /// boundary) model and their relative difference (the paper's Fig. 8).
     Modes(commands::modes::ModesArgs),
+    /// One periodic solution at one frequency (MS-HBM); time series, harmonics and extremes
+    /// of the contacts (the paper's Fig. 10 with --plot).
+    Solve(commands::solve::SolveArgs),
     /// Write the model as Matrix Market matrices and a `kind = "matrices"` model file.
     Export(commands::export::ExportArgs),
 }
@@ -34,6 +37,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Modes(args) => commands::modes::run(args),
+        Command::Solve(args) => commands::solve::run(args),
         Command::Export(args) => commands::export::run(args),
     };
     match result {

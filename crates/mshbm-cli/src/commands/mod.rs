@@ -2,6 +2,7 @@
 
 pub mod export;
 pub mod modes;
+pub mod solve;
 
 use std::path::PathBuf;
 

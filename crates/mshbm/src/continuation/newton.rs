@@ -125,3 +125,20 @@ pub fn solve<P: PeriodicProblem + ?Sized>(problem: &mut P, x0: &[f64], omega: f6
         reason: None,
     })
 }
+
+/// Solve at one frequency from the problem's initial guess (the contact-free linear
+/// response) and return the solution with Newton's statistics, together with the outcome.
+pub fn solve_at_frequency<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    omega: f64,
+    response_dof: usize,
+    options: &NewtonOptions,
+) -> Result<(crate::solution::PeriodicSolution, NewtonOutcome)> {
+    let x0 = problem.initial_guess(omega)?;
+    let outcome = solve(problem, &x0, omega, options)?;
+    let mut solution = problem.solution(&outcome.x, omega, response_dof)?;
+    solution.converged = outcome.converged;
+    solution.iterations = outcome.iterations;
+    solution.residual_norm = outcome.residual_norm;
+    Ok((solution, outcome))
+}

@@ -37,6 +37,8 @@ pub struct System {
     pub damping: SparseMatrix,
     /// Model DOF of each system DOF.
     pub model_dof: Vec<usize>,
+    /// Number of DOFs of the model (Dirichlet DOFs included).
+    pub n_model_dofs: usize,
     /// System DOFs of the nonlinear part `N`: all DOFs of the contact nodes (with a
     /// redistributed mass they are exactly the massless DOFs).
     pub nonlinear_dofs: Vec<usize>,
@@ -132,6 +134,7 @@ impl Model {
             stiffness,
             damping,
             model_dof,
+            n_model_dofs: n,
             nonlinear_dofs,
             linear_dofs,
             contacts,

@@ -25,7 +25,7 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
 use crate::error::{Error, Result};
-use crate::harmonic::{basis, evaluate, n_coefficients, Sampling};
+use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
@@ -448,80 +448,80 @@ impl PeriodicProblem for RedistributedMsHbm {
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+        if response_dof >= self.system.n_model_dofs {
+            return Err(Error::argument("dof", format!("DOF {response_dof} does not exist (the model has DOFs 0..{})", self.system.n_model_dofs - 1)));
+        }
         let (residual, integration, b) = self.evaluate(x, omega)?;
         let n = self.n();
         let h = self.harmonics;
         let nc = n_coefficients(h);
         let mut basis_buf = vec![0.0; nc];
-        // time series at the samples and, for extremes, at the switching times
-        let mut series_at = |tau: f64, contact: &mut StaticContact| -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-            let load = load_at(&b, n, h, tau, &mut basis_buf);
-            let set = contact.solve(&load)?;
-            let q = set.displacement(&load);
-            let lambda = set.force(&load);
-            let gaps = contact.gaps(&q);
-            Ok((q, lambda, gaps))
-        };
-        let mut q_s = Vec::new();
-        let mut f_s = Vec::new();
-        let mut g_s = Vec::new();
+        let mut q_s = Vec::with_capacity(self.sampling.len());
+        let mut f_s = Vec::with_capacity(self.sampling.len());
+        let mut g_s = Vec::with_capacity(self.sampling.len());
         for &tau in &self.sampling.taus {
-            let (q, l, g) = series_at(tau, &mut self.contact)?;
+            let load = load_at(&b, n, h, tau, &mut basis_buf);
+            let set = self.contact.solve(&load)?;
+            let q = set.displacement(&load);
+            g_s.push(self.contact.gaps(&q));
+            f_s.push(set.force(&load));
             q_s.push(q);
-            f_s.push(l);
-            g_s.push(g);
         }
-        let mut q_extra = Vec::new();
-        for s in &integration.switches {
-            q_extra.push(series_at(s.tau, &mut self.contact)?.0);
-        }
-        let nl_dofs = self.system.nonlinear_dofs.clone();
-        let model_dof = |s: usize| self.system.model_dof[s];
-        let coefficients_of_n = |i: usize| -> Vec<f64> { (0..nc).map(|c| x[c * n + i]).collect() };
-        let extremes = |i: usize| -> (f64, f64) {
-            q_s.iter().chain(&q_extra).fold((f64::NEG_INFINITY, f64::INFINITY), |(mx, mn), q| (mx.max(q[i]), mn.min(q[i])))
-        };
-        let contacts: Vec<ContactSeries> = self
-            .system
-            .contacts
-            .iter()
-            .enumerate()
-            .map(|(c, contact)| {
-                let dof_s = contact.w[0].0;
-                let i = nl_dofs.iter().position(|&d| d == dof_s).expect("contact DOF in N");
-                let (max, min) = extremes(i);
-                ContactSeries {
-                    dof: model_dof(dof_s),
-                    coefficients: coefficients_of_n(i),
-                    displacement: q_s.iter().map(|q| q[i]).collect(),
-                    gap: g_s.iter().map(|g| g[c]).collect(),
-                    force: f_s.iter().map(|l| l[c]).collect(),
-                    max,
-                    min,
-                }
-            })
-            .collect();
-        let response = match self.system.system_dof(response_dof) {
-            None => {
-                if response_dof >= self.system.model_dof.len() + self.system.model_dof.iter().filter(|_| false).count() && response_dof >= self.system.model_dof.iter().max().map_or(0, |m| m + 1) {
-                    return Err(Error::argument("dof", format!("DOF {response_dof} does not exist in the model")));
-                }
-                DofResponse { dof: response_dof, coefficients: vec![0.0; nc], max: 0.0, min: 0.0 }
+        let taus = self.sampling.taus.clone();
+        let contact = &mut self.contact;
+        // exact displacement of N-DOF i at τ (the time signal, not the truncated series)
+        let mut q_at = |i: usize, tau: f64| -> f64 {
+            let load = load_at(&b, n, h, tau, &mut basis_buf);
+            match contact.solve(&load) {
+                Ok(set) => set.displacement(&load)[i],
+                Err(_) => f64::NAN,
             }
+        };
+        let mut n_extremes = |i: usize| -> (f64, f64) {
+            let samples: Vec<f64> = q_s.iter().map(|q| q[i]).collect();
+            let mut mx = refine_extremum(&taus, &samples, 1.0, |t| q_at(i, t));
+            let mut mn = -refine_extremum(&taus, &samples, -1.0, |t| q_at(i, t));
+            for s in &integration.switches {
+                let v = q_at(i, s.tau);
+                mx = mx.max(v);
+                mn = mn.min(v);
+            }
+            (mx, mn)
+        };
+        let nl_dofs = self.system.nonlinear_dofs.clone();
+        let coefficients_of_n = |i: usize| -> Vec<f64> { (0..nc).map(|c| x[c * n + i]).collect() };
+        let mut contacts = Vec::with_capacity(self.system.contacts.len());
+        for (c, sc) in self.system.contacts.iter().enumerate() {
+            let dof_s = sc.w[0].0;
+            let i = nl_dofs.iter().position(|&d| d == dof_s).expect("contact DOF in N");
+            let (max, min) = n_extremes(i);
+            contacts.push(ContactSeries {
+                dof: self.system.model_dof[dof_s],
+                coefficients: coefficients_of_n(i),
+                displacement: q_s.iter().map(|q| q[i]).collect(),
+                gap: g_s.iter().map(|g| g[c]).collect(),
+                force: f_s.iter().map(|l| l[c]).collect(),
+                max,
+                min,
+            });
+        }
+        let response = match self.system.system_dof(response_dof) {
+            // a Dirichlet DOF does not move
+            None => DofResponse { dof: response_dof, coefficients: vec![0.0; nc], max: 0.0, min: 0.0 },
             Some(s) => {
                 if let Some(i) = nl_dofs.iter().position(|&d| d == s) {
-                    let (max, min) = extremes(i);
+                    let (max, min) = n_extremes(i);
                     DofResponse { dof: response_dof, coefficients: coefficients_of_n(i), max, min }
                 } else {
                     let l = self.system.linear_dofs.iter().position(|&d| d == s).expect("L or N");
                     let coefficients = self.linear_dof_coefficients(x, l)?;
-                    let fine = Sampling::new(h, self.sampling.len().max(64 * h));
-                    let (max, min) = fine.taus.iter().map(|&t| evaluate(&coefficients, t)).fold((f64::NEG_INFINITY, f64::INFINITY), |(a, b), v| (a.max(v), b.min(v)));
+                    let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
+                    let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
+                    let min = -refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
                     DofResponse { dof: response_dof, coefficients, max, min }
                 }
             }
         };
-        let _ = basis(h, 0.0);
         Ok(PeriodicSolution {
             frequency_hz: omega / (2.0 * std::f64::consts::PI),
             harmonics: h,
@@ -531,10 +531,40 @@ impl PeriodicProblem for RedistributedMsHbm {
             converged: false,
             iterations: 0,
             residual_norm: residual.iter().fold(0.0f64, |m, v| m.max(v.abs())) / self.length_scale,
-            time_s: self.sampling.taus.iter().map(|t| t / omega).collect(),
-            contact_dofs: self.system.contacts.iter().map(|c| model_dof(c.w[0].0)).collect(),
+            time_s: taus.iter().map(|t| t / omega).collect(),
+            contact_dofs: self.system.contacts.iter().map(|c| self.system.model_dof[c.w[0].0]).collect(),
             contacts,
             response,
         })
     }
+}
+
+/// `sign ·` the largest value of a periodic signal sampled at `taus` (`values`), refined by
+/// golden-section search of `f` around the best sample (so that the extreme is that of the
+/// time signal, not of the sample grid).
+fn refine_extremum(taus: &[f64], values: &[f64], sign: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
+    let n = taus.len();
+    let (j, best) = values.iter().enumerate().fold((0, f64::NEG_INFINITY), |(bj, bv), (j, &v)| if sign * v > bv { (j, sign * v) } else { (bj, bv) });
+    let step = 2.0 * std::f64::consts::PI / n as f64;
+    let (mut a, mut d) = (taus[j] - step, taus[j] + step);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let mut b = d - g * (d - a);
+    let mut c = a + g * (d - a);
+    let (mut fb, mut fc) = (sign * f(b), sign * f(c));
+    for _ in 0..60 {
+        if fb > fc {
+            d = c;
+            c = b;
+            fc = fb;
+            b = d - g * (d - a);
+            fb = sign * f(b);
+        } else {
+            a = b;
+            b = c;
+            fb = fc;
+            c = a + g * (d - a);
+            fc = sign * f(c);
+        }
+    }
+    sign * best.max(fb).max(fc)
 }

@@ -1,0 +1,274 @@
+//! The redistributed MS-HBM (paper Sections 3.1–3.2) against independent references:
+//! finite differences for the Jacobian and the frequency derivative, the direct linear
+//! frequency response, the Signorini conditions, and the sampled vs exact quadrature.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::Path;
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
+use mshbm::method::redistributed::quadrature::Quadrature;
+use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use mshbm::model::file::load_model;
+use mshbm::problem::PeriodicProblem;
+use mshbm::solution::PeriodicSolution;
+use mshbm::{MassKind, Model};
+
+fn bar(overrides: &[&str]) -> Model {
+    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    load_model(&common::examples().join("clamped_bar.toml"), &o).unwrap()
+}
+
+fn damped_bar() -> Model {
+    bar(&["damping.first_mode_ratio=0.01"])
+}
+
+fn method(model: &Model, harmonics: usize, quadrature: Quadrature, samples: Option<usize>) -> RedistributedMsHbm {
+    RedistributedMsHbm::new(model, &RedistributedOptions { harmonics, samples, quadrature }).unwrap()
+}
+
+fn hz(f: f64) -> f64 {
+    2.0 * PI * f
+}
+
+fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
+    v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// Max relative deviation of the analytic Jacobian and ∂R/∂ω from central differences.
+fn jacobian_errors(p: &mut RedistributedMsHbm, x: &[f64], omega: f64) -> (f64, f64) {
+    let lin = p.linearize(x, omega).unwrap();
+    let n = x.len();
+    let h = 1e-7 * p.length_scale();
+    let mut fd = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[j] += h;
+        xm[j] -= h;
+        let (rp, rm) = (p.residual(&xp, omega).unwrap(), p.residual(&xm, omega).unwrap());
+        for i in 0..n {
+            fd[(i, j)] = (rp[i] - rm[i]) / (2.0 * h);
+        }
+    }
+    let jac_scale = max_abs((0..n).flat_map(|i| (0..n).map(move |j| (i, j))).map(|(i, j)| fd[(i, j)]));
+    let jac_err = max_abs((0..n).flat_map(|i| (0..n).map(move |j| (i, j))).map(|(i, j)| fd[(i, j)] - lin.jacobian[(i, j)]));
+    // |ω ∂R/∂ω| ≪ |R| here, so a smaller step drowns in round-off
+    let hw = 1e-5 * omega;
+    let (rp, rm) = (p.residual(x, omega + hw).unwrap(), p.residual(x, omega - hw).unwrap());
+    let fd_w: Vec<f64> = (0..n).map(|i| (rp[i] - rm[i]) / (2.0 * hw)).collect();
+    let w_err = max_abs(fd_w.iter().zip(&lin.d_omega).map(|(a, b)| a - b));
+    (jac_err / jac_scale, w_err / max_abs(fd_w.iter().copied()))
+}
+
+#[test]
+fn jacobian_and_frequency_derivative_match_finite_differences_on_the_bar() {
+    let model = damped_bar();
+    for quadrature in [Quadrature::Exact, Quadrature::Sampled] {
+        for (harmonics, f) in [(5, 60e3), (3, 30e3)] {
+            let mut p = method(&model, harmonics, quadrature, None);
+            let (sol, out) = solve_at_frequency(&mut p, hz(f), 100, &NewtonOptions::default()).unwrap();
+            assert!(out.converged);
+            assert!(sol.contacts[0].force.iter().any(|&l| l > 0.0), "the bar must be in contact");
+            // at the solution and at a point off the solution
+            let off: Vec<f64> = out.x.iter().enumerate().map(|(i, v)| v * (1.0 + 0.05 * (i as f64).sin())).collect();
+            for x in [&out.x, &off] {
+                let (ej, ew) = jacobian_errors(&mut p, x, hz(f));
+                assert!(ej < 1e-6 && ew < 1e-6, "{quadrature:?} H={harmonics} f={f}: J err {ej:.2e}, dR/dw err {ew:.2e}");
+            }
+        }
+    }
+}
+
+#[test]
+fn jacobian_and_frequency_derivative_match_finite_differences_with_many_contacts() {
+    let model = common::lattice_model(6, 8, 25.0, 5.0);
+    for quadrature in [Quadrature::Exact, Quadrature::Sampled] {
+        let mut p = method(&model, 3, quadrature, None);
+        let (sol, out) = solve_at_frequency(&mut p, hz(5.0), model.contacts[0].dofs[0], &NewtonOptions::default()).unwrap();
+        assert!(out.converged);
+        let closing: Vec<bool> = sol.contacts.iter().map(|c| c.force.iter().any(|&l| l > 0.0)).collect();
+        assert!(closing.iter().filter(|&&c| c).count() >= 2 && closing.iter().any(|&c| !c), "some contacts active, some not: {closing:?}");
+        let (ej, ew) = jacobian_errors(&mut p, &out.x, hz(5.0));
+        assert!(ej < 1e-6 && ew < 1e-6, "{quadrature:?}: J err {ej:.2e}, dR/dw err {ew:.2e}");
+    }
+}
+
+/// Signorini at every sample: gap ≥ −1e-12·scale, force ≥ 0, complementarity.
+fn assert_signorini(sol: &PeriodicSolution, scale: f64) {
+    for c in &sol.contacts {
+        let fmax = max_abs(c.force.iter().copied()).max(1e-300);
+        for (g, l) in c.gap.iter().zip(&c.force) {
+            assert!(*g >= -1e-12 * scale, "penetration {g}");
+            assert!(*l >= 0.0, "negative force {l}");
+            assert!((g * l).abs() <= 1e-12 * scale * fmax, "complementarity g = {g}, λ = {l}");
+        }
+    }
+}
+
+#[test]
+fn bar_at_60_khz_converges_for_1_3_5_10_harmonics_without_penetration() {
+    let model = damped_bar();
+    let gap = model.contacts[0].gap;
+    let mut previous: Option<Vec<f64>> = None;
+    let mut changes = Vec::new();
+    for harmonics in [1, 3, 5, 10] {
+        let mut p = method(&model, harmonics, Quadrature::Exact, None);
+        let (sol, out) = solve_at_frequency(&mut p, hz(60e3), 100, &NewtonOptions::default()).unwrap();
+        assert!(out.converged, "H = {harmonics}: {:?}", out.reason);
+        assert_signorini(&sol, p.length_scale());
+        let c = &sol.contacts[0];
+        // the paper's Fig. 10 claim: the contact displacement never exceeds the gap
+        assert!(c.max <= gap * (1.0 + 1e-12), "H = {harmonics}: max {}", c.max);
+        assert!(c.displacement.iter().all(|&q| q <= gap * (1.0 + 1e-12)));
+        let a = c.coefficients[..3].to_vec();
+        println!("H = {harmonics:2}: a0 = {:.6}, a1 = {:.6}, b1 = {:.6}, min = {:.6}", a[0], a[1], a[2], c.min);
+        if let Some(prev) = &previous {
+            changes.push(max_abs(prev.iter().zip(&a).map(|(x, y)| x - y)));
+        }
+        previous = Some(a);
+    }
+    // the low coefficients settle as H grows
+    println!("change of (a0, a1, b1) from H to the next: {changes:?}");
+    assert!(changes[2] < changes[0], "{changes:?}");
+    assert!(changes[2] < 0.02 * gap.max(0.1) * 10.0, "{changes:?}");
+}
+
+#[test]
+fn exact_quadrature_converges_quadratically_and_sampled_approaches_it_at_second_order() {
+    let model = damped_bar();
+    let omega = hz(60e3);
+    let mut exact = method(&model, 5, Quadrature::Exact, Some(512));
+    let (_, out) = solve_at_frequency(&mut exact, omega, 100, &NewtonOptions { tolerance: 1e-13, ..NewtonOptions::default() }).unwrap();
+    assert!(out.converged);
+    let h = &out.history;
+    println!("exact quadrature, Newton residual history: {h:?}");
+    // quadratic convergence once close: r_{k+1} <= C r_k^2
+    let tail: Vec<f64> = h.iter().copied().skip_while(|&r| r > 1e-4).collect();
+    assert!(tail.len() >= 3, "{h:?}");
+    for w in tail.windows(2) {
+        assert!(w[1] <= 1e4 * w[0] * w[0] + 1e-14, "not quadratic: {h:?}");
+    }
+    // sampled DFT with kinked q_N(t): error O(1/NS²) with a constant that depends on where
+    // the kinks fall between samples, so check that d·NS² stays bounded over two decades
+    let mut scaled = Vec::new();
+    for ns in [64, 128, 200, 256, 512, 800, 1024, 2048, 3000, 4096, 8192] {
+        let mut sampled = method(&model, 5, Quadrature::Sampled, Some(ns));
+        let o = solve(&mut sampled, &out.x, omega, &NewtonOptions { tolerance: 1e-14, ..NewtonOptions::default() }).unwrap();
+        assert!(o.converged);
+        let d = max_abs(o.x.iter().zip(&out.x).map(|(a, b)| a - b));
+        scaled.push((ns, d, d * (ns * ns) as f64));
+    }
+    println!("(NS, max |x_sampled − x_exact|, that × NS²): {scaled:?}");
+    for &(ns, d, dn2) in &scaled {
+        assert!(dn2 < 10.0, "NS = {ns}: difference {d:.3e} is not O(1/NS²)");
+    }
+    assert!(scaled.last().unwrap().1 < 1e-4 * scaled[0].1, "{scaled:?}");
+}
+
+/// Direct linear frequency response of the full (redistributed) system, dense complex
+/// solve: the contact-free reference.
+fn direct_linear_response(model: &Model, omega: f64) -> (Vec<usize>, Vec<c64>) {
+    let s = model.system(MassKind::Redistributed).unwrap();
+    let n = s.n_dofs();
+    let a = Mat::<c64>::from_fn(n, n, |i, j| c64::new(s.stiffness.get(i, j) - omega * omega * s.mass.get(i, j), omega * s.damping.get(i, j)));
+    let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(s.harmonic_load[i], 0.0));
+    let z = a.partial_piv_lu().solve(&rhs);
+    (s.model_dof.clone(), (0..n).map(|i| z[(i, 0)]).collect())
+}
+
+#[test]
+fn far_from_contact_the_solution_is_the_linear_response() {
+    for (model, f, dofs) in [
+        (bar(&["contact.gap=100", "damping.first_mode_ratio=0.01"]), 60e3, vec![100usize, 50, 99]),
+        (bar(&["contact.gap=100", "damping.first_mode_ratio=0.01"]), 21e3, vec![100, 50]),
+        (bar(&["load.amplitude=10", "damping.alpha=300"]), 60e3, vec![100, 30]),
+    ] {
+        let (model_dof, z) = direct_linear_response(&model, hz(f));
+        for dof in dofs {
+            let mut p = method(&model, 5, Quadrature::Exact, None);
+            let (sol, out) = solve_at_frequency(&mut p, hz(f), dof, &NewtonOptions::default()).unwrap();
+            assert!(out.converged);
+            assert!(sol.contacts[0].force.iter().all(|&l| l == 0.0));
+            let zi = z[model_dof.iter().position(|&d| d == dof).unwrap()];
+            let c = &sol.response.coefficients;
+            let amp = zi.norm();
+            assert!((c[1] - zi.re).abs() <= 1e-10 * amp && (c[2] + zi.im).abs() <= 1e-10 * amp, "dof {dof}: {c:?} vs {zi:?}");
+            assert!(c[0].abs() <= 1e-10 * amp && c[3..].iter().all(|v| v.abs() <= 1e-10 * amp), "dof {dof}: {c:?}");
+            assert!((sol.response.max - amp).abs() <= 1e-6 * amp);
+        }
+    }
+}
+
+#[test]
+fn lattice_far_from_contact_is_linear_too() {
+    let model = {
+        let mut m = common::lattice_model(6, 8, 25.0, 5.0);
+        m.contacts.iter_mut().for_each(|c| c.gap = 10.0);
+        m
+    };
+    let (model_dof, z) = direct_linear_response(&model, hz(5.0));
+    let mut p = method(&model, 3, Quadrature::Exact, None);
+    for c in &model.contacts {
+        let dof = c.dofs[0];
+        let (sol, _) = solve_at_frequency(&mut p, hz(5.0), dof, &NewtonOptions::default()).unwrap();
+        let zi = z[model_dof.iter().position(|&d| d == dof).unwrap()];
+        let co = &sol.response.coefficients;
+        assert!((co[1] - zi.re).abs() <= 1e-10 * zi.norm() && (co[2] + zi.im).abs() <= 1e-10 * zi.norm());
+    }
+}
+
+#[test]
+fn lattice_solutions_satisfy_signorini() {
+    let model = common::lattice_model(6, 8, 25.0, 5.0);
+    for quadrature in [Quadrature::Exact, Quadrature::Sampled] {
+        let mut p = method(&model, 3, quadrature, None);
+        let (sol, out) = solve_at_frequency(&mut p, hz(5.0), 1, &NewtonOptions::default()).unwrap();
+        assert!(out.converged);
+        assert_signorini(&sol, p.length_scale());
+    }
+}
+
+#[test]
+fn damping_that_couples_into_the_contact_is_refused() {
+    let model = bar(&["damping.beta=1e-7"]);
+    let err = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 3, samples: None, quadrature: Quadrature::Exact })
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(err.contains("C_NN") && err.contains("mass-proportional"), "{err}");
+}
+
+#[test]
+fn bad_settings_are_clear_errors() {
+    let model = damped_bar();
+    let e = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 0, samples: None, quadrature: Quadrature::Exact }).err().unwrap();
+    assert!(e.to_string().contains("harmonics"), "{e}");
+    let e = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 5, samples: Some(10), quadrature: Quadrature::Sampled }).err().unwrap();
+    assert!(e.to_string().contains("2H+1"), "{e}");
+}
+
+#[test]
+fn singular_contact_stiffness_is_reported() {
+    // a bar whose contact node is attached to nothing: K_NN = 0
+    let mut model = bar(&[]);
+    let n = model.n_dofs();
+    let t: Vec<(usize, usize, f64)> = model.stiffness.iter().filter(|&(i, j, _)| i < n - 1 && j < n - 1).collect();
+    let mut t2 = t.clone();
+    t2.push((n - 2, n - 2, model.stiffness.get(n - 2, n - 2) * 0.5));
+    model.stiffness = mshbm::sparse::SparseMatrix::from_triplets(n, n, &t2);
+    let e = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 3, samples: None, quadrature: Quadrature::Exact }).err().unwrap();
+    assert!(e.to_string().contains("K_NN"), "{e}");
+}
+
+#[test]
+fn iteration_limit_gives_a_non_converged_outcome() {
+    let model = damped_bar();
+    let mut p = method(&model, 5, Quadrature::Exact, None);
+    let (sol, out) = solve_at_frequency(&mut p, hz(60e3), 100, &NewtonOptions { max_iterations: 1, ..NewtonOptions::default() }).unwrap();
+    assert!(!out.converged && !sol.converged);
+    assert!(out.reason.unwrap().contains("1 iterations"));
+    let _ = Path::new("");
+}
