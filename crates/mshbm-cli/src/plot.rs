@@ -73,18 +73,23 @@ impl Figure {
     /// Render to `path`; the format follows the extension (`.svg` or `.png`).
     pub fn save(&self, path: &Path) -> Result<()> {
         register_font();
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
         let size = (1000, 650);
         match ext.as_deref() {
             Some("svg") => {
                 let root = SVGBackend::new(path, size).into_drawing_area();
                 self.draw(&root)?;
-                root.present().with_context(|| format!("{}: cannot write the plot", path.display()))?;
+                root.present()
+                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
             }
             Some("png") => {
                 let root = BitMapBackend::new(path, size).into_drawing_area();
                 self.draw(&root)?;
-                root.present().with_context(|| format!("{}: cannot write the plot", path.display()))?;
+                root.present()
+                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
             }
             _ => bail!("{}: plot file must end in .svg or .png", path.display()),
         }
@@ -109,7 +114,11 @@ impl Figure {
             if !lo.is_finite() {
                 return (0.0, 1.0);
             }
-            let span = if hi > lo { hi - lo } else { lo.abs().max(1.0) * 1e-3 };
+            let span = if hi > lo {
+                hi - lo
+            } else {
+                lo.abs().max(1.0) * 1e-3
+            };
             (lo - frac * span, hi + frac * span)
         };
         (pad(xs, 0.0), pad(ys, 0.05))
@@ -141,7 +150,12 @@ impl Figure {
         for h in &self.hlines {
             let style = ShapeStyle::from(&BLACK).stroke_width(1);
             chart
-                .draw_series(DashedLineSeries::new(vec![(x0, h.y), (x1, h.y)], 6, 4, style))
+                .draw_series(DashedLineSeries::new(
+                    vec![(x0, h.y), (x1, h.y)],
+                    6,
+                    4,
+                    style,
+                ))
                 .map_err(err)?
                 .label(&h.label)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
@@ -149,20 +163,36 @@ impl Figure {
         for s in &self.series {
             let c = color(s.color);
             let line = ShapeStyle::from(&c).stroke_width(2);
-            let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|(x, y)| x.is_finite() && y.is_finite()).collect();
+            let pts: Vec<(f64, f64)> = s
+                .points
+                .iter()
+                .copied()
+                .filter(|(x, y)| x.is_finite() && y.is_finite())
+                .collect();
             let anno = match s.style {
-                Style::Line | Style::LineAndMarkers => chart.draw_series(LineSeries::new(pts.clone(), line)).map_err(err)?,
-                Style::Dashed => chart.draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line)).map_err(err)?,
+                Style::Line | Style::LineAndMarkers => chart
+                    .draw_series(LineSeries::new(pts.clone(), line))
+                    .map_err(err)?,
+                Style::Dashed => chart
+                    .draw_series(DashedLineSeries::new(pts.clone(), 8, 5, line))
+                    .map_err(err)?,
                 Style::Markers => chart
-                    .draw_series(pts.iter().map(|&p| Circle::new(p, 4, ShapeStyle::from(&c).filled())))
+                    .draw_series(
+                        pts.iter()
+                            .map(|&p| Circle::new(p, 4, ShapeStyle::from(&c).filled())),
+                    )
                     .map_err(err)?,
             };
             if !s.label.is_empty() {
-                anno.label(&s.label).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], line));
+                anno.label(&s.label)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], line));
             }
             if s.style == Style::LineAndMarkers {
                 chart
-                    .draw_series(pts.iter().map(|&p| Circle::new(p, 3, ShapeStyle::from(&c).filled())))
+                    .draw_series(
+                        pts.iter()
+                            .map(|&p| Circle::new(p, 3, ShapeStyle::from(&c).filled())),
+                    )
                     .map_err(err)?;
             }
         }

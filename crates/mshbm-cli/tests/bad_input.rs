@@ -11,12 +11,23 @@ fn examples() -> PathBuf {
 
 /// Run `mshbm args…`, expect failure, return stderr.
 fn fails(args: &[&str]) -> String {
-    let out = Command::cargo_bin("mshbm").unwrap().args(args).output().unwrap();
+    let out = Command::cargo_bin("mshbm")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!out.status.success(), "expected failure for {args:?}; stderr: {stderr}");
+    assert!(
+        !out.status.success(),
+        "expected failure for {args:?}; stderr: {stderr}"
+    );
     assert!(!stderr.contains("panicked"), "panic for {args:?}: {stderr}");
     let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "expected one error line for {args:?}, got: {stderr}");
+    assert_eq!(
+        lines.len(),
+        1,
+        "expected one error line for {args:?}, got: {stderr}"
+    );
     assert!(lines[0].starts_with("error: "), "{stderr}");
     stderr
 }
@@ -29,7 +40,14 @@ struct GeneralModel {
 impl GeneralModel {
     fn new() -> Self {
         let dir = tempfile::tempdir().unwrap();
-        for f in ["mass.mtx", "stiffness.mtx", "nodes.txt", "harmonic_load.mtx", "constant_load.mtx", "model.toml"] {
+        for f in [
+            "mass.mtx",
+            "stiffness.mtx",
+            "nodes.txt",
+            "harmonic_load.mtx",
+            "constant_load.mtx",
+            "model.toml",
+        ] {
             std::fs::copy(examples().join("bar_matrices").join(f), dir.path().join(f)).unwrap();
         }
         GeneralModel { dir }
@@ -68,14 +86,20 @@ fn missing_model_file() {
 fn malformed_toml() {
     let (_d, p) = bar_with("[bar]", "[bar");
     let err = fails(&["modes", &p]);
-    assert!(err.contains("bar.toml") && err.contains("malformed TOML"), "{err}");
+    assert!(
+        err.contains("bar.toml") && err.contains("malformed TOML"),
+        "{err}"
+    );
 }
 
 #[test]
 fn unknown_key() {
     let (_d, p) = bar_with("area = 1.0", "area = 1.0\nwidth = 3.0");
     let err = fails(&["modes", &p]);
-    assert!(err.contains("bar.toml") && err.contains("width") && err.contains("bar"), "{err}");
+    assert!(
+        err.contains("bar.toml") && err.contains("width") && err.contains("bar"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -89,15 +113,24 @@ fn unknown_key_through_set() {
 fn negative_density() {
     let (_d, p) = bar_with("density = 9e-9", "density = -9e-9");
     let err = fails(&["modes", &p]);
-    assert!(err.contains("bar.toml") && err.contains("bar.density") && err.contains("positive"), "{err}");
+    assert!(
+        err.contains("bar.toml") && err.contains("bar.density") && err.contains("positive"),
+        "{err}"
+    );
 }
 
 #[test]
 fn non_square_matrix() {
     let m = GeneralModel::new();
-    m.write("mass.mtx", "%%MatrixMarket matrix coordinate real general\n3 2 1\n1 1 1.0\n");
+    m.write(
+        "mass.mtx",
+        "%%MatrixMarket matrix coordinate real general\n3 2 1\n1 1 1.0\n",
+    );
     let err = fails(&["modes", &m.toml()]);
-    assert!(err.contains("model.toml") && err.contains("matrices.mass") && err.contains("not square"), "{err}");
+    assert!(
+        err.contains("model.toml") && err.contains("matrices.mass") && err.contains("not square"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -125,7 +158,10 @@ fn non_symmetric_matrix() {
     );
     m.write("stiffness.mtx", &text);
     let err = fails(&["modes", &m.toml()]);
-    assert!(err.contains("matrices.stiffness") && err.contains("not symmetric"), "{err}");
+    assert!(
+        err.contains("matrices.stiffness") && err.contains("not symmetric"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -133,15 +169,24 @@ fn size_mismatch_between_matrices_and_coordinates() {
     let m = GeneralModel::new();
     m.write("nodes.txt", "0.0\n0.2\n0.4\n");
     let err = fails(&["modes", &m.toml()]);
-    assert!(err.contains("model.toml") && err.contains("mesh.coordinates"), "{err}");
+    assert!(
+        err.contains("model.toml") && err.contains("mesh.coordinates"),
+        "{err}"
+    );
 }
 
 #[test]
 fn size_mismatch_between_matrices() {
     let m = GeneralModel::new();
-    m.write("mass.mtx", "%%MatrixMarket matrix coordinate real symmetric\n3 3 1\n1 1 1.0\n");
+    m.write(
+        "mass.mtx",
+        "%%MatrixMarket matrix coordinate real symmetric\n3 3 1\n1 1 1.0\n",
+    );
     let err = fails(&["modes", &m.toml()]);
-    assert!(err.contains("matrices.mass") && err.contains("3×3"), "{err}");
+    assert!(
+        err.contains("matrices.mass") && err.contains("3×3"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -149,13 +194,19 @@ fn contact_dof_out_of_range() {
     let m = GeneralModel::new();
     m.edit_toml("dofs = [100]", "dofs = [101]");
     let err = fails(&["modes", &m.toml()]);
-    assert!(err.contains("contacts[0].dofs") && err.contains("out of range"), "{err}");
+    assert!(
+        err.contains("contacts[0].dofs") && err.contains("out of range"),
+        "{err}"
+    );
 }
 
 #[test]
 fn malformed_matrix_market_line() {
     let m = GeneralModel::new();
-    m.write("mass.mtx", "%%MatrixMarket matrix coordinate real symmetric\n101 101 1\n1 1 abc\n");
+    m.write(
+        "mass.mtx",
+        "%%MatrixMarket matrix coordinate real symmetric\n101 101 1\n1 1 abc\n",
+    );
     let err = fails(&["modes", &m.toml()]);
     assert!(err.contains("mass.mtx, line 3"), "{err}");
 }

@@ -9,8 +9,18 @@ fn examples() -> PathBuf {
 }
 
 fn modes_json(args: &[&str]) -> serde_json::Value {
-    let out = Command::cargo_bin("mshbm").unwrap().arg("modes").args(args).arg("--json").output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::cargo_bin("mshbm")
+        .unwrap()
+        .arg("modes")
+        .args(args)
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("stdout is exactly one JSON object")
 }
 
@@ -20,8 +30,18 @@ fn json_has_the_three_lists_and_the_papers_first_frequency() {
     let v = modes_json(&[&p, "--count", "30"]);
     let obj = v.as_object().unwrap();
     assert_eq!(obj.len(), 3);
-    let get = |k: &str| -> Vec<f64> { v[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
-    let (o, r, e) = (get("original_hz"), get("redistributed_hz"), get("relative_error"));
+    let get = |k: &str| -> Vec<f64> {
+        v[k].as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (o, r, e) = (
+        get("original_hz"),
+        get("redistributed_hz"),
+        get("relative_error"),
+    );
     assert_eq!((o.len(), r.len(), e.len()), (30, 30, 30));
     assert!((r[0] - 60335.0).abs() < 1.0);
     for k in 0..30 {
@@ -31,10 +51,26 @@ fn json_has_the_three_lists_and_the_papers_first_frequency() {
 
 #[test]
 fn general_model_gives_the_same_json_as_the_bar() {
-    let a = modes_json(&[&examples().join("clamped_bar.toml").display().to_string(), "--count", "10"]);
-    let b = modes_json(&[&examples().join("bar_matrices/model.toml").display().to_string(), "--count", "10"]);
+    let a = modes_json(&[
+        &examples().join("clamped_bar.toml").display().to_string(),
+        "--count",
+        "10",
+    ]);
+    let b = modes_json(&[
+        &examples()
+            .join("bar_matrices/model.toml")
+            .display()
+            .to_string(),
+        "--count",
+        "10",
+    ]);
     for key in ["original_hz", "redistributed_hz"] {
-        for (x, y) in a[key].as_array().unwrap().iter().zip(b[key].as_array().unwrap()) {
+        for (x, y) in a[key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .zip(b[key].as_array().unwrap())
+        {
             let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
             assert!((x / y - 1.0).abs() < 1e-10);
         }
@@ -49,7 +85,14 @@ fn plots_are_written_as_svg_and_png() {
         let file = dir.path().join(name);
         Command::cargo_bin("mshbm")
             .unwrap()
-            .args(["modes", &p, "--count", "30", "--plot", &file.display().to_string()])
+            .args([
+                "modes",
+                &p,
+                "--count",
+                "30",
+                "--plot",
+                &file.display().to_string(),
+            ])
             .assert()
             .success();
         let bytes = std::fs::read(&file).unwrap();
@@ -64,6 +107,14 @@ fn plots_are_written_as_svg_and_png() {
 #[test]
 fn set_overrides_work_on_the_example() {
     let p = examples().join("clamped_bar.toml").display().to_string();
-    let v = modes_json(&[&p, "--count", "2", "--set", "contact.gap=0", "--set", "damping.alpha=7587.7"]);
+    let v = modes_json(&[
+        &p,
+        "--count",
+        "2",
+        "--set",
+        "contact.gap=0",
+        "--set",
+        "damping.alpha=7587.7",
+    ]);
     assert!((v["redistributed_hz"][0].as_f64().unwrap() - 60335.0).abs() < 1.0);
 }

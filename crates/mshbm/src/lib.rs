@@ -7,8 +7,8 @@
 //!
 //! The library does all numerics and never prints; the `mshbm` binary is in `mshbm-cli`.
 
-pub mod dense;
 pub mod contact;
+pub mod dense;
 pub mod error;
 pub mod fe;
 pub mod model;
@@ -17,9 +17,9 @@ pub mod sparse;
 
 pub use error::{Error, Result};
 pub use model::{MassKind, Model, System};
+pub mod continuation;
 pub mod harmonic;
 pub mod linear;
-pub mod continuation;
 pub mod method;
 pub mod problem;
 pub mod solution;

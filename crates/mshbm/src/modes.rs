@@ -26,7 +26,11 @@ pub fn massless_dofs(mass: &SparseMatrix) -> Vec<usize> {
 }
 
 /// The `count` lowest eigenfrequencies (Hz) of `K φ = ω² M φ`, ascending.
-pub fn eigenfrequencies_hz(mass: &SparseMatrix, stiffness: &SparseMatrix, count: usize) -> Result<Vec<f64>> {
+pub fn eigenfrequencies_hz(
+    mass: &SparseMatrix,
+    stiffness: &SparseMatrix,
+    count: usize,
+) -> Result<Vec<f64>> {
     let n = stiffness.nrows();
     let massless = massless_dofs(mass);
     let mut is_massless = vec![false; n];
@@ -35,7 +39,10 @@ pub fn eigenfrequencies_hz(mass: &SparseMatrix, stiffness: &SparseMatrix, count:
     if count > massive.len() {
         return Err(Error::argument(
             "count",
-            format!("asked for {count} eigenfrequencies, the model has {} DOFs with mass", massive.len()),
+            format!(
+                "asked for {count} eigenfrequencies, the model has {} DOFs with mass",
+                massive.len()
+            ),
         ));
     }
     let mut k_red = stiffness.submatrix(&massive, &massive).to_dense();
@@ -52,9 +59,11 @@ pub fn eigenfrequencies_hz(mass: &SparseMatrix, stiffness: &SparseMatrix, count:
         k_red -= k_cd.transpose() * &x;
     }
     let m_dd = mass.submatrix(&massive, &massive).to_dense();
-    let llt = m_dd
-        .llt(Side::Lower)
-        .map_err(|_| Error::Singular("the mass matrix is not positive definite on the DOFs that carry mass".into()))?;
+    let llt = m_dd.llt(Side::Lower).map_err(|_| {
+        Error::Singular(
+            "the mass matrix is not positive definite on the DOFs that carry mass".into(),
+        )
+    })?;
     let l = llt.L();
     // A = L⁻¹ K* L⁻ᵀ
     let mut x = k_red;
@@ -92,7 +101,9 @@ pub fn first_angular_frequency(mass: &SparseMatrix, stiffness: &SparseMatrix) ->
         let num: f64 = (0..n).map(|i| y[(i, 0)] * ky[i]).sum();
         let den: f64 = (0..n).map(|i| y[(i, 0)] * my[i]).sum();
         if den <= 0.0 {
-            return Err(Error::Singular("the mass matrix has no positive mass".into()));
+            return Err(Error::Singular(
+                "the mass matrix has no positive mass".into(),
+            ));
         }
         let lambda = num / den;
         let norm = den.sqrt();

@@ -106,7 +106,8 @@ impl SparseMatrix {
     /// All stored entries as `(row, col, value)`, column by column.
     pub fn iter(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
         (0..self.ncols).flat_map(move |j| {
-            (self.col_ptr[j]..self.col_ptr[j + 1]).map(move |k| (self.row_idx[k], j, self.values[k]))
+            (self.col_ptr[j]..self.col_ptr[j + 1])
+                .map(move |k| (self.row_idx[k], j, self.values[k]))
         })
     }
 
@@ -190,7 +191,13 @@ impl SparseMatrix {
 
     /// The `faer` sparsity structure of this matrix.
     pub fn faer_symbolic(&self) -> SymbolicSparseColMat<usize> {
-        SymbolicSparseColMat::new_checked(self.nrows, self.ncols, self.col_ptr.clone(), None, self.row_idx.clone())
+        SymbolicSparseColMat::new_checked(
+            self.nrows,
+            self.ncols,
+            self.col_ptr.clone(),
+            None,
+            self.row_idx.clone(),
+        )
     }
 
     /// The values of `self` at the stored entries of `pattern` (zero where `self` has no
@@ -201,7 +208,10 @@ impl SparseMatrix {
 
     /// The union of the sparsity patterns of `matrices` (values zero).
     pub fn union_pattern(nrows: usize, ncols: usize, matrices: &[&SparseMatrix]) -> Self {
-        let t: Vec<(usize, usize, f64)> = matrices.iter().flat_map(|m| m.iter().map(|(i, j, _)| (i, j, 0.0))).collect();
+        let t: Vec<(usize, usize, f64)> = matrices
+            .iter()
+            .flat_map(|m| m.iter().map(|(i, j, _)| (i, j, 0.0)))
+            .collect();
         Self::from_triplets(nrows, ncols, &t)
     }
 }
@@ -212,7 +222,11 @@ mod tests {
 
     #[test]
     fn triplets_sum_duplicates_and_blocks_extract() {
-        let a = SparseMatrix::from_triplets(3, 3, &[(0, 0, 1.0), (2, 1, 2.0), (0, 0, 3.0), (1, 2, 5.0)]);
+        let a = SparseMatrix::from_triplets(
+            3,
+            3,
+            &[(0, 0, 1.0), (2, 1, 2.0), (0, 0, 3.0), (1, 2, 5.0)],
+        );
         assert_eq!(a.get(0, 0), 4.0);
         assert_eq!(a.get(2, 1), 2.0);
         assert_eq!(a.get(1, 1), 0.0);

@@ -29,7 +29,10 @@ fn continuum_hz(k: usize) -> f64 {
 fn consistent_first_eigenfrequency_matches_continuum() {
     let f = bar_frequencies(100, MassKind::Consistent, 1)[0];
     let exact = continuum_hz(1);
-    assert!((f / exact - 1.0).abs() < 1e-4, "f1 = {f}, continuum {exact}");
+    assert!(
+        (f / exact - 1.0).abs() < 1e-4,
+        "f1 = {f}, continuum {exact}"
+    );
 }
 
 #[test]
@@ -41,9 +44,17 @@ fn consistent_eigenfrequencies_converge_at_second_order() {
         let exact = continuum_hz(k + 1);
         let (e1, e2, e3) = (coarse[k] - exact, fine[k] - exact, finer[k] - exact);
         // consistent mass over-estimates; error ~ h^2, so halving h divides it by 4
-        assert!(e1 > 0.0 && e2 > 0.0 && e3 > 0.0, "mode {}: errors {e1} {e2} {e3}", k + 1);
+        assert!(
+            e1 > 0.0 && e2 > 0.0 && e3 > 0.0,
+            "mode {}: errors {e1} {e2} {e3}",
+            k + 1
+        );
         for ratio in [e1 / e2, e2 / e3] {
-            assert!((ratio - 4.0).abs() < 0.1, "mode {}: error ratio {ratio}", k + 1);
+            assert!(
+                (ratio - 4.0).abs() < 0.1,
+                "mode {}: error ratio {ratio}",
+                k + 1
+            );
         }
     }
 }
@@ -92,7 +103,11 @@ fn first_mode_damping_ratio_sets_alpha_from_the_first_eigenfrequency() {
         // independent reference: the dense eigen solver
         let f1 = eigenfrequencies_hz(&s.mass, &s.stiffness, 1).unwrap()[0];
         let expected = 2.0 * 0.01 * 2.0 * std::f64::consts::PI * f1;
-        assert!((s.alpha / expected - 1.0).abs() < 1e-9, "{kind:?}: alpha {} vs {expected}", s.alpha);
+        assert!(
+            (s.alpha / expected - 1.0).abs() < 1e-9,
+            "{kind:?}: alpha {} vs {expected}",
+            s.alpha
+        );
         let w1 = first_angular_frequency(&s.mass, &s.stiffness).unwrap();
         assert!((w1 / (2.0 * std::f64::consts::PI * f1) - 1.0).abs() < 1e-10);
     }
@@ -101,7 +116,11 @@ fn first_mode_damping_ratio_sets_alpha_from_the_first_eigenfrequency() {
 #[test]
 fn overrides_change_gap_and_damping() {
     let path = examples().join("clamped_bar.toml");
-    let m = load_model(&path, &["contact.gap=0".into(), "damping.alpha=7587.7".into()]).unwrap();
+    let m = load_model(
+        &path,
+        &["contact.gap=0".into(), "damping.alpha=7587.7".into()],
+    )
+    .unwrap();
     assert_eq!(m.contacts[0].gap, 0.0);
     assert_eq!(m.damping.alpha, 7587.7);
     let s = m.system(MassKind::Redistributed).unwrap();

@@ -26,8 +26,21 @@ fn damped_bar() -> Model {
     bar(&["damping.first_mode_ratio=0.01"])
 }
 
-fn method(model: &Model, harmonics: usize, quadrature: Quadrature, samples: Option<usize>) -> RedistributedMsHbm {
-    RedistributedMsHbm::new(model, &RedistributedOptions { harmonics, samples, quadrature }).unwrap()
+fn method(
+    model: &Model,
+    harmonics: usize,
+    quadrature: Quadrature,
+    samples: Option<usize>,
+) -> RedistributedMsHbm {
+    RedistributedMsHbm::new(
+        model,
+        &RedistributedOptions {
+            harmonics,
+            samples,
+            quadrature,
+        },
+    )
+    .unwrap()
 }
 
 fn hz(f: f64) -> f64 {
@@ -48,19 +61,38 @@ fn jacobian_errors(p: &mut RedistributedMsHbm, x: &[f64], omega: f64) -> (f64, f
         let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
         xp[j] += h;
         xm[j] -= h;
-        let (rp, rm) = (p.residual(&xp, omega).unwrap(), p.residual(&xm, omega).unwrap());
+        let (rp, rm) = (
+            p.residual(&xp, omega).unwrap(),
+            p.residual(&xm, omega).unwrap(),
+        );
         for i in 0..n {
             fd[(i, j)] = (rp[i] - rm[i]) / (2.0 * h);
         }
     }
-    let jac_scale = max_abs((0..n).flat_map(|i| (0..n).map(move |j| (i, j))).map(|(i, j)| fd[(i, j)]));
-    let jac_err = max_abs((0..n).flat_map(|i| (0..n).map(move |j| (i, j))).map(|(i, j)| fd[(i, j)] - lin.jacobian[(i, j)]));
-    // |ω ∂R/∂ω| ≪ |R| here, so a smaller step drowns in round-off
-    let hw = 1e-5 * omega;
-    let (rp, rm) = (p.residual(x, omega + hw).unwrap(), p.residual(x, omega - hw).unwrap());
-    let fd_w: Vec<f64> = (0..n).map(|i| (rp[i] - rm[i]) / (2.0 * hw)).collect();
-    let w_err = max_abs(fd_w.iter().zip(&lin.d_omega).map(|(a, b)| a - b));
-    (jac_err / jac_scale, w_err / max_abs(fd_w.iter().copied()))
+    let jac_scale = max_abs(
+        (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .map(|(i, j)| fd[(i, j)]),
+    );
+    let jac_err = max_abs(
+        (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .map(|(i, j)| fd[(i, j)] - lin.jacobian[(i, j)]),
+    );
+    // |ω ∂R/∂ω| ≪ |R|, so small steps drown in round-off and large ones see the kinks of
+    // the switching times: take the best of a few steps
+    let mut w_rel = f64::INFINITY;
+    for rel in [1e-4, 1e-5, 1e-6, 1e-7] {
+        let hw = rel * omega;
+        let (rp, rm) = (
+            p.residual(x, omega + hw).unwrap(),
+            p.residual(x, omega - hw).unwrap(),
+        );
+        let fd_w: Vec<f64> = (0..n).map(|i| (rp[i] - rm[i]) / (2.0 * hw)).collect();
+        let w_err = max_abs(fd_w.iter().zip(&lin.d_omega).map(|(a, b)| a - b));
+        w_rel = w_rel.min(w_err / max_abs(fd_w.iter().copied()));
+    }
+    (jac_err / jac_scale, w_rel)
 }
 
 #[test]
@@ -69,14 +101,26 @@ fn jacobian_and_frequency_derivative_match_finite_differences_on_the_bar() {
     for quadrature in [Quadrature::Exact, Quadrature::Sampled] {
         for (harmonics, f) in [(5, 60e3), (3, 30e3)] {
             let mut p = method(&model, harmonics, quadrature, None);
-            let (sol, out) = solve_at_frequency(&mut p, hz(f), 100, &NewtonOptions::default()).unwrap();
+            let (sol, out) =
+                solve_at_frequency(&mut p, hz(f), 100, &NewtonOptions::default()).unwrap();
             assert!(out.converged);
-            assert!(sol.contacts[0].force.iter().any(|&l| l > 0.0), "the bar must be in contact");
+            assert!(
+                sol.contacts[0].force.iter().any(|&l| l > 0.0),
+                "the bar must be in contact"
+            );
             // at the solution and at a point off the solution
-            let off: Vec<f64> = out.x.iter().enumerate().map(|(i, v)| v * (1.0 + 0.05 * (i as f64).sin())).collect();
+            let off: Vec<f64> = out
+                .x
+                .iter()
+                .enumerate()
+                .map(|(i, v)| v * (1.0 + 0.05 * (i as f64).sin()))
+                .collect();
             for x in [&out.x, &off] {
                 let (ej, ew) = jacobian_errors(&mut p, x, hz(f));
-                assert!(ej < 1e-6 && ew < 1e-6, "{quadrature:?} H={harmonics} f={f}: J err {ej:.2e}, dR/dw err {ew:.2e}");
+                assert!(
+                    ej < 1e-6 && ew < 1e-6,
+                    "{quadrature:?} H={harmonics} f={f}: J err {ej:.2e}, dR/dw err {ew:.2e}"
+                );
             }
         }
     }
@@ -87,12 +131,28 @@ fn jacobian_and_frequency_derivative_match_finite_differences_with_many_contacts
     let model = common::lattice_model(6, 8, 25.0, 5.0);
     for quadrature in [Quadrature::Exact, Quadrature::Sampled] {
         let mut p = method(&model, 3, quadrature, None);
-        let (sol, out) = solve_at_frequency(&mut p, hz(5.0), model.contacts[0].dofs[0], &NewtonOptions::default()).unwrap();
+        let (sol, out) = solve_at_frequency(
+            &mut p,
+            hz(5.0),
+            model.contacts[0].dofs[0],
+            &NewtonOptions::default(),
+        )
+        .unwrap();
         assert!(out.converged);
-        let closing: Vec<bool> = sol.contacts.iter().map(|c| c.force.iter().any(|&l| l > 0.0)).collect();
-        assert!(closing.iter().filter(|&&c| c).count() >= 2 && closing.iter().any(|&c| !c), "some contacts active, some not: {closing:?}");
+        let closing: Vec<bool> = sol
+            .contacts
+            .iter()
+            .map(|c| c.force.iter().any(|&l| l > 0.0))
+            .collect();
+        assert!(
+            closing.iter().filter(|&&c| c).count() >= 2 && closing.iter().any(|&c| !c),
+            "some contacts active, some not: {closing:?}"
+        );
         let (ej, ew) = jacobian_errors(&mut p, &out.x, hz(5.0));
-        assert!(ej < 1e-6 && ew < 1e-6, "{quadrature:?}: J err {ej:.2e}, dR/dw err {ew:.2e}");
+        assert!(
+            ej < 1e-6 && ew < 1e-6,
+            "{quadrature:?}: J err {ej:.2e}, dR/dw err {ew:.2e}"
+        );
     }
 }
 
@@ -103,7 +163,10 @@ fn assert_signorini(sol: &PeriodicSolution, scale: f64) {
         for (g, l) in c.gap.iter().zip(&c.force) {
             assert!(*g >= -1e-12 * scale, "penetration {g}");
             assert!(*l >= 0.0, "negative force {l}");
-            assert!((g * l).abs() <= 1e-12 * scale * fmax, "complementarity g = {g}, λ = {l}");
+            assert!(
+                (g * l).abs() <= 1e-12 * scale * fmax,
+                "complementarity g = {g}, λ = {l}"
+            );
         }
     }
 }
@@ -116,15 +179,23 @@ fn bar_at_60_khz_converges_for_1_3_5_10_harmonics_without_penetration() {
     let mut changes = Vec::new();
     for harmonics in [1, 3, 5, 10] {
         let mut p = method(&model, harmonics, Quadrature::Exact, None);
-        let (sol, out) = solve_at_frequency(&mut p, hz(60e3), 100, &NewtonOptions::default()).unwrap();
+        let (sol, out) =
+            solve_at_frequency(&mut p, hz(60e3), 100, &NewtonOptions::default()).unwrap();
         assert!(out.converged, "H = {harmonics}: {:?}", out.reason);
         assert_signorini(&sol, p.length_scale());
         let c = &sol.contacts[0];
         // the paper's Fig. 10 claim: the contact displacement never exceeds the gap
-        assert!(c.max <= gap * (1.0 + 1e-12), "H = {harmonics}: max {}", c.max);
+        assert!(
+            c.max <= gap * (1.0 + 1e-12),
+            "H = {harmonics}: max {}",
+            c.max
+        );
         assert!(c.displacement.iter().all(|&q| q <= gap * (1.0 + 1e-12)));
         let a = c.coefficients[..3].to_vec();
-        println!("H = {harmonics:2}: a0 = {:.6}, a1 = {:.6}, b1 = {:.6}, min = {:.6}", a[0], a[1], a[2], c.min);
+        println!(
+            "H = {harmonics:2}: a0 = {:.6}, a1 = {:.6}, b1 = {:.6}, min = {:.6}",
+            a[0], a[1], a[2], c.min
+        );
         if let Some(prev) = &previous {
             changes.push(max_abs(prev.iter().zip(&a).map(|(x, y)| x - y)));
         }
@@ -141,7 +212,16 @@ fn exact_quadrature_converges_quadratically_and_sampled_approaches_it_at_second_
     let model = damped_bar();
     let omega = hz(60e3);
     let mut exact = method(&model, 5, Quadrature::Exact, Some(512));
-    let (_, out) = solve_at_frequency(&mut exact, omega, 100, &NewtonOptions { tolerance: 1e-13, ..NewtonOptions::default() }).unwrap();
+    let (_, out) = solve_at_frequency(
+        &mut exact,
+        omega,
+        100,
+        &NewtonOptions {
+            tolerance: 1e-13,
+            ..NewtonOptions::default()
+        },
+    )
+    .unwrap();
     assert!(out.converged);
     let h = &out.history;
     println!("exact quadrature, Newton residual history: {h:?}");
@@ -156,7 +236,16 @@ fn exact_quadrature_converges_quadratically_and_sampled_approaches_it_at_second_
     let mut scaled = Vec::new();
     for ns in [64, 128, 200, 256, 512, 800, 1024, 2048, 3000, 4096, 8192] {
         let mut sampled = method(&model, 5, Quadrature::Sampled, Some(ns));
-        let o = solve(&mut sampled, &out.x, omega, &NewtonOptions { tolerance: 1e-14, ..NewtonOptions::default() }).unwrap();
+        let o = solve(
+            &mut sampled,
+            &out.x,
+            omega,
+            &NewtonOptions {
+                tolerance: 1e-14,
+                ..NewtonOptions::default()
+            },
+        )
+        .unwrap();
         assert!(o.converged);
         let d = max_abs(o.x.iter().zip(&out.x).map(|(a, b)| a - b));
         scaled.push((ns, d, d * (ns * ns) as f64));
@@ -173,7 +262,12 @@ fn exact_quadrature_converges_quadratically_and_sampled_approaches_it_at_second_
 fn direct_linear_response(model: &Model, omega: f64) -> (Vec<usize>, Vec<c64>) {
     let s = model.system(MassKind::Redistributed).unwrap();
     let n = s.n_dofs();
-    let a = Mat::<c64>::from_fn(n, n, |i, j| c64::new(s.stiffness.get(i, j) - omega * omega * s.mass.get(i, j), omega * s.damping.get(i, j)));
+    let a = Mat::<c64>::from_fn(n, n, |i, j| {
+        c64::new(
+            s.stiffness.get(i, j) - omega * omega * s.mass.get(i, j),
+            omega * s.damping.get(i, j),
+        )
+    });
     let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(s.harmonic_load[i], 0.0));
     let z = a.partial_piv_lu().solve(&rhs);
     (s.model_dof.clone(), (0..n).map(|i| z[(i, 0)]).collect())
@@ -182,21 +276,40 @@ fn direct_linear_response(model: &Model, omega: f64) -> (Vec<usize>, Vec<c64>) {
 #[test]
 fn far_from_contact_the_solution_is_the_linear_response() {
     for (model, f, dofs) in [
-        (bar(&["contact.gap=100", "damping.first_mode_ratio=0.01"]), 60e3, vec![100usize, 50, 99]),
-        (bar(&["contact.gap=100", "damping.first_mode_ratio=0.01"]), 21e3, vec![100, 50]),
-        (bar(&["load.amplitude=10", "damping.alpha=300"]), 60e3, vec![100, 30]),
+        (
+            bar(&["contact.gap=100", "damping.first_mode_ratio=0.01"]),
+            60e3,
+            vec![100usize, 50, 99],
+        ),
+        (
+            bar(&["contact.gap=100", "damping.first_mode_ratio=0.01"]),
+            21e3,
+            vec![100, 50],
+        ),
+        (
+            bar(&["load.amplitude=10", "damping.alpha=300"]),
+            60e3,
+            vec![100, 30],
+        ),
     ] {
         let (model_dof, z) = direct_linear_response(&model, hz(f));
         for dof in dofs {
             let mut p = method(&model, 5, Quadrature::Exact, None);
-            let (sol, out) = solve_at_frequency(&mut p, hz(f), dof, &NewtonOptions::default()).unwrap();
+            let (sol, out) =
+                solve_at_frequency(&mut p, hz(f), dof, &NewtonOptions::default()).unwrap();
             assert!(out.converged);
             assert!(sol.contacts[0].force.iter().all(|&l| l == 0.0));
             let zi = z[model_dof.iter().position(|&d| d == dof).unwrap()];
             let c = &sol.response.coefficients;
             let amp = zi.norm();
-            assert!((c[1] - zi.re).abs() <= 1e-10 * amp && (c[2] + zi.im).abs() <= 1e-10 * amp, "dof {dof}: {c:?} vs {zi:?}");
-            assert!(c[0].abs() <= 1e-10 * amp && c[3..].iter().all(|v| v.abs() <= 1e-10 * amp), "dof {dof}: {c:?}");
+            assert!(
+                (c[1] - zi.re).abs() <= 1e-10 * amp && (c[2] + zi.im).abs() <= 1e-10 * amp,
+                "dof {dof}: {c:?} vs {zi:?}"
+            );
+            assert!(
+                c[0].abs() <= 1e-10 * amp && c[3..].iter().all(|v| v.abs() <= 1e-10 * amp),
+                "dof {dof}: {c:?}"
+            );
             assert!((sol.response.max - amp).abs() <= 1e-6 * amp);
         }
     }
@@ -216,7 +329,10 @@ fn lattice_far_from_contact_is_linear_too() {
         let (sol, _) = solve_at_frequency(&mut p, hz(5.0), dof, &NewtonOptions::default()).unwrap();
         let zi = z[model_dof.iter().position(|&d| d == dof).unwrap()];
         let co = &sol.response.coefficients;
-        assert!((co[1] - zi.re).abs() <= 1e-10 * zi.norm() && (co[2] + zi.im).abs() <= 1e-10 * zi.norm());
+        assert!(
+            (co[1] - zi.re).abs() <= 1e-10 * zi.norm()
+                && (co[2] + zi.im).abs() <= 1e-10 * zi.norm()
+        );
     }
 }
 
@@ -234,19 +350,47 @@ fn lattice_solutions_satisfy_signorini() {
 #[test]
 fn damping_that_couples_into_the_contact_is_refused() {
     let model = bar(&["damping.beta=1e-7"]);
-    let err = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 3, samples: None, quadrature: Quadrature::Exact })
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(err.contains("C_NN") && err.contains("mass-proportional"), "{err}");
+    let err = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            harmonics: 3,
+            samples: None,
+            quadrature: Quadrature::Exact,
+        },
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        err.contains("C_NN") && err.contains("mass-proportional"),
+        "{err}"
+    );
 }
 
 #[test]
 fn bad_settings_are_clear_errors() {
     let model = damped_bar();
-    let e = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 0, samples: None, quadrature: Quadrature::Exact }).err().unwrap();
+    let e = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            harmonics: 0,
+            samples: None,
+            quadrature: Quadrature::Exact,
+        },
+    )
+    .err()
+    .unwrap();
     assert!(e.to_string().contains("harmonics"), "{e}");
-    let e = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 5, samples: Some(10), quadrature: Quadrature::Sampled }).err().unwrap();
+    let e = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            harmonics: 5,
+            samples: Some(10),
+            quadrature: Quadrature::Sampled,
+        },
+    )
+    .err()
+    .unwrap();
     assert!(e.to_string().contains("2H+1"), "{e}");
 }
 
@@ -255,11 +399,24 @@ fn singular_contact_stiffness_is_reported() {
     // a bar whose contact node is attached to nothing: K_NN = 0
     let mut model = bar(&[]);
     let n = model.n_dofs();
-    let t: Vec<(usize, usize, f64)> = model.stiffness.iter().filter(|&(i, j, _)| i < n - 1 && j < n - 1).collect();
+    let t: Vec<(usize, usize, f64)> = model
+        .stiffness
+        .iter()
+        .filter(|&(i, j, _)| i < n - 1 && j < n - 1)
+        .collect();
     let mut t2 = t.clone();
     t2.push((n - 2, n - 2, model.stiffness.get(n - 2, n - 2) * 0.5));
     model.stiffness = mshbm::sparse::SparseMatrix::from_triplets(n, n, &t2);
-    let e = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 3, samples: None, quadrature: Quadrature::Exact }).err().unwrap();
+    let e = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            harmonics: 3,
+            samples: None,
+            quadrature: Quadrature::Exact,
+        },
+    )
+    .err()
+    .unwrap();
     assert!(e.to_string().contains("K_NN"), "{e}");
 }
 
@@ -267,7 +424,16 @@ fn singular_contact_stiffness_is_reported() {
 fn iteration_limit_gives_a_non_converged_outcome() {
     let model = damped_bar();
     let mut p = method(&model, 5, Quadrature::Exact, None);
-    let (sol, out) = solve_at_frequency(&mut p, hz(60e3), 100, &NewtonOptions { max_iterations: 1, ..NewtonOptions::default() }).unwrap();
+    let (sol, out) = solve_at_frequency(
+        &mut p,
+        hz(60e3),
+        100,
+        &NewtonOptions {
+            max_iterations: 1,
+            ..NewtonOptions::default()
+        },
+    )
+    .unwrap();
     assert!(!out.converged && !sol.converged);
     assert!(out.reason.unwrap().contains("1 iterations"));
     let _ = Path::new("");

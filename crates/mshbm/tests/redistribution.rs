@@ -17,7 +17,10 @@ fn check(mass: &SparseMatrix, coords: &[Vec<f64>], contact: &[usize]) -> SparseM
     for (a, b) in before.iter().zip(&after) {
         assert!((a - b).abs() <= 1e-12 * scale, "moment {a} vs {b}");
     }
-    assert!((before[0] - after[0]).abs() <= 1e-12 * before[0], "total mass");
+    assert!(
+        (before[0] - after[0]).abs() <= 1e-12 * before[0],
+        "total mass"
+    );
     // contact rows and columns exactly zero
     for &c in contact {
         for j in 0..r.ncols() {
@@ -39,8 +42,18 @@ fn bar_redistribution_keeps_moments_and_matches_the_reference_entries() {
     let r = check(&model.mass, &model.coordinates, &[100]);
     // Entries in units of rho A h / 6 from the closed form of METHODS §1.3.
     let unit = 9e-9 * 0.2 / 6.0;
-    for (i, j, expected) in [(0, 0, 2.0416), (1, 1, 4.0383), (50, 50, 3.9791), (99, 99, 4.1228), (98, 99, 1.1203)] {
-        assert!((r.get(i, j) / unit - expected).abs() < 1e-4, "R[{i},{j}] = {}", r.get(i, j) / unit);
+    for (i, j, expected) in [
+        (0, 0, 2.0416),
+        (1, 1, 4.0383),
+        (50, 50, 3.9791),
+        (99, 99, 4.1228),
+        (98, 99, 1.1203),
+    ] {
+        assert!(
+            (r.get(i, j) / unit - expected).abs() < 1e-4,
+            "R[{i},{j}] = {}",
+            r.get(i, j) / unit
+        );
     }
     // every interior entry changes: the correction is global
     assert!((r.get(50, 50) / unit - 4.0).abs() > 1e-3);
@@ -52,7 +65,12 @@ fn bar_redistribution_keeps_moments_and_matches_the_reference_entries() {
 /// Bilinear quadrilaterals on a `nx × ny` grid (consistent scalar mass), nodes row-major.
 fn quad_mesh(nx: usize, ny: usize) -> (SparseMatrix, Vec<Vec<f64>>) {
     let idx = |i: usize, j: usize| j * (nx + 1) + i;
-    let base = [[4.0, 2.0, 1.0, 2.0], [2.0, 4.0, 2.0, 1.0], [1.0, 2.0, 4.0, 2.0], [2.0, 1.0, 2.0, 4.0]];
+    let base = [
+        [4.0, 2.0, 1.0, 2.0],
+        [2.0, 4.0, 2.0, 1.0],
+        [1.0, 2.0, 4.0, 2.0],
+        [2.0, 1.0, 2.0, 4.0],
+    ];
     let mut t = Vec::new();
     for j in 0..ny {
         for i in 0..nx {
@@ -65,7 +83,9 @@ fn quad_mesh(nx: usize, ny: usize) -> (SparseMatrix, Vec<Vec<f64>>) {
         }
     }
     let n = (nx + 1) * (ny + 1);
-    let coords = (0..n).map(|k| vec![(k % (nx + 1)) as f64 * 0.5, (k / (nx + 1)) as f64 * 0.25]).collect();
+    let coords = (0..n)
+        .map(|k| vec![(k % (nx + 1)) as f64 * 0.5, (k / (nx + 1)) as f64 * 0.25])
+        .collect();
     (SparseMatrix::from_triplets(n, n, &t), coords)
 }
 
@@ -85,8 +105,9 @@ fn hex_mesh(nx: usize, ny: usize, nz: usize) -> (SparseMatrix, Vec<Vec<f64>>) {
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
-                let corners: Vec<(usize, usize, usize)> =
-                    (0..8).map(|c| (c & 1, (c >> 1) & 1, (c >> 2) & 1)).collect();
+                let corners: Vec<(usize, usize, usize)> = (0..8)
+                    .map(|c| (c & 1, (c >> 1) & 1, (c >> 2) & 1))
+                    .collect();
                 for &(a1, a2, a3) in &corners {
                     for &(b1, b2, b3) in &corners {
                         let v = m1(a1, b1) * m1(a2, b2) * m1(a3, b3);
@@ -124,7 +145,9 @@ fn too_coarse_a_mesh_is_reported_as_not_positive_definite() {
     // a quarter of the nodes on the contact face: the moment-preserving correction makes
     // the mass indefinite, which must be reported, not returned
     let (m, coords) = hex_mesh(4, 3, 3);
-    let err = redistribute_scalar_mass(&m, &coords, &bottom_face(4, 3)).unwrap_err().to_string();
+    let err = redistribute_scalar_mass(&m, &coords, &bottom_face(4, 3))
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("not positive definite"), "{err}");
 }
 
@@ -136,6 +159,8 @@ fn degenerate_free_set_is_a_clear_error() {
         mshbm::fe::bar1d::assemble(2, 1.0, 1.0, 1.0, 1.0).0,
         mshbm::fe::bar1d::node_coordinates(2, 1.0),
     );
-    let err = redistribute_scalar_mass(&m, &coords, &[1, 2]).unwrap_err().to_string();
+    let err = redistribute_scalar_mass(&m, &coords, &[1, 2])
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("mass redistribution"), "{err}");
 }

@@ -25,6 +25,9 @@ pub struct ModelArgs {
 impl ModelArgs {
     /// Read the model with its overrides.
     pub fn load(&self) -> Result<mshbm::Model> {
-        Ok(mshbm::model::file::load_model(&self.model, &self.overrides)?)
+        Ok(mshbm::model::file::load_model(
+            &self.model,
+            &self.overrides,
+        )?)
     }
 }

@@ -46,8 +46,13 @@ pub fn run(args: &ModesArgs) -> Result<()> {
     let consistent = model.system(MassKind::Consistent)?;
     let redistributed = model.system(MassKind::Redistributed)?;
     let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, args.count)?;
-    let redistributed_hz = eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, args.count)?;
-    let relative_error: Vec<f64> = original_hz.iter().zip(&redistributed_hz).map(|(o, r)| r / o - 1.0).collect();
+    let redistributed_hz =
+        eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, args.count)?;
+    let relative_error: Vec<f64> = original_hz
+        .iter()
+        .zip(&redistributed_hz)
+        .map(|(o, r)| r / o - 1.0)
+        .collect();
     let report = ModesReport {
         original_hz,
         redistributed_hz,
@@ -60,7 +65,12 @@ pub fn run(args: &ModesArgs) -> Result<()> {
             y_label: "f_redistributed / f_original − 1".into(),
             series: vec![Series {
                 label: "redistributed vs consistent mass".into(),
-                points: report.relative_error.iter().enumerate().map(|(k, &e)| ((k + 1) as f64, e)).collect(),
+                points: report
+                    .relative_error
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &e)| ((k + 1) as f64, e))
+                    .collect(),
                 style: Style::LineAndMarkers,
                 color: 0,
             }],
@@ -72,7 +82,10 @@ pub fn run(args: &ModesArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&report)?);
     } else {
         println!("{}", model.name);
-        println!("{:>5} {:>18} {:>18} {:>14}", "mode", "original_hz", "redistributed_hz", "rel_error");
+        println!(
+            "{:>5} {:>18} {:>18} {:>14}",
+            "mode", "original_hz", "redistributed_hz", "rel_error"
+        );
         for k in 0..report.original_hz.len() {
             println!(
                 "{:>5} {:>18.3} {:>18.3} {:>14.3e}",

@@ -106,7 +106,10 @@ impl MethodArgs {
             },
         };
         if dof >= model.n_dofs() {
-            bail!("--dof {dof} out of range: the model has DOFs 0..{}", model.n_dofs() - 1);
+            bail!(
+                "--dof {dof} out of range: the model has DOFs 0..{}",
+                model.n_dofs() - 1
+            );
         }
         Ok(dof)
     }
@@ -153,7 +156,11 @@ fn time_series_csv(s: &PeriodicSolution) -> String {
     for (j, t) in s.time_s.iter().enumerate() {
         let _ = write!(out, "{t:.12e}");
         for c in &s.contacts {
-            let _ = write!(out, ",{:.12e},{:.12e},{:.12e}", c.displacement[j], c.gap[j], c.force[j]);
+            let _ = write!(
+                out,
+                ",{:.12e},{:.12e},{:.12e}",
+                c.displacement[j], c.gap[j], c.force[j]
+            );
         }
         out.push('\n');
     }
@@ -164,7 +171,10 @@ fn time_series_csv(s: &PeriodicSolution) -> String {
 /// closes.
 pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
     let mut fig = Figure {
-        title: format!("Contact displacement over one period at {:.4} kHz", solutions[0].frequency_hz / 1e3),
+        title: format!(
+            "Contact displacement over one period at {:.4} kHz",
+            solutions[0].frequency_hz / 1e3
+        ),
         x_label: "time [µs]".into(),
         y_label: "contact displacement q_N".into(),
         ..Figure::default()
@@ -173,7 +183,12 @@ pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
         let c = &s.contacts[0];
         fig.series.push(Series {
             label: format!("H = {}", s.harmonics),
-            points: s.time_s.iter().zip(&c.displacement).map(|(t, q)| (t * 1e6, *q)).collect(),
+            points: s
+                .time_s
+                .iter()
+                .zip(&c.displacement)
+                .map(|(t, q)| (t * 1e6, *q))
+                .collect(),
             style: Style::Line,
             color: k,
         });
@@ -191,14 +206,21 @@ pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
 
 pub fn run(args: &SolveArgs) -> Result<()> {
     if !(args.frequency.is_finite() && args.frequency > 0.0) {
-        bail!("--frequency must be a positive number of Hz, got {}", args.frequency);
+        bail!(
+            "--frequency must be a positive number of Hz, got {}",
+            args.frequency
+        );
     }
     if args.harmonics == 0 {
         bail!("--harmonics must be at least 1");
     }
     if let Some(ns) = args.method.samples {
         if ns < 2 * args.harmonics + 1 {
-            bail!("--samples {ns} is too few for {} harmonics: need at least 2H+1 = {}", args.harmonics, 2 * args.harmonics + 1);
+            bail!(
+                "--samples {ns} is too few for {} harmonics: need at least 2H+1 = {}",
+                args.harmonics,
+                2 * args.harmonics + 1
+            );
         }
     }
     let model = args.model.load()?;
@@ -216,16 +238,31 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     if args.json {
         println!("{}", serde_json::to_string(&solution)?);
     } else {
-        println!("{} at {} Hz, H = {}, {} samples, {} quadrature", model.name, args.frequency, solution.harmonics, solution.samples, solution.quadrature);
+        println!(
+            "{} at {} Hz, H = {}, {} samples, {} quadrature",
+            model.name, args.frequency, solution.harmonics, solution.samples, solution.quadrature
+        );
         println!(
             "converged: {} after {} Newton iterations (relative residual {:.2e})",
             solution.converged, solution.iterations, solution.residual_norm
         );
         for c in &solution.contacts {
-            println!("contact DOF {}: max {:.6e}, min {:.6e}, max force {:.6e}", c.dof, c.max, c.min, c.force.iter().fold(0.0f64, |m, v| m.max(*v)));
+            println!(
+                "contact DOF {}: max {:.6e}, min {:.6e}, max force {:.6e}",
+                c.dof,
+                c.max,
+                c.min,
+                c.force.iter().fold(0.0f64, |m, v| m.max(*v))
+            );
         }
         let r = &solution.response;
-        println!("DOF {}: max {:.6e}, min {:.6e}, first-harmonic amplitude {:.6e}", r.dof, r.max, r.min, r.amplitude_h1());
+        println!(
+            "DOF {}: max {:.6e}, min {:.6e}, first-harmonic amplitude {:.6e}",
+            r.dof,
+            r.max,
+            r.min,
+            r.amplitude_h1()
+        );
     }
     if !outcome.converged {
         bail!(

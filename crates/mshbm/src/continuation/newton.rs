@@ -63,7 +63,12 @@ pub fn newton_direction(jacobian: &Mat<f64>, residual: &[f64]) -> Result<Vec<f64
 }
 
 /// Solve `R(x, ω) = 0` for `x` at fixed `ω`, starting from `x0`.
-pub fn solve<P: PeriodicProblem + ?Sized>(problem: &mut P, x0: &[f64], omega: f64, options: &NewtonOptions) -> Result<NewtonOutcome> {
+pub fn solve<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    x0: &[f64],
+    omega: f64,
+    options: &NewtonOptions,
+) -> Result<NewtonOutcome> {
     let scale = problem.length_scale();
     let mut x = x0.to_vec();
     let mut lin = problem.linearize(&x, omega)?;
@@ -78,7 +83,10 @@ pub fn solve<P: PeriodicProblem + ?Sized>(problem: &mut P, x0: &[f64], omega: f6
                 iterations,
                 residual_norm: norm,
                 history,
-                reason: Some(format!("no convergence in {} iterations (relative residual {norm:.3e})", options.max_iterations)),
+                reason: Some(format!(
+                    "no convergence in {} iterations (relative residual {norm:.3e})",
+                    options.max_iterations
+                )),
             });
         }
         let d = match newton_direction(&lin.jacobian, &lin.residual) {

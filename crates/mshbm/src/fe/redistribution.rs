@@ -110,7 +110,11 @@ pub fn redistribute_scalar_mass(
         if is_contact[i] || is_contact[j] {
             continue;
         }
-        let correction: f64 = pairs.iter().zip(&mu).map(|(&ab, m)| m * basis(i, j, ab)).sum();
+        let correction: f64 = pairs
+            .iter()
+            .zip(&mu)
+            .map(|(&ab, m)| m * basis(i, j, ab))
+            .sum();
         triplets.push((i, j, v + correction));
     }
     let redistributed = SparseMatrix::from_triplets(n, n, &triplets);
@@ -148,7 +152,10 @@ pub fn moments(mass: &SparseMatrix, coordinates: &[Vec<f64>]) -> Vec<f64> {
 /// Extract the scalar per-node mass matrix `m` from a DOF-level mass `M = m ⊗ I_d` (DOF
 /// `node * dofs_per_node + component`). Fails when `M` is not of that form (e.g. rotational
 /// DOFs, or coupling between components), which the redistribution does not cover.
-pub fn scalar_mass(mass: &SparseMatrix, dofs_per_node: usize) -> std::result::Result<SparseMatrix, String> {
+pub fn scalar_mass(
+    mass: &SparseMatrix,
+    dofs_per_node: usize,
+) -> std::result::Result<SparseMatrix, String> {
     let d = dofs_per_node;
     if d == 1 {
         return Ok(mass.clone());
@@ -167,7 +174,11 @@ pub fn scalar_mass(mass: &SparseMatrix, dofs_per_node: usize) -> std::result::Re
         if ci == 0 {
             t.push((ni, nj, v));
         } else if (v - mass.get(ni * d, nj * d)).abs() > tol {
-            return Err(format!("entry ({i}, {j}) differs from the first component's entry ({}, {})", ni * d, nj * d));
+            return Err(format!(
+                "entry ({i}, {j}) differs from the first component's entry ({}, {})",
+                ni * d,
+                nj * d
+            ));
         }
     }
     Ok(SparseMatrix::from_triplets(n, n, &t))

@@ -80,9 +80,15 @@ pub struct Sampling {
 impl Sampling {
     /// `samples ≥ 2H + 1` is the caller's responsibility (checked by the methods).
     pub fn new(harmonics: usize, samples: usize) -> Self {
-        let taus: Vec<f64> = (0..samples).map(|j| 2.0 * PI * j as f64 / samples as f64).collect();
+        let taus: Vec<f64> = (0..samples)
+            .map(|j| 2.0 * PI * j as f64 / samples as f64)
+            .collect();
         let basis = taus.iter().map(|&t| basis(harmonics, t)).collect();
-        Sampling { harmonics, taus, basis }
+        Sampling {
+            harmonics,
+            taus,
+            basis,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -96,7 +102,11 @@ impl Sampling {
     /// DFT weight row of sample `j`: `w_m b_m(τ_j) / N` (METHODS §0).
     pub fn dft_row(&self, j: usize) -> Vec<f64> {
         let n = self.len() as f64;
-        self.basis[j].iter().enumerate().map(|(m, b)| weight(m) * b / n).collect()
+        self.basis[j]
+            .iter()
+            .enumerate()
+            .map(|(m, b)| weight(m) * b / n)
+            .collect()
     }
 
     /// Fourier coefficients of scalar samples (the DFT of METHODS §0).
@@ -141,7 +151,13 @@ pub fn add_interval_gram(harmonics: usize, a: f64, b: f64, gram: &mut [f64]) {
         is[p] = (ca - cb) / pf;
     }
     let int_cos = |p: isize| ic[p.unsigned_abs()];
-    let int_sin = |p: isize| if p >= 0 { is[p as usize] } else { -is[(-p) as usize] };
+    let int_sin = |p: isize| {
+        if p >= 0 {
+            is[p as usize]
+        } else {
+            -is[(-p) as usize]
+        }
+    };
     // ∫ b_m b_c for basis functions described as (kind, k): kind 0 = constant, 1 = cos, 2 = sin
     let describe = |m: usize| -> (u8, isize) {
         if m == 0 {
@@ -185,7 +201,9 @@ mod tests {
     fn dft_inverts_synthesis() {
         let h = 4;
         let s = Sampling::new(h, 2 * h + 1);
-        let coef: Vec<f64> = (0..2 * h + 1).map(|i| (i as f64 * 0.37).sin() + 0.1).collect();
+        let coef: Vec<f64> = (0..2 * h + 1)
+            .map(|i| (i as f64 * 0.37).sin() + 0.1)
+            .collect();
         let samples: Vec<f64> = s.taus.iter().map(|&t| evaluate(&coef, t)).collect();
         let back = s.dft(&samples);
         for (a, b) in coef.iter().zip(&back) {
@@ -203,7 +221,11 @@ mod tests {
         for m in 0..nc {
             for c in 0..nc {
                 let e = if m == c { 1.0 } else { 0.0 };
-                assert!((full[m * nc + c] - e).abs() < 1e-13, "({m},{c}) {}", full[m * nc + c]);
+                assert!(
+                    (full[m * nc + c] - e).abs() < 1e-13,
+                    "({m},{c}) {}",
+                    full[m * nc + c]
+                );
             }
         }
         // on a sub-interval, compare with a fine midpoint rule
@@ -217,7 +239,8 @@ mod tests {
             let bt = basis(h, t);
             for m in 0..nc {
                 for c in 0..nc {
-                    approx[m * nc + c] += weight(m) / (2.0 * PI) * bt[m] * bt[c] * (b - a) / n as f64;
+                    approx[m * nc + c] +=
+                        weight(m) / (2.0 * PI) * bt[m] * bt[c] * (b - a) / n as f64;
                 }
             }
         }

@@ -35,8 +35,9 @@ impl LinearPart {
     pub fn new(mass: SparseMatrix, damping: SparseMatrix, stiffness: SparseMatrix) -> Result<Self> {
         let n = stiffness.nrows();
         let pattern = SparseMatrix::union_pattern(n, n, &[&mass, &damping, &stiffness]);
-        let symbolic = SymbolicLu::try_new(pattern.faer_symbolic().as_ref())
-            .map_err(|e| Error::Numerical(format!("sparse LU analysis of the linear part: {e:?}")))?;
+        let symbolic = SymbolicLu::try_new(pattern.faer_symbolic().as_ref()).map_err(|e| {
+            Error::Numerical(format!("sparse LU analysis of the linear part: {e:?}"))
+        })?;
         Ok(LinearPart {
             mass_values: mass.values_on_pattern(&pattern),
             damping_values: damping.values_on_pattern(&pattern),
@@ -59,11 +60,19 @@ impl LinearPart {
             .map(|k| {
                 let kw = k as f64 * omega;
                 let values: Vec<c64> = (0..self.stiffness_values.len())
-                    .map(|e| c64::new(self.stiffness_values[e] - kw * kw * self.mass_values[e], kw * self.damping_values[e]))
+                    .map(|e| {
+                        c64::new(
+                            self.stiffness_values[e] - kw * kw * self.mass_values[e],
+                            kw * self.damping_values[e],
+                        )
+                    })
                     .collect();
                 let a = faer::sparse::SparseColMat::new(self.pattern.faer_symbolic(), values);
-                Lu::try_new_with_symbolic(self.symbolic.clone(), a.as_ref())
-                    .map_err(|e| Error::Numerical(format!("sparse LU of the dynamic stiffness (harmonic {k}): {e:?}")))
+                Lu::try_new_with_symbolic(self.symbolic.clone(), a.as_ref()).map_err(|e| {
+                    Error::Numerical(format!(
+                        "sparse LU of the dynamic stiffness (harmonic {k}): {e:?}"
+                    ))
+                })
             })
             .collect::<Result<Vec<_>>>()?;
         Ok(HarmonicFactors { omega, factors })
@@ -75,7 +84,10 @@ impl HarmonicFactors {
     /// `kω` hits an undamped eigenfrequency of the linear part).
     pub fn solve_in_place(&self, k: usize, rhs: &mut Mat<c64>) -> Result<()> {
         self.factors[k].solve_in_place(rhs.as_mut());
-        if rhs.col_iter().any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite()))) {
+        if rhs
+            .col_iter()
+            .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
+        {
             return Err(Error::Singular(format!(
                 "the dynamic stiffness of the linear part is singular at harmonic {k} (k·f = {:.6} Hz is an eigenfrequency of the structure with the contact DOFs held; add damping or move the frequency)",
                 k as f64 * self.omega / (2.0 * std::f64::consts::PI)
@@ -90,7 +102,12 @@ impl HarmonicFactors {
 }
 
 /// `dA_k/dω = −2k²ω M + i k C` applied to a complex vector.
-pub fn dynamic_stiffness_derivative_times(part: &LinearPart, k: usize, omega: f64, x: &[c64]) -> Vec<c64> {
+pub fn dynamic_stiffness_derivative_times(
+    part: &LinearPart,
+    k: usize,
+    omega: f64,
+    x: &[c64],
+) -> Vec<c64> {
     let kf = k as f64;
     let mut out = vec![c64::new(0.0, 0.0); x.len()];
     for (i, j, m) in part.mass.iter() {

@@ -80,11 +80,19 @@ impl BarParameters {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(Error::field(source, field, format!("must be positive, got {v}")))
+                Err(Error::field(
+                    source,
+                    field,
+                    format!("must be positive, got {v}"),
+                ))
             }
         };
         if self.elements < 2 {
-            return Err(Error::field(source, "bar.elements", format!("must be at least 2, got {}", self.elements)));
+            return Err(Error::field(
+                source,
+                "bar.elements",
+                format!("must be at least 2, got {}", self.elements),
+            ));
         }
         positive("bar.length", self.length)?;
         positive("bar.density", self.density)?;
@@ -95,18 +103,27 @@ impl BarParameters {
         }
         let ne = self.elements;
         let n = ne + 1;
-        let (mass, stiffness) = bar1d::assemble(ne, self.length, self.density, self.young, self.area);
+        let (mass, stiffness) =
+            bar1d::assemble(ne, self.length, self.density, self.young, self.area);
         let mut harmonic_load = vec![0.0; n];
         match self.force_location {
             ForceLocation::Node(k) => {
                 if k > ne {
-                    return Err(Error::field(source, "load.node", format!("node {k} out of range (nodes 0..={ne})")));
+                    return Err(Error::field(
+                        source,
+                        "load.node",
+                        format!("node {k} out of range (nodes 0..={ne})"),
+                    ));
                 }
                 harmonic_load[k] = self.force_amplitude;
             }
             ForceLocation::Position(x) => {
                 if !(x.is_finite() && (0.0..=self.length).contains(&x)) {
-                    return Err(Error::field(source, "load.position", format!("must lie on the bar [0, {}], got {x}", self.length)));
+                    return Err(Error::field(
+                        source,
+                        "load.position",
+                        format!("must lie on the bar [0, {}], got {x}", self.length),
+                    ));
                 }
                 let s = x / self.length * ne as f64;
                 let e = (s.floor() as usize).min(ne - 1);
@@ -120,7 +137,11 @@ impl BarParameters {
             ClampedEnd::Right => (ne, 0, 1.0),
         };
         let contacts = match self.gap {
-            Some(gap) => vec![Contact { dofs: vec![free], w: vec![w], gap }],
+            Some(gap) => vec![Contact {
+                dofs: vec![free],
+                w: vec![w],
+                gap,
+            }],
             None => vec![],
         };
         let model = Model {

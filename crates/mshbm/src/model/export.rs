@@ -20,7 +20,12 @@ pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> 
         std::fs::write(&p, text).map_err(|e| Error::io(&p, e))
     };
     let vector = |v: &[f64]| {
-        let t: Vec<(usize, usize, f64)> = v.iter().enumerate().filter(|(_, x)| **x != 0.0).map(|(i, &x)| (i, 0, x)).collect();
+        let t: Vec<(usize, usize, f64)> = v
+            .iter()
+            .enumerate()
+            .filter(|(_, x)| **x != 0.0)
+            .map(|(i, &x)| (i, 0, x))
+            .collect();
         format_matrix(&SparseMatrix::from_triplets(v.len(), 1, &t))
     };
     write("mass.mtx", format_matrix(&model.mass))?;
@@ -38,19 +43,39 @@ pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> 
     write("nodes.txt", nodes)?;
 
     let mut t = String::new();
-    let _ = writeln!(t, "# Exported by `mshbm export` from {}", model.source.display());
+    let _ = writeln!(
+        t,
+        "# Exported by `mshbm export` from {}",
+        model.source.display()
+    );
     let _ = writeln!(t, "kind = \"matrices\"");
     let _ = writeln!(t, "name = {:?}", model.name);
-    let _ = writeln!(t, "\n[matrices]\nmass = \"mass.mtx\"\nstiffness = \"stiffness.mtx\"");
+    let _ = writeln!(
+        t,
+        "\n[matrices]\nmass = \"mass.mtx\"\nstiffness = \"stiffness.mtx\""
+    );
     if model.damping_matrix.is_some() {
         let _ = writeln!(t, "damping = \"damping.mtx\"");
     }
-    let _ = writeln!(t, "\n[mesh]\ndofs_per_node = {}\ncoordinates = \"nodes.txt\"\ndirichlet = {:?}", model.dofs_per_node, model.dirichlet);
+    let _ = writeln!(
+        t,
+        "\n[mesh]\ndofs_per_node = {}\ncoordinates = \"nodes.txt\"\ndirichlet = {:?}",
+        model.dofs_per_node, model.dirichlet
+    );
     for c in &model.contacts {
         let w: Vec<String> = c.w.iter().map(|x| format!("{x:?}")).collect();
-        let _ = writeln!(t, "\n[[contacts]]\ndofs = {:?}\nw = [{}]\ngap = {:?}", c.dofs, w.join(", "), c.gap);
+        let _ = writeln!(
+            t,
+            "\n[[contacts]]\ndofs = {:?}\nw = [{}]\ngap = {:?}",
+            c.dofs,
+            w.join(", "),
+            c.gap
+        );
     }
-    let _ = writeln!(t, "\n[load]\nharmonic_file = \"harmonic_load.mtx\"\nconstant_file = \"constant_load.mtx\"");
+    let _ = writeln!(
+        t,
+        "\n[load]\nharmonic_file = \"harmonic_load.mtx\"\nconstant_file = \"constant_load.mtx\""
+    );
     if let Some(a) = &model.acceleration {
         let a: Vec<String> = a.iter().map(|x| format!("{x:?}")).collect();
         let _ = writeln!(t, "acceleration = [{}]", a.join(", "));

@@ -215,17 +215,30 @@ pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Mode
             let f: MatricesFile = deserialize(value, path)?;
             matrices_model(f, path)
         }
-        other => Err(Error::field(path, "kind", format!("unknown kind \"{other}\" (expected \"bar\" or \"matrices\")"))),
+        other => Err(Error::field(
+            path,
+            "kind",
+            format!("unknown kind \"{other}\" (expected \"bar\" or \"matrices\")"),
+        )),
     }
 }
 
 fn deserialize<T: serde::de::DeserializeOwned>(value: toml::Value, path: &Path) -> Result<T> {
     serde_path_to_error::deserialize(value).map_err(|e| {
         let field = e.path().to_string();
-        let field = if field == "." { "(top level)".to_string() } else { field };
+        let field = if field == "." {
+            "(top level)".to_string()
+        } else {
+            field
+        };
         // the TOML deserializer appends "\nin `table`"; the path already says where
         let message = e.into_inner().to_string();
-        let message = message.lines().next().unwrap_or_default().trim().to_string();
+        let message = message
+            .lines()
+            .next()
+            .unwrap_or_default()
+            .trim()
+            .to_string();
         Error::field(path, field, message)
     })
 }
@@ -234,7 +247,13 @@ fn bar_model(f: BarFile, path: &Path) -> Result<Model> {
     let force_location = match (f.load.node, f.load.position) {
         (Some(n), None) => ForceLocation::Node(n),
         (None, Some(x)) => ForceLocation::Position(x),
-        _ => return Err(Error::field(path, "load", "give exactly one of `node` and `position`")),
+        _ => {
+            return Err(Error::field(
+                path,
+                "load",
+                "give exactly one of `node` and `position`",
+            ))
+        }
     };
     let params = BarParameters {
         elements: f.bar.elements,
@@ -262,7 +281,15 @@ fn relative(path: &Path, name: &str) -> PathBuf {
 fn read_vector(path: &Path, field: &str, file: &str, n: usize) -> Result<Vec<f64>> {
     let a = read_matrix(&relative(path, file))?;
     if a.ncols() != 1 || a.nrows() != n {
-        return Err(Error::field(path, field, format!("{file} is {}×{}, expected a {n}×1 vector", a.nrows(), a.ncols())));
+        return Err(Error::field(
+            path,
+            field,
+            format!(
+                "{file} is {}×{}, expected a {n}×1 vector",
+                a.nrows(),
+                a.ncols()
+            ),
+        ));
     }
     let mut v = vec![0.0; n];
     for (i, _, x) in a.iter() {
@@ -275,7 +302,14 @@ fn pairs_to_vector(path: &Path, field: &str, pairs: &[(usize, f64)], n: usize) -
     let mut v = vec![0.0; n];
     for &(d, x) in pairs {
         if d >= n {
-            return Err(Error::field(path, field, format!("DOF {d} out of range (the model has DOFs 0..{})", n.saturating_sub(1))));
+            return Err(Error::field(
+                path,
+                field,
+                format!(
+                    "DOF {d} out of range (the model has DOFs 0..{})",
+                    n.saturating_sub(1)
+                ),
+            ));
         }
         v[d] += x;
     }
@@ -291,8 +325,11 @@ fn read_coordinates(path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
         if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
             continue;
         }
-        let row: std::result::Result<Vec<f64>, _> =
-            t.split(|c: char| c == ',' || c.is_whitespace()).filter(|w| !w.is_empty()).map(str::parse).collect();
+        let row: std::result::Result<Vec<f64>, _> = t
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|w| !w.is_empty())
+            .map(str::parse)
+            .collect();
         let row = row.map_err(|_| Error::MatrixMarket {
             file: full.clone(),
             line: k + 1,
@@ -304,16 +341,32 @@ fn read_coordinates(path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
 }
 
 /// Read a square symmetric matrix; errors name the model file, the field and the matrix file.
-fn read_square_symmetric(path: &Path, field: &str, file: &str) -> Result<crate::sparse::SparseMatrix> {
+fn read_square_symmetric(
+    path: &Path,
+    field: &str,
+    file: &str,
+) -> Result<crate::sparse::SparseMatrix> {
     let a = read_matrix(&relative(path, file))?;
     if a.nrows() != a.ncols() {
-        return Err(Error::field(path, field, format!("{file} is {}×{}, not square", a.nrows(), a.ncols())));
+        return Err(Error::field(
+            path,
+            field,
+            format!("{file} is {}×{}, not square", a.nrows(), a.ncols()),
+        ));
     }
     if let Some((i, j)) = a.asymmetry(1e-10) {
         return Err(Error::field(
             path,
             field,
-            format!("{file} is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)", i + 1, j + 1, a.get(i, j), j + 1, i + 1, a.get(j, i)),
+            format!(
+                "{file} is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)",
+                i + 1,
+                j + 1,
+                a.get(i, j),
+                j + 1,
+                i + 1,
+                a.get(j, i)
+            ),
         ));
     }
     Ok(a)
@@ -322,12 +375,32 @@ fn read_square_symmetric(path: &Path, field: &str, file: &str) -> Result<crate::
 fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
     let stiffness = read_square_symmetric(path, "matrices.stiffness", &f.matrices.stiffness)?;
     let mass = read_square_symmetric(path, "matrices.mass", &f.matrices.mass)?;
-    let damping_matrix = f.matrices.damping.as_ref().map(|c| read_square_symmetric(path, "matrices.damping", c)).transpose()?;
-    for (field, file, a) in [("matrices.mass", &f.matrices.mass, &mass)].into_iter().chain(
-        f.matrices.damping.as_ref().zip(damping_matrix.as_ref()).map(|(file, a)| ("matrices.damping", file, a)),
-    ) {
+    let damping_matrix = f
+        .matrices
+        .damping
+        .as_ref()
+        .map(|c| read_square_symmetric(path, "matrices.damping", c))
+        .transpose()?;
+    for (field, file, a) in [("matrices.mass", &f.matrices.mass, &mass)]
+        .into_iter()
+        .chain(
+            f.matrices
+                .damping
+                .as_ref()
+                .zip(damping_matrix.as_ref())
+                .map(|(file, a)| ("matrices.damping", file, a)),
+        )
+    {
         if a.nrows() != stiffness.nrows() {
-            return Err(Error::field(path, field, format!("{file} is {0}×{0}, the stiffness matrix is {1}×{1}", a.nrows(), stiffness.nrows())));
+            return Err(Error::field(
+                path,
+                field,
+                format!(
+                    "{file} is {0}×{0}, the stiffness matrix is {1}×{1}",
+                    a.nrows(),
+                    stiffness.nrows()
+                ),
+            ));
         }
     }
     let n = stiffness.nrows();
@@ -335,13 +408,18 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
         Coordinates::File(file) => read_coordinates(path, file)?,
         Coordinates::Inline(c) => c.clone(),
     };
-    let load_vector = |field: &str, pairs: &[(usize, f64)], file: &Option<String>| -> Result<Vec<f64>> {
-        match (pairs.is_empty(), file) {
-            (_, None) => pairs_to_vector(path, field, pairs, n),
-            (true, Some(file)) => read_vector(path, &format!("{field}_file"), file, n),
-            (false, Some(_)) => Err(Error::field(path, field, format!("give either `{field}` or `{field}_file`, not both"))),
-        }
-    };
+    let load_vector =
+        |field: &str, pairs: &[(usize, f64)], file: &Option<String>| -> Result<Vec<f64>> {
+            match (pairs.is_empty(), file) {
+                (_, None) => pairs_to_vector(path, field, pairs, n),
+                (true, Some(file)) => read_vector(path, &format!("{field}_file"), file, n),
+                (false, Some(_)) => Err(Error::field(
+                    path,
+                    field,
+                    format!("give either `{field}` or `{field}_file`, not both"),
+                )),
+            }
+        };
     let harmonic_load = load_vector("load.harmonic", &f.load.harmonic, &f.load.harmonic_file)?;
     let constant_load = load_vector("load.constant", &f.load.constant, &f.load.constant_file)?;
     let model = Model {
@@ -353,7 +431,15 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
         coordinates,
         dofs_per_node: f.mesh.dofs_per_node,
         dirichlet: f.mesh.dirichlet,
-        contacts: f.contacts.into_iter().map(|c| Contact { dofs: c.dofs, w: c.w, gap: c.gap }).collect(),
+        contacts: f
+            .contacts
+            .into_iter()
+            .map(|c| Contact {
+                dofs: c.dofs,
+                w: c.w,
+                gap: c.gap,
+            })
+            .collect(),
         harmonic_load,
         constant_load,
         acceleration: f.load.acceleration,
@@ -373,7 +459,9 @@ pub fn apply_override(root: &mut toml::Value, assignment: &str) -> Result<()> {
         assignment: assignment.to_string(),
         message: message.to_string(),
     };
-    let (key, raw) = assignment.split_once('=').ok_or_else(|| err("expected key=value"))?;
+    let (key, raw) = assignment
+        .split_once('=')
+        .ok_or_else(|| err("expected key=value"))?;
     let key = key.trim();
     let raw = raw.trim();
     if key.is_empty() || key.split('.').any(str::is_empty) {
@@ -393,12 +481,19 @@ pub fn apply_override(root: &mut toml::Value, assignment: &str) -> Result<()> {
                     t.insert(part.to_string(), value);
                     return Ok(());
                 }
-                t.entry(part.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                t.entry(part.to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
             }
             toml::Value::Array(a) => {
-                let i: usize = part.parse().map_err(|_| err(&format!("`{part}` is not an array index")))?;
+                let i: usize = part
+                    .parse()
+                    .map_err(|_| err(&format!("`{part}` is not an array index")))?;
                 let len = a.len();
-                let slot = a.get_mut(i).ok_or_else(|| err(&format!("index {i} out of range (array has {len} elements)")))?;
+                let slot = a.get_mut(i).ok_or_else(|| {
+                    err(&format!(
+                        "index {i} out of range (array has {len} elements)"
+                    ))
+                })?;
                 if last {
                     *slot = value;
                     return Ok(());
@@ -410,4 +505,3 @@ pub fn apply_override(root: &mut toml::Value, assignment: &str) -> Result<()> {
     }
     Ok(())
 }
-

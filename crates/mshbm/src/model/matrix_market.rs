@@ -47,7 +47,10 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
     let (hline, header) = lines
         .next()
         .ok_or_else(|| mm_error(file, 1, "empty file (expected a `%%MatrixMarket` header)"))?;
-    let words: Vec<String> = header.split_whitespace().map(|w| w.to_ascii_lowercase()).collect();
+    let words: Vec<String> = header
+        .split_whitespace()
+        .map(|w| w.to_ascii_lowercase())
+        .collect();
     if words.len() != 5 || words[0] != "%%matrixmarket" || words[1] != "matrix" {
         return Err(mm_error(
             file,
@@ -58,29 +61,55 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
     let layout = match words[2].as_str() {
         "coordinate" => Layout::Coordinate,
         "array" => Layout::Array,
-        other => return Err(mm_error(file, hline, format!("unsupported format `{other}`"))),
+        other => {
+            return Err(mm_error(
+                file,
+                hline,
+                format!("unsupported format `{other}`"),
+            ))
+        }
     };
     let field = match words[3].as_str() {
         "real" | "integer" | "double" => Field::Real,
         "pattern" if layout == Layout::Coordinate => Field::Pattern,
-        other => return Err(mm_error(file, hline, format!("unsupported field `{other}` (complex matrices are not supported)"))),
+        other => {
+            return Err(mm_error(
+                file,
+                hline,
+                format!("unsupported field `{other}` (complex matrices are not supported)"),
+            ))
+        }
     };
     let symmetry = match words[4].as_str() {
         "general" => Symmetry::General,
         "symmetric" => Symmetry::Symmetric,
         "skew-symmetric" => Symmetry::SkewSymmetric,
-        other => return Err(mm_error(file, hline, format!("unsupported symmetry `{other}`"))),
+        other => {
+            return Err(mm_error(
+                file,
+                hline,
+                format!("unsupported symmetry `{other}`"),
+            ))
+        }
     };
     let mut data = lines.filter(|(_, l)| {
         let t = l.trim();
         !t.is_empty() && !t.starts_with('%')
     });
-    let (sline, size) = data.next().ok_or_else(|| mm_error(file, hline, "missing size line"))?;
+    let (sline, size) = data
+        .next()
+        .ok_or_else(|| mm_error(file, hline, "missing size line"))?;
     let sizes: Vec<usize> = size
         .split_whitespace()
         .map(|w| w.parse::<usize>())
         .collect::<std::result::Result<_, _>>()
-        .map_err(|_| mm_error(file, sline, format!("malformed size line `{}`", size.trim())))?;
+        .map_err(|_| {
+            mm_error(
+                file,
+                sline,
+                format!("malformed size line `{}`", size.trim()),
+            )
+        })?;
     let parse_f = |line: usize, w: &str| -> Result<f64> {
         let v: f64 = w
             .parse()
@@ -95,7 +124,11 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
     match layout {
         Layout::Coordinate => {
             if sizes.len() != 3 {
-                return Err(mm_error(file, sline, "coordinate size line must be `rows cols entries`"));
+                return Err(mm_error(
+                    file,
+                    sline,
+                    "coordinate size line must be `rows cols entries`",
+                ));
             }
             (nrows, ncols) = (sizes[0], sizes[1]);
             let nnz = sizes[2];
@@ -104,7 +137,11 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
                 let w: Vec<&str> = l.split_whitespace().collect();
                 let expected = if field == Field::Pattern { 2 } else { 3 };
                 if w.len() != expected {
-                    return Err(mm_error(file, line, format!("expected {expected} values per entry, found {}", w.len())));
+                    return Err(mm_error(
+                        file,
+                        line,
+                        format!("expected {expected} values per entry, found {}", w.len()),
+                    ));
                 }
                 let idx = |s: &str| -> Result<usize> {
                     s.parse::<usize>()
@@ -112,14 +149,26 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
                 };
                 let (i, j) = (idx(w[0])?, idx(w[1])?);
                 if i == 0 || j == 0 || i > nrows || j > ncols {
-                    return Err(mm_error(file, line, format!("index ({i}, {j}) outside the {nrows}×{ncols} matrix")));
+                    return Err(mm_error(
+                        file,
+                        line,
+                        format!("index ({i}, {j}) outside the {nrows}×{ncols} matrix"),
+                    ));
                 }
-                let v = if field == Field::Pattern { 1.0 } else { parse_f(line, w[2])? };
+                let v = if field == Field::Pattern {
+                    1.0
+                } else {
+                    parse_f(line, w[2])?
+                };
                 push_entry(&mut triplets, i - 1, j - 1, v, symmetry);
                 count += 1;
             }
             if count != nnz {
-                return Err(mm_error(file, sline, format!("size line announces {nnz} entries, file has {count}")));
+                return Err(mm_error(
+                    file,
+                    sline,
+                    format!("size line announces {nnz} entries, file has {count}"),
+                ));
             }
         }
         Layout::Array => {
@@ -129,7 +178,11 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
             (nrows, ncols) = (sizes[0], sizes[1]);
             let mut positions = Vec::new();
             for j in 0..ncols {
-                let start = if symmetry == Symmetry::General { 0 } else { j + usize::from(symmetry == Symmetry::SkewSymmetric) };
+                let start = if symmetry == Symmetry::General {
+                    0
+                } else {
+                    j + usize::from(symmetry == Symmetry::SkewSymmetric)
+                };
                 for i in start..nrows {
                     positions.push((i, j));
                 }
@@ -138,7 +191,14 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
             for (line, l) in data {
                 for w in l.split_whitespace() {
                     if k >= positions.len() {
-                        return Err(mm_error(file, line, format!("more than the {} values the size line announces", positions.len())));
+                        return Err(mm_error(
+                            file,
+                            line,
+                            format!(
+                                "more than the {} values the size line announces",
+                                positions.len()
+                            ),
+                        ));
                     }
                     let (i, j) = positions[k];
                     let v = parse_f(line, w)?;
@@ -149,7 +209,14 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
                 }
             }
             if k != positions.len() {
-                return Err(mm_error(file, sline, format!("size line announces {} values, file has {k}", positions.len())));
+                return Err(mm_error(
+                    file,
+                    sline,
+                    format!(
+                        "size line announces {} values, file has {k}",
+                        positions.len()
+                    ),
+                ));
             }
         }
     }
@@ -180,7 +247,8 @@ pub fn write_matrix(file: &Path, a: &SparseMatrix) -> Result<()> {
 /// The Matrix Market text of `a` (see [`write_matrix`]).
 pub fn format_matrix(a: &SparseMatrix) -> String {
     let symmetric = a.nrows() == a.ncols() && a.asymmetry(0.0).is_none();
-    let entries: Vec<(usize, usize, f64)> = a.iter().filter(|&(i, j, _)| !symmetric || i >= j).collect();
+    let entries: Vec<(usize, usize, f64)> =
+        a.iter().filter(|&(i, j, _)| !symmetric || i >= j).collect();
     let mut s = String::new();
     let kind = if symmetric { "symmetric" } else { "general" };
     let _ = writeln!(s, "%%MatrixMarket matrix coordinate real {kind}");
@@ -217,9 +285,13 @@ mod tests {
     #[test]
     fn errors_name_the_line() {
         let text = "%%MatrixMarket matrix coordinate real general\n2 2 1\n3 1 1.0\n";
-        let err = parse_matrix(text, Path::new("k.mtx")).unwrap_err().to_string();
+        let err = parse_matrix(text, Path::new("k.mtx"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("k.mtx, line 3"), "{err}");
-        let err = parse_matrix("hello\n", Path::new("k.mtx")).unwrap_err().to_string();
+        let err = parse_matrix("hello\n", Path::new("k.mtx"))
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("line 1"), "{err}");
         let text = "%%MatrixMarket matrix coordinate real general\n2 2 2\n1 1 1.0\n";
         assert!(parse_matrix(text, Path::new("k.mtx")).is_err());

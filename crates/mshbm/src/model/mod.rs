@@ -112,10 +112,22 @@ impl Model {
         let n = self.n_dofs();
         let square = |name: &str, a: &SparseMatrix| -> Result<()> {
             if a.nrows() != a.ncols() {
-                return Err(Error::field(file, name, format!("matrix is not square ({}×{})", a.nrows(), a.ncols())));
+                return Err(Error::field(
+                    file,
+                    name,
+                    format!("matrix is not square ({}×{})", a.nrows(), a.ncols()),
+                ));
             }
             if a.nrows() != n {
-                return Err(Error::field(file, name, format!("matrix is {}×{}, the stiffness matrix is {n}×{n}", a.nrows(), a.ncols())));
+                return Err(Error::field(
+                    file,
+                    name,
+                    format!(
+                        "matrix is {}×{}, the stiffness matrix is {n}×{n}",
+                        a.nrows(),
+                        a.ncols()
+                    ),
+                ));
             }
             if let Some((i, j)) = a.asymmetry(1e-10) {
                 return Err(Error::field(
@@ -132,58 +144,110 @@ impl Model {
             square("matrices.damping", c)?;
         }
         if n == 0 {
-            return Err(Error::field(file, "matrices.stiffness", "the model has no DOFs"));
+            return Err(Error::field(
+                file,
+                "matrices.stiffness",
+                "the model has no DOFs",
+            ));
         }
         if self.dofs_per_node == 0 {
-            return Err(Error::field(file, "mesh.dofs_per_node", "must be at least 1"));
+            return Err(Error::field(
+                file,
+                "mesh.dofs_per_node",
+                "must be at least 1",
+            ));
         }
         if self.coordinates.len() * self.dofs_per_node != n {
             return Err(Error::field(
                 file,
                 "mesh.coordinates",
-                format!("{} nodes × {} DOFs per node = {} DOFs, but the matrices have {n}", self.coordinates.len(), self.dofs_per_node, self.coordinates.len() * self.dofs_per_node),
+                format!(
+                    "{} nodes × {} DOFs per node = {} DOFs, but the matrices have {n}",
+                    self.coordinates.len(),
+                    self.dofs_per_node,
+                    self.coordinates.len() * self.dofs_per_node
+                ),
             ));
         }
         let dim = self.coordinates.first().map_or(0, Vec::len);
         if !(1..=3).contains(&dim) {
-            return Err(Error::field(file, "mesh.coordinates", format!("nodes must have 1, 2 or 3 coordinates, found {dim}")));
+            return Err(Error::field(
+                file,
+                "mesh.coordinates",
+                format!("nodes must have 1, 2 or 3 coordinates, found {dim}"),
+            ));
         }
         for (k, c) in self.coordinates.iter().enumerate() {
             if c.len() != dim || c.iter().any(|v| !v.is_finite()) {
-                return Err(Error::field(file, "mesh.coordinates", format!("node {k}: expected {dim} finite coordinates, found {c:?}")));
+                return Err(Error::field(
+                    file,
+                    "mesh.coordinates",
+                    format!("node {k}: expected {dim} finite coordinates, found {c:?}"),
+                ));
             }
         }
         for (k, &d) in self.dirichlet.iter().enumerate() {
             if d >= n {
-                return Err(Error::field(file, format!("mesh.dirichlet[{k}]"), format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1)));
+                return Err(Error::field(
+                    file,
+                    format!("mesh.dirichlet[{k}]"),
+                    format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
+                ));
             }
         }
         for (k, c) in self.contacts.iter().enumerate() {
             let field = |f: &str| format!("contacts[{k}].{f}");
             if c.dofs.is_empty() {
-                return Err(Error::field(file, field("dofs"), "a contact needs at least one DOF"));
+                return Err(Error::field(
+                    file,
+                    field("dofs"),
+                    "a contact needs at least one DOF",
+                ));
             }
             if c.dofs.len() != c.w.len() {
-                return Err(Error::field(file, field("w"), format!("{} coefficients for {} DOFs", c.w.len(), c.dofs.len())));
+                return Err(Error::field(
+                    file,
+                    field("w"),
+                    format!("{} coefficients for {} DOFs", c.w.len(), c.dofs.len()),
+                ));
             }
             for &d in &c.dofs {
                 if d >= n {
-                    return Err(Error::field(file, field("dofs"), format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1)));
+                    return Err(Error::field(
+                        file,
+                        field("dofs"),
+                        format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
+                    ));
                 }
                 if self.dirichlet.contains(&d) {
-                    return Err(Error::field(file, field("dofs"), format!("DOF {d} is also a Dirichlet DOF")));
+                    return Err(Error::field(
+                        file,
+                        field("dofs"),
+                        format!("DOF {d} is also a Dirichlet DOF"),
+                    ));
                 }
             }
             if c.w.iter().any(|v| !v.is_finite()) || c.w.iter().all(|&v| v == 0.0) {
-                return Err(Error::field(file, field("w"), "the gap gradient must be finite and non-zero"));
+                return Err(Error::field(
+                    file,
+                    field("w"),
+                    "the gap gradient must be finite and non-zero",
+                ));
             }
             if !c.gap.is_finite() {
                 return Err(Error::field(file, field("gap"), "must be finite"));
             }
         }
-        for (name, v) in [("load.harmonic", &self.harmonic_load), ("load.constant", &self.constant_load)] {
+        for (name, v) in [
+            ("load.harmonic", &self.harmonic_load),
+            ("load.constant", &self.constant_load),
+        ] {
             if v.len() != n {
-                return Err(Error::field(file, name, format!("load vector has {} entries for {n} DOFs", v.len())));
+                return Err(Error::field(
+                    file,
+                    name,
+                    format!("load vector has {} entries for {n} DOFs", v.len()),
+                ));
             }
             if v.iter().any(|x| !x.is_finite()) {
                 return Err(Error::field(file, name, "load values must be finite"));
@@ -191,21 +255,40 @@ impl Model {
         }
         if let Some(a) = &self.acceleration {
             if a.len() != self.dofs_per_node || a.iter().any(|x| !x.is_finite()) {
-                return Err(Error::field(file, "load.acceleration", format!("expected {} finite values (one per DOF of a node)", self.dofs_per_node)));
+                return Err(Error::field(
+                    file,
+                    "load.acceleration",
+                    format!(
+                        "expected {} finite values (one per DOF of a node)",
+                        self.dofs_per_node
+                    ),
+                ));
             }
         }
         let d = &self.damping;
         for (name, v) in [("damping.alpha", d.alpha), ("damping.beta", d.beta)] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(Error::field(file, name, format!("must be a finite non-negative number, got {v}")));
+                return Err(Error::field(
+                    file,
+                    name,
+                    format!("must be a finite non-negative number, got {v}"),
+                ));
             }
         }
         if let Some(z) = d.first_mode_ratio {
             if !(z.is_finite() && z >= 0.0) {
-                return Err(Error::field(file, "damping.first_mode_ratio", format!("must be a finite non-negative number, got {z}")));
+                return Err(Error::field(
+                    file,
+                    "damping.first_mode_ratio",
+                    format!("must be a finite non-negative number, got {z}"),
+                ));
             }
             if d.alpha != 0.0 {
-                return Err(Error::field(file, "damping.first_mode_ratio", "set either `alpha` or `first_mode_ratio`, not both"));
+                return Err(Error::field(
+                    file,
+                    "damping.first_mode_ratio",
+                    "set either `alpha` or `first_mode_ratio`, not both",
+                ));
             }
         }
         Ok(())

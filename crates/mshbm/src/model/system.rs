@@ -67,7 +67,8 @@ impl Model {
                         self.source.display()
                     ))
                 })?;
-                let r = redistribute_scalar_mass(&scalar, &self.coordinates, &self.contact_nodes())?;
+                let r =
+                    redistribute_scalar_mass(&scalar, &self.coordinates, &self.contact_nodes())?;
                 Ok(expand_to_dofs(&r, self.dofs_per_node))
             }
         }
@@ -107,7 +108,12 @@ impl Model {
         let beta = self.damping.beta;
         let mut damping = SparseMatrix::linear_combination(alpha, &mass, beta, &stiffness);
         if let Some(c) = &self.damping_matrix {
-            damping = SparseMatrix::linear_combination(1.0, &damping, 1.0, &c.submatrix(&model_dof, &model_dof));
+            damping = SparseMatrix::linear_combination(
+                1.0,
+                &damping,
+                1.0,
+                &c.submatrix(&model_dof, &model_dof),
+            );
         }
 
         let restrict = |v: &[f64]| -> Vec<f64> { model_dof.iter().map(|&d| v[d]).collect() };
@@ -124,7 +130,11 @@ impl Model {
             .contacts
             .iter()
             .map(|c| SystemContact {
-                w: c.dofs.iter().zip(&c.w).map(|(&d, &w)| (system_of[d], w)).collect(),
+                w: c.dofs
+                    .iter()
+                    .zip(&c.w)
+                    .map(|(&d, &w)| (system_of[d], w))
+                    .collect(),
                 gap: c.gap,
             })
             .collect();

@@ -19,7 +19,9 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
     let nodes_x = nx + 1;
     let n_nodes = (nx + 1) * (ny + 1);
     let idx = |i: usize, j: usize| j * nodes_x + i;
-    let coords: Vec<Vec<f64>> = (0..n_nodes).map(|p| vec![(p % nodes_x) as f64, (p / nodes_x) as f64]).collect();
+    let coords: Vec<Vec<f64>> = (0..n_nodes)
+        .map(|p| vec![(p % nodes_x) as f64, (p / nodes_x) as f64])
+        .collect();
     let mut kt = Vec::new();
     let mut spring = |p: usize, q: usize, k: f64| {
         let dx = coords[q][0] - coords[p][0];
@@ -37,7 +39,12 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
         }
     };
     let mut mt = Vec::new();
-    let base = [[4.0, 2.0, 1.0, 2.0], [2.0, 4.0, 2.0, 1.0], [1.0, 2.0, 4.0, 2.0], [2.0, 1.0, 2.0, 4.0]];
+    let base = [
+        [4.0, 2.0, 1.0, 2.0],
+        [2.0, 4.0, 2.0, 1.0],
+        [1.0, 2.0, 4.0, 2.0],
+        [2.0, 1.0, 2.0, 4.0],
+    ];
     for j in 0..ny {
         for i in 0..nx {
             let c = [idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)];
@@ -63,7 +70,9 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
     let n = 2 * n_nodes;
     let stiffness = SparseMatrix::from_triplets(n, n, &kt);
     let mass = SparseMatrix::from_triplets(n, n, &mt);
-    let dirichlet: Vec<usize> = (0..nodes_x).flat_map(|i| [2 * idx(i, ny), 2 * idx(i, ny) + 1]).collect();
+    let dirichlet: Vec<usize> = (0..nodes_x)
+        .flat_map(|i| [2 * idx(i, ny), 2 * idx(i, ny) + 1])
+        .collect();
     let contacts = (0..nodes_x)
         .map(|i| Contact {
             dofs: vec![2 * idx(i, 0) + 1],
@@ -86,6 +95,10 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
         harmonic_load,
         constant_load: vec![0.0; n],
         acceleration: None,
-        damping: Damping { alpha: damping_alpha, beta: 0.0, first_mode_ratio: None },
+        damping: Damping {
+            alpha: damping_alpha,
+            beta: 0.0,
+            first_mode_ratio: None,
+        },
     }
 }

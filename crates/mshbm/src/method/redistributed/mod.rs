@@ -92,15 +92,29 @@ impl RedistributedMsHbm {
         }
         let samples = options.samples.unwrap_or_else(|| default_samples(h));
         if samples < n_coefficients(h) {
-            return Err(Error::argument("samples", format!("{samples} samples cannot resolve {h} harmonics: need at least 2H+1 = {}", n_coefficients(h))));
+            return Err(Error::argument(
+                "samples",
+                format!(
+                    "{samples} samples cannot resolve {h} harmonics: need at least 2H+1 = {}",
+                    n_coefficients(h)
+                ),
+            ));
         }
         if model.contacts.is_empty() {
-            return Err(Error::argument("model", "the model has no contact; the redistributed MS-HBM needs at least one"));
+            return Err(Error::argument(
+                "model",
+                "the model has no contact; the redistributed MS-HBM needs at least one",
+            ));
         }
         let system = model.system(MassKind::Redistributed)?;
         let (nl, ll) = (&system.nonlinear_dofs, &system.linear_dofs);
         let all: Vec<usize> = (0..system.n_dofs()).collect();
-        if system.damping.submatrix(nl, &all).iter().any(|(_, _, v)| v != 0.0) {
+        if system
+            .damping
+            .submatrix(nl, &all)
+            .iter()
+            .any(|(_, _, v)| v != 0.0)
+        {
             return Err(Error::field(
                 &model.source,
                 "damping",
@@ -115,24 +129,48 @@ impl RedistributedMsHbm {
         let mut w = vec![0.0; n * nc];
         for (c, contact) in system.contacts.iter().enumerate() {
             for &(dof, coeff) in &contact.w {
-                let i = nl.iter().position(|&d| d == dof).expect("contact DOFs are in N");
+                let i = nl
+                    .iter()
+                    .position(|&d| d == dof)
+                    .expect("contact DOFs are in N");
                 w[i * nc + c] += coeff;
             }
         }
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
         let contact = StaticContact::new(&k_nn, w, gap.clone())?;
-        let linear = LinearPart::new(system.mass.submatrix(ll, ll), system.damping.submatrix(ll, ll), system.stiffness.submatrix(ll, ll))?;
+        let linear = LinearPart::new(
+            system.mass.submatrix(ll, ll),
+            system.damping.submatrix(ll, ll),
+            system.stiffness.submatrix(ll, ll),
+        )?;
         let pick = |v: &[f64], idx: &[usize]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
         // length scale: the largest gap or static deflection of the contact DOFs
         let static_deflection = {
-            let llt = system.stiffness.to_faer().sp_cholesky(faer::Side::Lower).map_err(|_| Error::Singular("the stiffness matrix is singular (the structure is not held)".into()))?;
-            let f: Vec<f64> = system.harmonic_load.iter().zip(&system.constant_load).map(|(a, b)| a.abs() + b.abs()).collect();
+            let llt = system
+                .stiffness
+                .to_faer()
+                .sp_cholesky(faer::Side::Lower)
+                .map_err(|_| {
+                    Error::Singular(
+                        "the stiffness matrix is singular (the structure is not held)".into(),
+                    )
+                })?;
+            let f: Vec<f64> = system
+                .harmonic_load
+                .iter()
+                .zip(&system.constant_load)
+                .map(|(a, b)| a.abs() + b.abs())
+                .collect();
             let mut rhs = Mat::<f64>::from_fn(f.len(), 1, |i, _| f[i]);
             llt.solve_in_place(rhs.as_mut());
             nl.iter().fold(0.0f64, |m, &i| m.max(rhs[(i, 0)].abs()))
         };
         let gap_scale = gap.iter().fold(0.0f64, |m, g| m.max(g.abs()));
-        let length_scale = if gap_scale.max(static_deflection) > 0.0 { gap_scale.max(static_deflection) } else { 1.0 };
+        let length_scale = if gap_scale.max(static_deflection) > 0.0 {
+            gap_scale.max(static_deflection)
+        } else {
+            1.0
+        };
         Ok(RedistributedMsHbm {
             k_nl: system.stiffness.submatrix(nl, ll),
             k_ln: system.stiffness.submatrix(ll, nl),
@@ -175,7 +213,9 @@ impl RedistributedMsHbm {
             1 => &self.harmonic_load_l,
             _ => return None,
         };
-        v.iter().any(|&x| x != 0.0).then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
+        v.iter()
+            .any(|&x| x != 0.0)
+            .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
     }
 
     fn prepare(&mut self, omega: f64) -> Result<()> {
@@ -183,7 +223,13 @@ impl RedistributedMsHbm {
             return Ok(());
         }
         if !(omega.is_finite() && omega > 0.0) {
-            return Err(Error::argument("frequency", format!("must be positive, got {} Hz", omega / (2.0 * std::f64::consts::PI))));
+            return Err(Error::argument(
+                "frequency",
+                format!(
+                    "must be positive, got {} Hz",
+                    omega / (2.0 * std::f64::consts::PI)
+                ),
+            ));
         }
         let factors = self.linear.factor(omega, self.harmonics)?;
         let n = self.n();
@@ -211,7 +257,12 @@ impl RedistributedMsHbm {
             }
             u0.push(uk);
         }
-        self.frequency = Some(FrequencyData { omega, factors, g, u0 });
+        self.frequency = Some(FrequencyData {
+            omega,
+            factors,
+            g,
+            u0,
+        });
         Ok(())
     }
 
@@ -222,7 +273,9 @@ impl RedistributedMsHbm {
         let n = self.n();
         let mut b = vec![0.0; n * n_coefficients(self.harmonics)];
         for i in 0..n {
-            b[i] = -f.u0[0][i].re + self.constant_load_n[i] + (0..n).map(|j| f.g[0][i * n + j].re * x[j]).sum::<f64>();
+            b[i] = -f.u0[0][i].re
+                + self.constant_load_n[i]
+                + (0..n).map(|j| f.g[0][i * n + j].re * x[j]).sum::<f64>();
         }
         for k in 1..=self.harmonics {
             let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
@@ -278,7 +331,12 @@ impl RedistributedMsHbm {
     }
 
     /// `Σ_A (P_A B Γ_Aᵀ + with_offset · s_A Γ_A[:,0]ᵀ)`.
-    fn assemble_coefficients(&self, integration: &Integration, b: &[f64], with_offset: bool) -> Vec<f64> {
+    fn assemble_coefficients(
+        &self,
+        integration: &Integration,
+        b: &[f64],
+        with_offset: bool,
+    ) -> Vec<f64> {
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let mut q = vec![0.0; n * nc];
@@ -309,7 +367,10 @@ impl RedistributedMsHbm {
 
     fn evaluate(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Integration, Vec<f64>)> {
         if x.len() != self.dimension() {
-            return Err(Error::argument("x", format!("expected {} unknowns, got {}", self.dimension(), x.len())));
+            return Err(Error::argument(
+                "x",
+                format!("expected {} unknowns, got {}", self.dimension(), x.len()),
+            ));
         }
         self.prepare(omega)?;
         let b = self.load_coefficients(x);
@@ -405,7 +466,11 @@ impl RedistributedMsHbm {
         for k in 0..=self.harmonics {
             let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
             for (r, j, v) in self.k_ln.iter() {
-                let z = if k == 0 { c64::new(x[j], 0.0) } else { c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j]) };
+                let z = if k == 0 {
+                    c64::new(x[j], 0.0)
+                } else {
+                    c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
+                };
                 rhs[r] -= z * v;
             }
             let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
@@ -444,12 +509,22 @@ impl PeriodicProblem for RedistributedMsHbm {
         let db = self.load_frequency_derivative(x)?;
         let dq = self.assemble_coefficients(&integration, &db, false);
         let d_omega = dq.iter().map(|v| -v).collect();
-        Ok(Linearization { residual, jacobian, d_omega })
+        Ok(Linearization {
+            residual,
+            jacobian,
+            d_omega,
+        })
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
         if response_dof >= self.system.n_model_dofs {
-            return Err(Error::argument("dof", format!("DOF {response_dof} does not exist (the model has DOFs 0..{})", self.system.n_model_dofs - 1)));
+            return Err(Error::argument(
+                "dof",
+                format!(
+                    "DOF {response_dof} does not exist (the model has DOFs 0..{})",
+                    self.system.n_model_dofs - 1
+                ),
+            ));
         }
         let (residual, integration, b) = self.evaluate(x, omega)?;
         let n = self.n();
@@ -493,7 +568,10 @@ impl PeriodicProblem for RedistributedMsHbm {
         let mut contacts = Vec::with_capacity(self.system.contacts.len());
         for (c, sc) in self.system.contacts.iter().enumerate() {
             let dof_s = sc.w[0].0;
-            let i = nl_dofs.iter().position(|&d| d == dof_s).expect("contact DOF in N");
+            let i = nl_dofs
+                .iter()
+                .position(|&d| d == dof_s)
+                .expect("contact DOF in N");
             let (max, min) = n_extremes(i);
             contacts.push(ContactSeries {
                 dof: self.system.model_dof[dof_s],
@@ -507,18 +585,40 @@ impl PeriodicProblem for RedistributedMsHbm {
         }
         let response = match self.system.system_dof(response_dof) {
             // a Dirichlet DOF does not move
-            None => DofResponse { dof: response_dof, coefficients: vec![0.0; nc], max: 0.0, min: 0.0 },
+            None => DofResponse {
+                dof: response_dof,
+                coefficients: vec![0.0; nc],
+                max: 0.0,
+                min: 0.0,
+            },
             Some(s) => {
                 if let Some(i) = nl_dofs.iter().position(|&d| d == s) {
                     let (max, min) = n_extremes(i);
-                    DofResponse { dof: response_dof, coefficients: coefficients_of_n(i), max, min }
+                    DofResponse {
+                        dof: response_dof,
+                        coefficients: coefficients_of_n(i),
+                        max,
+                        min,
+                    }
                 } else {
-                    let l = self.system.linear_dofs.iter().position(|&d| d == s).expect("L or N");
+                    let l = self
+                        .system
+                        .linear_dofs
+                        .iter()
+                        .position(|&d| d == s)
+                        .expect("L or N");
                     let coefficients = self.linear_dof_coefficients(x, l)?;
-                    let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
+                    let samples: Vec<f64> =
+                        taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
                     let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
-                    let min = -refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
-                    DofResponse { dof: response_dof, coefficients, max, min }
+                    let min =
+                        -refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
+                    DofResponse {
+                        dof: response_dof,
+                        coefficients,
+                        max,
+                        min,
+                    }
                 }
             }
         };
@@ -532,7 +632,12 @@ impl PeriodicProblem for RedistributedMsHbm {
             iterations: 0,
             residual_norm: residual.iter().fold(0.0f64, |m, v| m.max(v.abs())) / self.length_scale,
             time_s: taus.iter().map(|t| t / omega).collect(),
-            contact_dofs: self.system.contacts.iter().map(|c| self.system.model_dof[c.w[0].0]).collect(),
+            contact_dofs: self
+                .system
+                .contacts
+                .iter()
+                .map(|c| self.system.model_dof[c.w[0].0])
+                .collect(),
             contacts,
             response,
         })
@@ -544,7 +649,16 @@ impl PeriodicProblem for RedistributedMsHbm {
 /// time signal, not of the sample grid).
 fn refine_extremum(taus: &[f64], values: &[f64], sign: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
     let n = taus.len();
-    let (j, best) = values.iter().enumerate().fold((0, f64::NEG_INFINITY), |(bj, bv), (j, &v)| if sign * v > bv { (j, sign * v) } else { (bj, bv) });
+    let (j, best) = values
+        .iter()
+        .enumerate()
+        .fold((0, f64::NEG_INFINITY), |(bj, bv), (j, &v)| {
+            if sign * v > bv {
+                (j, sign * v)
+            } else {
+                (bj, bv)
+            }
+        });
     let step = 2.0 * std::f64::consts::PI / n as f64;
     let (mut a, mut d) = (taus[j] - step, taus[j] + step);
     let g = 0.5 * (5f64.sqrt() - 1.0);

@@ -98,11 +98,19 @@ impl Groups {
 
 /// Trigonometric coefficients of the validity indicator of `set` under the load `load`
 /// (`n_c` rows of `2H+1`).
-fn indicator_coefficients(set: &ActiveSet, load: &[f64], n: usize, nc: usize, ncoef: usize) -> Vec<Vec<f64>> {
+fn indicator_coefficients(
+    set: &ActiveSet,
+    load: &[f64],
+    n: usize,
+    nc: usize,
+    ncoef: usize,
+) -> Vec<Vec<f64>> {
     (0..nc)
         .map(|c| {
             let row = &set.indicator[c * n..(c + 1) * n];
-            let mut coef: Vec<f64> = (0..ncoef).map(|m| (0..n).map(|i| row[i] * load[m * n + i]).sum()).collect();
+            let mut coef: Vec<f64> = (0..ncoef)
+                .map(|m| (0..n).map(|i| row[i] * load[m * n + i]).sum())
+                .collect();
             coef[0] += set.indicator_offset[c];
             coef
         })
@@ -137,7 +145,12 @@ fn first_root(coef: &[f64], a: f64, end: f64) -> f64 {
 }
 
 /// Decompose one period into active-set groups.
-pub fn integrate(contact: &mut StaticContact, load: &[f64], sampling: &Sampling, quadrature: Quadrature) -> Result<Integration> {
+pub fn integrate(
+    contact: &mut StaticContact,
+    load: &[f64],
+    sampling: &Sampling,
+    quadrature: Quadrature,
+) -> Result<Integration> {
     let h = sampling.harmonics;
     let ncoef = n_coefficients(h);
     let n = contact.n_dofs();
@@ -170,7 +183,11 @@ pub fn integrate(contact: &mut StaticContact, load: &[f64], sampling: &Sampling,
             let mut run_start = 0.0;
             for j in 0..ns {
                 let mut a = sampling.taus[j];
-                let end = if j + 1 < ns { sampling.taus[j + 1] } else { two_pi };
+                let end = if j + 1 < ns {
+                    sampling.taus[j + 1]
+                } else {
+                    two_pi
+                };
                 // a set carried over from the previous cell that the LCP disagrees with at
                 // this grid point is replaced by the LCP's (a double switch was missed)
                 if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&set, load, n, nc, ncoef, a) {
@@ -191,7 +208,9 @@ pub fn integrate(contact: &mut StaticContact, load: &[f64], sampling: &Sampling,
                             }
                         }
                     }
-                    let Some((root, component)) = earliest else { break };
+                    let Some((root, component)) = earliest else {
+                        break;
+                    };
                     let g = groups.of(&set);
                     add_interval_gram(h, run_start, root, &mut groups.groups[g].gram);
                     switches.push(Switch { tau: root });
@@ -226,6 +245,15 @@ pub fn integrate(contact: &mut StaticContact, load: &[f64], sampling: &Sampling,
     })
 }
 
-fn indicator_holds(set: &ActiveSet, load: &[f64], n: usize, nc: usize, ncoef: usize, tau: f64) -> bool {
-    indicator_coefficients(set, load, n, nc, ncoef).iter().all(|c| evaluate(c, tau) >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs()))))
+fn indicator_holds(
+    set: &ActiveSet,
+    load: &[f64],
+    n: usize,
+    nc: usize,
+    ncoef: usize,
+    tau: f64,
+) -> bool {
+    indicator_coefficients(set, load, n, nc, ncoef)
+        .iter()
+        .all(|c| evaluate(c, tau) >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs()))))
 }

@@ -43,7 +43,14 @@ impl ActiveSet {
     /// `q_N = P_A b + s_A`.
     pub fn displacement(&self, b: &[f64]) -> Vec<f64> {
         let n = b.len();
-        (0..n).map(|i| self.offset[i] + (0..n).map(|j| self.compliance[i * n + j] * b[j]).sum::<f64>()).collect()
+        (0..n)
+            .map(|i| {
+                self.offset[i]
+                    + (0..n)
+                        .map(|j| self.compliance[i * n + j] * b[j])
+                        .sum::<f64>()
+            })
+            .collect()
     }
 
     /// Contact forces `λ` (zero for open contacts).
@@ -52,7 +59,16 @@ impl ActiveSet {
         self.closed
             .iter()
             .enumerate()
-            .map(|(i, &c)| if c { self.indicator_offset[i] + (0..n).map(|j| self.indicator[i * n + j] * b[j]).sum::<f64>() } else { 0.0 })
+            .map(|(i, &c)| {
+                if c {
+                    self.indicator_offset[i]
+                        + (0..n)
+                            .map(|j| self.indicator[i * n + j] * b[j])
+                            .sum::<f64>()
+                } else {
+                    0.0
+                }
+            })
             .collect()
     }
 }
@@ -92,13 +108,17 @@ impl StaticContact {
         let mut compliance_w = vec![0.0; n * n_contacts];
         for i in 0..n {
             for c in 0..n_contacts {
-                compliance_w[i * n_contacts + c] = (0..n).map(|j| stiffness_inverse[i * n + j] * w[j * n_contacts + c]).sum();
+                compliance_w[i * n_contacts + c] = (0..n)
+                    .map(|j| stiffness_inverse[i * n + j] * w[j * n_contacts + c])
+                    .sum();
             }
         }
         let mut delassus = vec![0.0; n_contacts * n_contacts];
         for a in 0..n_contacts {
             for c in 0..n_contacts {
-                delassus[a * n_contacts + c] = (0..n).map(|i| w[i * n_contacts + a] * compliance_w[i * n_contacts + c]).sum();
+                delassus[a * n_contacts + c] = (0..n)
+                    .map(|i| w[i * n_contacts + a] * compliance_w[i * n_contacts + c])
+                    .sum();
             }
         }
         let solver = LcpSolver::new(LcpMatrix::new(n_contacts, delassus.clone()));
@@ -126,7 +146,12 @@ impl StaticContact {
     /// Gaps `Wᵀ q + g0`.
     pub fn gaps(&self, q: &[f64]) -> Vec<f64> {
         (0..self.n_contacts)
-            .map(|c| self.gap[c] + (0..self.n).map(|i| self.w[i * self.n_contacts + c] * q[i]).sum::<f64>())
+            .map(|c| {
+                self.gap[c]
+                    + (0..self.n)
+                        .map(|i| self.w[i * self.n_contacts + c] * q[i])
+                        .sum::<f64>()
+            })
             .collect()
     }
 
@@ -135,7 +160,12 @@ impl StaticContact {
     pub fn solve(&mut self, b: &[f64]) -> Result<Rc<ActiveSet>> {
         let nc = self.n_contacts;
         let q: Vec<f64> = (0..nc)
-            .map(|c| self.gap[c] + (0..self.n).map(|i| self.compliance_w[i * nc + c] * b[i]).sum::<f64>())
+            .map(|c| {
+                self.gap[c]
+                    + (0..self.n)
+                        .map(|i| self.compliance_w[i * nc + c] * b[i])
+                        .sum::<f64>()
+            })
             .collect();
         let sol = self
             .solver
@@ -159,7 +189,11 @@ impl StaticContact {
         let act: Vec<usize> = (0..nc).filter(|&c| closed[c]).collect();
         let na = act.len();
         // D_AA⁻¹ applied to [W_Aᵀ K⁻¹ | g0_A]: solve column by column
-        let d_aa: Vec<f64> = act.iter().flat_map(|&a| act.iter().map(move |&c| (a, c))).map(|(a, c)| self.delassus[a * nc + c]).collect();
+        let d_aa: Vec<f64> = act
+            .iter()
+            .flat_map(|&a| act.iter().map(move |&c| (a, c)))
+            .map(|(a, c)| self.delassus[a * nc + c])
+            .collect();
         // rows of W_Aᵀ K⁻¹ (na × n) = (K⁻¹ W_A)ᵀ since K is symmetric
         let mut force_map = vec![0.0; na * n]; // −D_AA⁻¹ W_Aᵀ K⁻¹
         for j in 0..n {
@@ -170,7 +204,11 @@ impl StaticContact {
             }
         }
         let g_a: Vec<f64> = act.iter().map(|&a| self.gap[a]).collect();
-        let force_offset: Vec<f64> = solve_small(&d_aa, &g_a, 1e-13).ok_or_else(|| self.dependent_error())?.into_iter().map(|v| -v).collect();
+        let force_offset: Vec<f64> = solve_small(&d_aa, &g_a, 1e-13)
+            .ok_or_else(|| self.dependent_error())?
+            .into_iter()
+            .map(|v| -v)
+            .collect();
         // P_A = K⁻¹ + K⁻¹ W_A (force_map), s_A = K⁻¹ W_A force_offset
         let mut compliance = self.stiffness_inverse.clone();
         let mut offset = vec![0.0; n];
@@ -192,9 +230,12 @@ impl StaticContact {
             } else {
                 // gap of an open contact: Wᵀ (P_A b + s_A) + g0
                 for j in 0..n {
-                    indicator[c * n + j] = (0..n).map(|i| self.w[i * nc + c] * compliance[i * n + j]).sum();
+                    indicator[c * n + j] = (0..n)
+                        .map(|i| self.w[i * nc + c] * compliance[i * n + j])
+                        .sum();
                 }
-                indicator_offset[c] = self.gap[c] + (0..n).map(|i| self.w[i * nc + c] * offset[i]).sum::<f64>();
+                indicator_offset[c] =
+                    self.gap[c] + (0..n).map(|i| self.w[i * nc + c] * offset[i]).sum::<f64>();
             }
         }
         Ok(ActiveSet {

@@ -1,0 +1,188 @@
+//! `mshbm solve`: the JSON object, CSV and plot outputs, and clear errors.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn bar() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/clamped_bar.toml")
+        .display()
+        .to_string()
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::cargo_bin("mshbm")
+        .unwrap()
+        .arg("solve")
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn one_error_line(out: &std::process::Output) -> String {
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    stderr
+}
+
+#[test]
+fn json_object_has_every_field() {
+    let out = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--harmonics",
+        "5",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("exactly one JSON object");
+    for key in [
+        "frequency_hz",
+        "harmonics",
+        "samples",
+        "quadrature",
+        "method",
+        "converged",
+        "iterations",
+        "residual_norm",
+        "time_s",
+        "contact_dofs",
+        "contacts",
+        "response",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["method"], "redistributed");
+    assert_eq!(v["quadrature"], "exact");
+    assert_eq!(v["converged"], true);
+    assert_eq!(v["contact_dofs"], serde_json::json!([100]));
+    let c = &v["contacts"][0];
+    assert_eq!(c["coefficients"].as_array().unwrap().len(), 11);
+    let ns = v["samples"].as_u64().unwrap() as usize;
+    assert_eq!(c["displacement"].as_array().unwrap().len(), ns);
+    assert_eq!(v["time_s"].as_array().unwrap().len(), ns);
+    assert!(c["force"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|f| f.as_f64().unwrap() >= 0.0));
+    assert!(c["max"].as_f64().unwrap() <= 0.2 * (1.0 + 1e-12));
+    assert_eq!(v["response"]["dof"], 100);
+    assert_eq!(v["response"]["coefficients"], c["coefficients"]);
+}
+
+#[test]
+fn response_of_another_dof_and_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv: PathBuf = dir.path().join("period.csv");
+    let svg = dir.path().join("fig10.svg");
+    let out = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--harmonics",
+        "3",
+        "--quadrature",
+        "sampled",
+        "--samples",
+        "400",
+        "--set",
+        "damping.alpha=7587.7",
+        "--dof",
+        "50",
+        "--json",
+        "--output",
+        &csv.display().to_string(),
+        "--plot",
+        &svg.display().to_string(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["response"]["dof"], 50);
+    assert_eq!(v["samples"], 400);
+    assert_eq!(v["quadrature"], "sampled");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), "time_s,q_dof100,gap_c0,force_c0");
+    assert_eq!(lines.count(), 400);
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+}
+
+#[test]
+fn too_few_samples_is_an_error() {
+    let out = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--harmonics",
+        "5",
+        "--samples",
+        "10",
+    ]);
+    let err = one_error_line(&out);
+    assert!(err.contains("2H+1"), "{err}");
+}
+
+#[test]
+fn zero_harmonics_is_an_error() {
+    let err = one_error_line(&run(&[&bar(), "--frequency", "60000", "--harmonics", "0"]));
+    assert!(err.contains("harmonics"), "{err}");
+}
+
+#[test]
+fn non_convergence_is_reported_with_the_solution_and_a_non_zero_exit() {
+    let out = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--max-iterations",
+        "1",
+        "--json",
+    ]);
+    let err = one_error_line(&out);
+    assert!(
+        err.contains("did not converge") && err.contains("60000"),
+        "{err}"
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["converged"], false);
+}
+
+#[test]
+fn stiffness_proportional_damping_is_refused_with_the_reason() {
+    let err = one_error_line(&run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--set",
+        "damping.beta=1e-8",
+    ]));
+    assert!(
+        err.contains("C_NN") && err.contains("damping.alpha"),
+        "{err}"
+    );
+}
+
+#[test]
+fn dof_out_of_range_is_an_error() {
+    let err = one_error_line(&run(&[&bar(), "--frequency", "60000", "--dof", "101"]));
+    assert!(err.contains("--dof"), "{err}");
+}
