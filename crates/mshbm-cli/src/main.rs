@@ -29,6 +29,9 @@ enum Command {
     /// One periodic solution at one frequency (MS-HBM); time series, harmonics and extremes
     /// of the contacts (the paper's Fig. 10 with --plot).
     Solve(commands::solve::SolveArgs),
+    /// Frequency response diagram by pseudo-arclength continuation, with folds located
+    /// (the paper's Figs. 9 and 11); one branch per number of harmonics.
+    Frf(commands::frf::FrfArgs),
     /// Write the model as Matrix Market matrices and a `kind = "matrices"` model file.
     Export(commands::export::ExportArgs),
 }
@@ -38,6 +41,7 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Modes(args) => commands::modes::run(args),
         Command::Solve(args) => commands::solve::run(args),
+        Command::Frf(args) => commands::frf::run(args),
         Command::Export(args) => commands::export::run(args),
     };
     match result {

@@ -1,6 +1,7 @@
 //! One module per subcommand; each turns parsed arguments into library calls and output.
 
 pub mod export;
+pub mod frf;
 pub mod modes;
 pub mod solve;
 

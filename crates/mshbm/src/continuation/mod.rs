@@ -1,3 +1,5 @@
-//! Newton's method over any [`crate::problem::PeriodicProblem`] (and, later, continuation).
+//! Newton's method and pseudo-arclength continuation over any
+//! [`crate::problem::PeriodicProblem`].
 
+pub mod arclength;
 pub mod newton;

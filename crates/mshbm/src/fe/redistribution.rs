@@ -45,6 +45,11 @@ pub fn redistribute_scalar_mass(
     for &c in contact_nodes {
         is_contact[c] = true;
     }
+    // contact nodes that already carry no mass (a model built with a massless boundary)
+    // need no redistribution
+    if mass.iter().all(|(i, j, v)| v == 0.0 || (!is_contact[i] && !is_contact[j])) {
+        return Ok(mass.clone());
+    }
 
     // Centred and scaled affine basis Φ = [1, x'_1, …, x'_d] (invariant result, better conditioning).
     let q = dim + 1;

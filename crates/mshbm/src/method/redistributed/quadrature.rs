@@ -13,8 +13,9 @@
 //! Jacobian follows the same sum (eqs. 36–38: the interval end points drop out because
 //! `q_N` is continuous).
 //!
-//! Switching times are located from a grid of `N_s` points: a contact that opens and closes
-//! again between two grid points is not seen (increase `--samples` for very short events).
+//! Switching times are located cell by cell on a grid of `N_s` points: a gap or force that is
+//! negative at the end of a cell, or dips below zero at an interior minimum (grazing, or a
+//! release shorter than a cell), starts a new interval at its first root.
 
 use std::collections::HashMap;
 use std::rc::Rc;
@@ -117,19 +118,20 @@ fn indicator_coefficients(
         .collect()
 }
 
-/// First root in `(a, end]` of a trigonometric polynomial that is negative at `end`.
-fn first_root(coef: &[f64], a: f64, end: f64) -> f64 {
-    const SCAN: usize = 8;
-    let mut left = a;
-    let mut right = end;
-    for l in 1..=SCAN {
-        let p = a + (end - a) * l as f64 / SCAN as f64;
-        if evaluate(coef, p) < 0.0 {
-            right = p;
-            break;
-        }
-        left = p;
+/// Derivative coefficients of a trigonometric polynomial.
+fn derivative(coef: &[f64]) -> Vec<f64> {
+    let h = (coef.len() - 1) / 2;
+    let mut d = vec![0.0; coef.len()];
+    for k in 1..=h {
+        let kf = k as f64;
+        d[2 * k - 1] = kf * coef[2 * k];
+        d[2 * k] = -kf * coef[2 * k - 1];
     }
+    d
+}
+
+/// Bisection for a sign change of `f` on `[left, right]` where `f(left) ≥ 0 > f(right)`.
+fn bisect(coef: &[f64], mut left: f64, mut right: f64) -> f64 {
     for _ in 0..200 {
         let mid = 0.5 * (left + right);
         if mid <= left || mid >= right {
@@ -142,6 +144,51 @@ fn first_root(coef: &[f64], a: f64, end: f64) -> f64 {
         }
     }
     right
+}
+
+/// First time in `(a, end]` at which the trigonometric polynomial `coef` becomes negative,
+/// if it does: either it is negative at `end`, or it dips below zero at an interior
+/// minimum (a grazing contact or a brief release shorter than the grid cell).
+fn first_negative(coef: &[f64], a: f64, end: f64) -> Option<f64> {
+    const SCAN: usize = 8;
+    let mut left = a;
+    for l in 1..=SCAN {
+        let p = a + (end - a) * l as f64 / SCAN as f64;
+        if evaluate(coef, p) < 0.0 {
+            return Some(bisect(coef, left, p));
+        }
+        left = p;
+    }
+    // positive at the scan points: look for a negative interior minimum
+    let d = derivative(coef);
+    let mut prev = a;
+    let mut dprev = evaluate(&d, a);
+    for l in 1..=SCAN {
+        let p = a + (end - a) * l as f64 / SCAN as f64;
+        let dp = evaluate(&d, p);
+        if dprev < 0.0 && dp > 0.0 {
+            // minimum in (prev, p): bisection on the derivative
+            let (mut lo, mut hi) = (prev, p);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                if evaluate(&d, mid) < 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let tmin = 0.5 * (lo + hi);
+            if evaluate(coef, tmin) < 0.0 {
+                return Some(bisect(coef, prev, tmin));
+            }
+        }
+        prev = p;
+        dprev = dp;
+    }
+    None
 }
 
 /// Decompose one period into active-set groups.
@@ -201,8 +248,7 @@ pub fn integrate(
                     let coefs = indicator_coefficients(&set, load, n, nc, ncoef);
                     let mut earliest: Option<(f64, usize)> = None;
                     for (c, coef) in coefs.iter().enumerate() {
-                        if evaluate(coef, end) < 0.0 {
-                            let r = first_root(coef, a, end);
+                        if let Some(r) = first_negative(coef, a, end) {
                             if earliest.is_none_or(|(t, _)| r < t) {
                                 earliest = Some((r, c));
                             }

@@ -1,0 +1,313 @@
+//! `mshbm frf`: frequency response diagrams by pseudo-arclength continuation, one branch
+//! per number of harmonics, streamed to CSV as points are found.
+
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use mshbm::continuation::arclength::{trace_branch, Branch, ContinuationOptions, Event, StopReason};
+use mshbm::Model;
+use serde::Serialize;
+
+use super::solve::MethodArgs;
+use super::ModelArgs;
+use crate::plot::{Figure, HLine, Series, Style};
+
+/// Arguments of `mshbm frf`.
+#[derive(Args, Debug)]
+pub struct FrfArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+
+    /// Start frequency [Hz] (the branch starts from the linear response here).
+    #[arg(long = "from", value_name = "HZ")]
+    pub from_hz: f64,
+
+    /// End frequency [Hz] (below --from for a downward sweep).
+    #[arg(long = "to", value_name = "HZ")]
+    pub to_hz: f64,
+
+    /// Numbers of harmonics, comma-separated: one branch each, overlaid in one plot.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![5usize])]
+    pub harmonics: Vec<usize>,
+
+    #[command(flatten)]
+    pub method: MethodArgs,
+
+    /// Initial arclength step (dimensionless: x scaled by the model's length scale, ω by
+    /// the start frequency).
+    #[arg(long, default_value_t = 0.01)]
+    pub step: f64,
+
+    /// Largest arclength step.
+    #[arg(long, default_value_t = 0.1)]
+    pub max_step: f64,
+
+    /// Smallest arclength step; below it the continuation stops and reports why.
+    #[arg(long, default_value_t = 1e-7)]
+    pub min_step: f64,
+
+    /// Largest turn of the tangent between two points [degrees].
+    #[arg(long, default_value_t = 20.0)]
+    pub max_turn: f64,
+
+    /// CSV file, one row per point (appended as points are found):
+    /// frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold.
+    #[arg(long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+
+    /// Plot max (and min) displacement vs frequency for each H, folds marked; .svg or .png.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+
+    /// Print one JSON object on stdout: {"branches": [...], "folds": [...]}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One point of the diagram as reported.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrdPoint {
+    pub frequency_hz: f64,
+    pub max_qn: f64,
+    pub min_qn: f64,
+    pub amplitude_h1: f64,
+    pub residual_norm: f64,
+    pub newton_iterations: usize,
+    pub fold: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FoldReport {
+    pub harmonics: usize,
+    pub frequency_hz: f64,
+    pub max_qn: f64,
+    pub min_qn: f64,
+    pub amplitude_h1: f64,
+    /// The branch turns at a kink of a nonsmooth residual rather than at a smooth fold.
+    pub at_kink: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BranchReport {
+    pub harmonics: usize,
+    pub points: Vec<FrdPoint>,
+    /// "reached end", or why the branch stopped.
+    pub stop: String,
+    pub completed: bool,
+}
+
+#[derive(Debug, Serialize)]
+struct FrdReport {
+    branches: Vec<BranchReport>,
+    folds: Vec<FoldReport>,
+}
+
+const CSV_HEADER: &str = "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold";
+
+fn stop_text(stop: &StopReason, to_hz: f64) -> String {
+    match stop {
+        StopReason::ReachedEnd => format!("reached {to_hz} Hz"),
+        StopReason::LeftRange => "the branch turned back past the start frequency".into(),
+        StopReason::MaxPoints => "point limit reached".into(),
+        StopReason::StartFailed(why) => format!("no solution at the start frequency: {why}"),
+        StopReason::StepTooSmall { omega, reason } => {
+            format!("stopped at {:.3} Hz: {reason}", omega / (2.0 * std::f64::consts::PI))
+        }
+    }
+}
+
+/// Trace one branch, streaming rows to `csv` and reporting progress.
+fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWriter<File>>, folds: &mut Vec<FoldReport>) -> Result<(BranchReport, Branch)> {
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut problem = args.method.problem(model, harmonics)?;
+    let dof = args.method.response_dof(model)?;
+    let mut options = ContinuationOptions::new(two_pi * args.from_hz, two_pi * args.to_hz);
+    options.initial_step = args.step;
+    options.max_step = args.max_step;
+    options.min_step = args.min_step;
+    options.max_turn_deg = args.max_turn;
+    options.newton = args.method.newton()?;
+
+    let progress = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(1000);
+        bar.set_style(ProgressStyle::with_template("H={prefix} [{bar:30}] {msg}").expect("valid template").progress_chars("=> "));
+        bar.set_prefix(harmonics.to_string());
+        Some(bar)
+    } else {
+        None
+    };
+    let span = args.to_hz - args.from_hz;
+    let mut points = Vec::new();
+    let mut row_error: Option<anyhow::Error> = None;
+    let branch = trace_branch(problem.as_mut(), &options, |p, event| {
+        let (x, omega, fold, iterations, residual, step) = match &event {
+            Event::Point(pt) => (&pt.x, pt.omega, false, pt.iterations, pt.residual_norm, pt.step),
+            Event::Fold(f) => (&f.x, f.omega, true, 0, 0.0, 0.0),
+        };
+        let s = p.solution(x, omega, dof)?;
+        let point = FrdPoint {
+            frequency_hz: s.frequency_hz,
+            max_qn: s.response.max,
+            min_qn: s.response.min,
+            amplitude_h1: s.response.amplitude_h1(),
+            residual_norm: if fold { s.residual_norm } else { residual },
+            newton_iterations: iterations,
+            fold,
+        };
+        if let Event::Fold(f) = &event {
+            folds.push(FoldReport {
+                harmonics,
+                frequency_hz: point.frequency_hz,
+                max_qn: point.max_qn,
+                min_qn: point.min_qn,
+                amplitude_h1: point.amplitude_h1,
+                at_kink: f.at_kink,
+            });
+        }
+        if let Some(w) = csv.as_mut() {
+            let r = writeln!(
+                w,
+                "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{}",
+                point.frequency_hz, harmonics, point.max_qn, point.min_qn, point.amplitude_h1, point.residual_norm, point.newton_iterations, point.fold
+            )
+            .and_then(|_| w.flush());
+            if let Err(e) = r {
+                row_error.get_or_insert(anyhow::anyhow!("cannot write the CSV: {e}"));
+            }
+        }
+        if let Some(bar) = &progress {
+            let done = ((point.frequency_hz - args.from_hz) / span).clamp(0.0, 1.0);
+            bar.set_position((done * 1000.0) as u64);
+            bar.set_message(format!("{:.1} Hz, {} points, step {:.1e}", point.frequency_hz, points.len() + 1, step));
+        }
+        points.push(point);
+        Ok(())
+    })?;
+    if let Some(bar) = progress {
+        bar.finish_and_clear();
+    }
+    if let Some(e) = row_error {
+        return Err(e);
+    }
+    let report = BranchReport {
+        harmonics,
+        points,
+        stop: stop_text(&branch.stop, args.to_hz),
+        completed: branch.stop.is_success(),
+    };
+    Ok((report, branch))
+}
+
+/// Fig. 9/11-style diagram: max and min of the response vs frequency per branch.
+pub fn frd_figure(model: &Model, branches: &[BranchReport], folds: &[FoldReport], title: &str, y_label: &str) -> Figure {
+    let mut fig = Figure {
+        title: title.to_string(),
+        x_label: "frequency [kHz]".into(),
+        y_label: y_label.to_string(),
+        ..Figure::default()
+    };
+    for (k, b) in branches.iter().enumerate() {
+        let pts: Vec<&FrdPoint> = b.points.iter().collect();
+        fig.series.push(Series {
+            label: format!("H = {} (max)", b.harmonics),
+            points: pts.iter().map(|p| (p.frequency_hz / 1e3, p.max_qn)).collect(),
+            style: Style::Line,
+            color: k,
+        });
+        fig.series.push(Series {
+            label: String::new(),
+            points: pts.iter().map(|p| (p.frequency_hz / 1e3, p.min_qn)).collect(),
+            style: Style::Line,
+            color: k,
+        });
+    }
+    if !folds.is_empty() {
+        fig.series.push(Series {
+            label: "folds".into(),
+            points: folds.iter().map(|f| (f.frequency_hz / 1e3, f.max_qn)).collect(),
+            style: Style::Markers,
+            color: 7,
+        });
+    }
+    if let Some(c) = model.contacts.first() {
+        if c.dofs.len() == 1 {
+            fig.hlines.push(HLine {
+                label: "gap".into(),
+                y: -c.gap / c.w[0],
+            });
+        }
+    }
+    fig
+}
+
+pub fn run(args: &FrfArgs) -> Result<()> {
+    for (name, v) in [("--from", args.from_hz), ("--to", args.to_hz)] {
+        if !(v.is_finite() && v > 0.0) {
+            bail!("{name} must be a positive number of Hz, got {v}");
+        }
+    }
+    if args.from_hz == args.to_hz {
+        bail!("--from and --to must differ");
+    }
+    if args.harmonics.is_empty() || args.harmonics.contains(&0) {
+        bail!("--harmonics must list numbers of harmonics of at least 1");
+    }
+    if !(args.min_step > 0.0 && args.min_step <= args.step && args.step <= args.max_step) {
+        bail!("steps must satisfy 0 < --min-step <= --step <= --max-step");
+    }
+    let model = args.model.load()?;
+    args.method.response_dof(&model)?;
+    let mut csv = match &args.output {
+        Some(path) => {
+            let f = File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
+            let mut w = BufWriter::new(f);
+            writeln!(w, "{CSV_HEADER}")?;
+            w.flush()?;
+            Some(w)
+        }
+        None => None,
+    };
+    let mut branches = Vec::new();
+    let mut folds = Vec::new();
+    let mut failure: Option<String> = None;
+    for &h in &args.harmonics {
+        let (report, _) = trace(&model, args, h, &mut csv, &mut folds)?;
+        if !report.completed && failure.is_none() {
+            failure = Some(format!("H = {h}: {}", report.stop));
+        }
+        if !args.json {
+            let nfolds = folds.iter().filter(|f| f.harmonics == h).count();
+            eprintln!("H = {h}: {} points, {nfolds} folds, {}", report.points.len(), report.stop);
+        }
+        branches.push(report);
+    }
+    if let Some(path) = &args.plot {
+        let dof = args.method.response_dof(&model)?;
+        let fig = frd_figure(&model, &branches, &folds, &format!("Frequency response — {}", model.name), &format!("displacement of DOF {dof} (max, min)"));
+        fig.save(path)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string(&FrdReport { branches, folds })?);
+    } else {
+        for f in &folds {
+            println!(
+                "fold (H = {}): {:.3} Hz, max {:.6e}{}",
+                f.harmonics,
+                f.frequency_hz,
+                f.max_qn,
+                if f.at_kink { " (at a kink)" } else { "" }
+            );
+        }
+        if let Some(path) = &args.output {
+            eprintln!("points written to {}", path.display());
+        }
+    }
+    if let Some(why) = failure {
+        bail!("continuation incomplete — {why}; every point found was written");
+    }
+    Ok(())
+}
