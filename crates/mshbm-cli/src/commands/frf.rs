@@ -46,8 +46,9 @@ pub struct FrfArgs {
     #[arg(long, default_value_t = 0.1)]
     pub max_step: f64,
 
-    /// Smallest arclength step; below it the continuation stops and reports why.
-    #[arg(long, default_value_t = 1e-7)]
+    /// Smallest arclength step; below it the continuation stops and reports why. Grazing
+    /// contacts turn the branch within very short arcs, so this is small.
+    #[arg(long, default_value_t = 1e-12)]
     pub min_step: f64,
 
     /// Largest turn of the tangent between two points [degrees].

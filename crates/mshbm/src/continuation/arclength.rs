@@ -6,7 +6,8 @@
 //! dominate every norm). Each step:
 //!
 //! * predictor `X_p = X_0 + Δs t` along the unit tangent `t` (solved from
-//!   `[R_X; t_prevᵀ] t = [0; 1]` and oriented with the previous tangent);
+//!   `[R_X; t_prevᵀ] t = [0; 1]` and oriented along the secant of the last step, so that a
+//!   sharp turn is not mistaken for a reversal);
 //! * Keller corrector: Newton on `[R(X); tᵀ(X − X_0) − Δs] = 0`;
 //! * step control: `Δs ← Δs · clamp(N_opt / N_it, ½, 2)` within bounds; a failed
 //!   corrector, or a tangent that turns by more than `max_turn_deg`, halves `Δs`; below
@@ -55,7 +56,7 @@ impl ContinuationOptions {
             omega_start,
             omega_end,
             initial_step: 0.01,
-            min_step: 1e-7,
+            min_step: 1e-12,
             max_step: 0.1,
             optimal_iterations: 4,
             max_turn_deg: 20.0,
@@ -190,13 +191,15 @@ fn solve_dense(a: &Mat<f64>, rhs: &[f64]) -> Result<Vec<f64>> {
     Ok(x)
 }
 
-/// Unit tangent at `(x, ω)` oriented along `previous`.
-fn tangent<P: PeriodicProblem + ?Sized>(problem: &mut P, sc: &Scaling, x: &[f64], omega: f64, previous: &[f64]) -> Result<Vec<f64>> {
+/// Unit tangent at `(x, ω)`, bordered with `previous` and oriented so that
+/// `t · direction > 0` (`direction`: the previous tangent, or better the secant of the
+/// last step, which stays a valid orientation across sharp turns).
+fn tangent<P: PeriodicProblem + ?Sized>(problem: &mut P, sc: &Scaling, x: &[f64], omega: f64, previous: &[f64], direction: &[f64]) -> Result<Vec<f64>> {
     let (a, _) = bordered(problem, sc, x, omega, previous)?;
     let mut rhs = vec![0.0; x.len() + 1];
     rhs[x.len()] = 1.0;
     let t = normalized(solve_dense(&a, &rhs)?);
-    Ok(if dot(&t, previous) < 0.0 { t.iter().map(|v| -v).collect() } else { t })
+    Ok(if dot(&t, direction) < 0.0 { t.iter().map(|v| -v).collect() } else { t })
 }
 
 /// Keller corrector from the predictor `X_0 + Δs t`. Returns the scaled point and the
@@ -222,7 +225,10 @@ fn correct<P: PeriodicProblem + ?Sized>(
         };
         let norm = max_abs(&r) / sc.length;
         let arc = dot(t, &xs.iter().zip(start).map(|(a, b)| a - b).collect::<Vec<_>>()) - ds;
-        if norm <= newton.tolerance && arc.abs() <= 1e-10 * ds.max(1e-12) {
+        // the arclength equation is linear: after one step it holds to round-off, which
+        // is relative to |X|, not to the (possibly tiny) step
+        let arc_tolerance = 1e-8 * ds + 64.0 * f64::EPSILON * max_abs(&xs);
+        if norm <= newton.tolerance && arc.abs() <= arc_tolerance {
             return Ok(Some((xs, it, norm)));
         }
         if it == newton.max_iterations {
@@ -271,7 +277,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     }
     let mut seed = vec![0.0; n + 1];
     seed[n] = direction;
-    let t0 = tangent(problem, &sc, &first.x, w0, &seed)?;
+    let t0 = tangent(problem, &sc, &first.x, w0, &seed, &seed)?;
     let p0 = BranchPoint {
         x: first.x,
         omega: w0,
@@ -298,7 +304,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
             let guess: Vec<f64> = last.x.iter().zip(&last.tangent).map(|(x, t)| x + frac * ds * t * sc.length).collect();
             let end = crate::continuation::newton::solve(problem, &guess, w1, &options.newton)?;
             if end.converged {
-                let t = tangent(problem, &sc, &end.x, w1, &last.tangent)?;
+                let t = tangent(problem, &sc, &end.x, w1, &last.tangent, &last.tangent)?;
                 let p = BranchPoint {
                     x: end.x,
                     omega: w1,
@@ -317,7 +323,8 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         let accepted = match corrected {
             Some((xs, iterations, norm)) => {
                 let (x, omega) = sc.from_scaled(&xs);
-                match tangent(problem, &sc, &x, omega, &last.tangent) {
+                let secant: Vec<f64> = xs.iter().zip(&start).map(|(a, b)| a - b).collect();
+                match tangent(problem, &sc, &x, omega, &last.tangent, &secant) {
                     Ok(t) if dot(&t, &last.tangent) >= cos_turn || ds <= options.min_step * 2.0 => Some(BranchPoint {
                         x,
                         omega,
@@ -387,7 +394,8 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
         match correct(problem, sc, start, &last.tangent, s, &options.newton)? {
             Some((xs, _, _)) => {
                 let (x, omega) = sc.from_scaled(&xs);
-                let t = tangent(problem, sc, &x, omega, &last.tangent)?;
+                let secant: Vec<f64> = xs.iter().zip(start).map(|(a, b)| a - b).collect();
+                let t = tangent(problem, sc, &x, omega, &last.tangent, &secant)?;
                 Ok(Some((t[n], x, omega)))
             }
             None => Ok(None),

@@ -555,7 +555,7 @@ impl PeriodicProblem for RedistributedMsHbm {
         let mut n_extremes = |i: usize| -> (f64, f64) {
             let samples: Vec<f64> = q_s.iter().map(|q| q[i]).collect();
             let mut mx = refine_extremum(&taus, &samples, 1.0, |t| q_at(i, t));
-            let mut mn = -refine_extremum(&taus, &samples, -1.0, |t| q_at(i, t));
+            let mut mn = refine_extremum(&taus, &samples, -1.0, |t| q_at(i, t));
             for s in &integration.switches {
                 let v = q_at(i, s.tau);
                 mx = mx.max(v);
@@ -611,8 +611,7 @@ impl PeriodicProblem for RedistributedMsHbm {
                     let samples: Vec<f64> =
                         taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
                     let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
-                    let min =
-                        -refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
+                    let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
                     DofResponse {
                         dof: response_dof,
                         coefficients,
@@ -644,9 +643,9 @@ impl PeriodicProblem for RedistributedMsHbm {
     }
 }
 
-/// `sign ·` the largest value of a periodic signal sampled at `taus` (`values`), refined by
-/// golden-section search of `f` around the best sample (so that the extreme is that of the
-/// time signal, not of the sample grid).
+/// The maximum (`sign = 1`) or minimum (`sign = −1`) of a periodic signal sampled at `taus`
+/// (`values`), refined by golden-section search of `f` around the best sample (so that the
+/// extreme is that of the time signal, not of the sample grid).
 fn refine_extremum(taus: &[f64], values: &[f64], sign: f64, mut f: impl FnMut(f64) -> f64) -> f64 {
     let n = taus.len();
     let (j, best) = values
