@@ -115,6 +115,10 @@ fn stop_text(stop: &StopReason, to_hz: f64) -> String {
         StopReason::LeftRange => "the branch turned back past the start frequency".into(),
         StopReason::MaxPoints => "point limit reached".into(),
         StopReason::StartFailed(why) => format!("no solution at the start frequency: {why}"),
+        StopReason::Retraced { omega } => format!(
+            "stopped at {:.3} Hz: the branch came back onto a fold it had passed (it retraces itself after a sharp turn it could not resolve)",
+            omega / (2.0 * std::f64::consts::PI)
+        ),
         StopReason::StepTooSmall { omega, reason } => {
             format!("stopped at {:.3} Hz: {reason}", omega / (2.0 * std::f64::consts::PI))
         }
@@ -229,7 +233,7 @@ pub fn frd_figure(model: &Model, branches: &[BranchReport], folds: &[FoldReport]
     if !folds.is_empty() {
         fig.series.push(Series {
             label: "folds".into(),
-            points: folds.iter().map(|f| (f.frequency_hz / 1e3, f.max_qn)).collect(),
+            points: folds.iter().map(|f| (f.frequency_hz / 1e3, f.min_qn)).collect(),
             style: Style::Markers,
             color: 7,
         });

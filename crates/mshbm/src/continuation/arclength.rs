@@ -110,6 +110,9 @@ pub enum StopReason {
     StartFailed(String),
     /// The step fell below `min_step` (the corrector kept failing).
     StepTooSmall { omega: f64, reason: String },
+    /// The branch came back onto a fold it had already passed: it retraces itself
+    /// (typically after an unresolved sharp turn at a grazing contact).
+    Retraced { omega: f64 },
 }
 
 impl StopReason {
@@ -324,8 +327,12 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
             Some((xs, iterations, norm)) => {
                 let (x, omega) = sc.from_scaled(&xs);
                 let secant: Vec<f64> = xs.iter().zip(&start).map(|(a, b)| a - b).collect();
+                // the corrector must stay near the predictor: a secant far off the tangent
+                // means it landed on another part of the curve (e.g. a nearby branch born
+                // at a grazing contact), which would make the branch jump or retrace
+                let on_branch = dot(&normalized(secant.clone()), &last.tangent) >= 0.5;
                 match tangent(problem, &sc, &x, omega, &last.tangent, &secant) {
-                    Ok(t) if dot(&t, &last.tangent) >= cos_turn || ds <= options.min_step * 2.0 => Some(BranchPoint {
+                    Ok(t) if on_branch && (dot(&t, &last.tangent) >= cos_turn || ds <= options.min_step * 2.0) => Some(BranchPoint {
                         x,
                         omega,
                         tangent: t,
@@ -341,10 +348,33 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         let Some(point) = accepted else {
             ds *= 0.5;
             if ds < options.min_step {
+                // a corner of the branch (grazing): look for the outgoing piece on small
+                // spheres around the last point
+                if let Some(point) = escape_corner(problem, &sc, &last, options)? {
+                    if last.tangent[n] * point.tangent[n] < 0.0 {
+                        let fold = Fold {
+                            omega: point.omega.max(last.omega).min(if direction > 0.0 { f64::INFINITY } else { point.omega.min(last.omega) }),
+                            x: last.x.clone(),
+                            after: branch.points.len() - 1,
+                            at_kink: true,
+                        };
+                        let fold = Fold {
+                            omega: last.omega,
+                            ..fold
+                        };
+                        on_event(problem, Event::Fold(&fold))?;
+                        branch.folds.push(fold);
+                    }
+                    ds = options.min_step.max(1e-6);
+                    on_event(problem, Event::Point(&point))?;
+                    branch.points.push(point);
+                    continue;
+                }
                 branch.stop = StopReason::StepTooSmall {
                     omega: last.omega,
                     reason: format!(
-                        "the corrector did not converge within {} iterations even with the smallest step {:.1e}",
+                        "no continuation point within {} corrector iterations even with the smallest step {:.1e} \
+                         (a singular point of the branch, e.g. where a contact grazes and the branch turns sharply)",
                         options.newton.max_iterations, options.min_step
                     ),
                 };
@@ -359,8 +389,18 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                     after: branch.points.len() - 1,
                     ..fold
                 };
+                // a fold met again (same frequency, same solution) means the branch is
+                // retracing itself: stop instead of going round
+                let seen = branch.folds.iter().any(|f| {
+                    (f.omega - fold.omega).abs() <= 1e-7 * fold.omega
+                        && f.x.iter().zip(&fold.x).all(|(a, b)| (a - b).abs() <= 1e-6 * sc.length)
+                });
                 on_event(problem, Event::Fold(&fold))?;
                 branch.folds.push(fold);
+                if seen {
+                    branch.stop = StopReason::Retraced { omega: point.omega };
+                    return Ok(branch);
+                }
             }
         }
         let ratio = options.optimal_iterations.max(1) as f64 / point.iterations.max(1) as f64;
@@ -435,4 +475,80 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
     // the arc, at a kink of the branch (nonsmooth residual)
     let (fold_x, fold_w, gap) = if ta.abs() < tb.abs() { (xa, wa, ta.abs()) } else { (xb, wb, tb.abs()) };
     Ok(Some(Fold { omega: fold_w, x: fold_x, after: 0, at_kink: gap > 1e-6 }))
+}
+
+/// Continue past a corner of the branch: Newton on `[R(X); ‖X − X_0‖² − r²] = 0` for growing
+/// radii `r`, from the predictor along the last tangent and from directions turned away
+/// from it, accepting the first solution that does not lie on the incoming piece.
+fn escape_corner<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    sc: &Scaling,
+    last: &BranchPoint,
+    options: &ContinuationOptions,
+) -> Result<Option<BranchPoint>> {
+    let n = last.x.len();
+    let x0 = sc.to_scaled(&last.x, last.omega);
+    let t = &last.tangent;
+    // unit vectors orthogonal to t: the ω axis and the largest x-component axis, projected
+    let mut others = Vec::new();
+    for axis in [n, (0..n).max_by(|&a, &b| t[a].abs().total_cmp(&t[b].abs())).unwrap_or(0)] {
+        let mut e = vec![0.0; n + 1];
+        e[axis] = 1.0;
+        let c = dot(&e, t);
+        let v: Vec<f64> = e.iter().zip(t).map(|(a, b)| a - c * b).collect();
+        if dot(&v, &v) > 1e-6 {
+            let v = normalized(v);
+            others.push(v.iter().map(|x| -x).collect::<Vec<f64>>());
+            others.push(v);
+        }
+    }
+    for radius in [1e-8, 1e-7, 1e-6, 1e-5, 1e-4] {
+        let mut starts = vec![t.clone()];
+        for v in &others {
+            starts.push(normalized(t.iter().zip(v).map(|(a, b)| a + b).collect()));
+            starts.push(v.clone());
+        }
+        for dir in starts {
+            let mut xs: Vec<f64> = x0.iter().zip(&dir).map(|(a, b)| a + radius * b).collect();
+            for it in 0..=options.newton.max_iterations {
+                let (x, omega) = sc.from_scaled(&xs);
+                if !(omega.is_finite() && omega > 0.0) {
+                    break;
+                }
+                let d: Vec<f64> = xs.iter().zip(&x0).map(|(a, b)| a - b).collect();
+                let (mut a, r) = match bordered(problem, sc, &x, omega, t) {
+                    Ok(v) => v,
+                    Err(Error::Singular(_)) => break,
+                    Err(e) => return Err(e),
+                };
+                for j in 0..=n {
+                    a[(n, j)] = 2.0 * d[j];
+                }
+                let sphere = dot(&d, &d) - radius * radius;
+                let norm = max_abs(&r) / sc.length;
+                if norm <= options.newton.tolerance && sphere.abs() <= 1e-8 * radius * radius {
+                    let u = normalized(d.clone());
+                    // forward only: a corner sharper than a right angle is not crossed
+                    // (it could not be told from a retrace of the incoming piece)
+                    if dot(&u, t) < 0.0 {
+                        break;
+                    }
+                    let tn = tangent(problem, sc, &x, omega, t, &d)?;
+                    return Ok(Some(BranchPoint {
+                        x,
+                        omega,
+                        tangent: tn,
+                        iterations: it,
+                        residual_norm: norm,
+                        step: radius,
+                    }));
+                }
+                let mut rhs: Vec<f64> = r.iter().map(|v| -v).collect();
+                rhs.push(-sphere);
+                let Ok(step) = solve_dense(&a, &rhs) else { break };
+                xs.iter_mut().zip(&step).for_each(|(a, b)| *a += b);
+            }
+        }
+    }
+    Ok(None)
 }
