@@ -32,6 +32,10 @@ enum Command {
     /// Frequency response diagram by pseudo-arclength continuation, with folds located
     /// (the paper's Figs. 9 and 11); one branch per number of harmonics.
     Frf(commands::frf::FrfArgs),
+    /// Reference time integration (Moreau–Jean, or position-level Newmark on the
+    /// redistributed mass): gap, contact force and energy over time (the paper's Fig. 5),
+    /// or the periodic steady state in the form of `mshbm solve` (Fig. 9's reference).
+    Simulate(commands::simulate::SimulateArgs),
     /// Write the model as Matrix Market matrices and a `kind = "matrices"` model file.
     Export(commands::export::ExportArgs),
 }
@@ -42,6 +46,7 @@ fn main() -> ExitCode {
         Command::Modes(args) => commands::modes::run(args),
         Command::Solve(args) => commands::solve::run(args),
         Command::Frf(args) => commands::frf::run(args),
+        Command::Simulate(args) => commands::simulate::run(args),
         Command::Export(args) => commands::export::run(args),
     };
     match result {

@@ -69,6 +69,20 @@ fn color(i: usize) -> RGBColor {
     PALETTE[i % PALETTE.len()]
 }
 
+fn draw_panels<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, figures: &[Figure]) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    for (panel, fig) in root
+        .split_evenly((figures.len().max(1), 1))
+        .iter()
+        .zip(figures)
+    {
+        fig.draw(panel)?;
+    }
+    Ok(())
+}
+
 impl Figure {
     /// Render to `path`; the format follows the extension (`.svg` or `.png`).
     pub fn save(&self, path: &Path) -> Result<()> {
@@ -88,6 +102,33 @@ impl Figure {
             Some("png") => {
                 let root = BitMapBackend::new(path, size).into_drawing_area();
                 self.draw(&root)?;
+                root.present()
+                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
+            }
+            _ => bail!("{}: plot file must end in .svg or .png", path.display()),
+        }
+        Ok(())
+    }
+
+    /// Render several figures as panels stacked vertically (sharing nothing but the file),
+    /// e.g. a gap and an energy history over the same time axis (the paper's Fig. 5).
+    pub fn save_stacked(figures: &[Figure], path: &Path) -> Result<()> {
+        register_font();
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let size = (1000, 420 * figures.len().max(1) as u32);
+        match ext.as_deref() {
+            Some("svg") => {
+                let root = SVGBackend::new(path, size).into_drawing_area();
+                draw_panels(&root, figures)?;
+                root.present()
+                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
+            }
+            Some("png") => {
+                let root = BitMapBackend::new(path, size).into_drawing_area();
+                draw_panels(&root, figures)?;
                 root.present()
                     .with_context(|| format!("{}: cannot write the plot", path.display()))?;
             }

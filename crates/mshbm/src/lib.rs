@@ -19,6 +19,7 @@ pub use error::{Error, Result};
 pub use model::{MassKind, Model, System};
 pub mod continuation;
 pub mod harmonic;
+pub mod integrate;
 pub mod linear;
 pub mod method;
 pub mod problem;

@@ -8,7 +8,9 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use mshbm::continuation::arclength::{trace_branch, Branch, ContinuationOptions, Event, StopReason};
+use mshbm::continuation::arclength::{
+    trace_branch, Branch, ContinuationOptions, Event, StopReason,
+};
 use mshbm::Model;
 use serde::Serialize;
 
@@ -107,7 +109,8 @@ struct FrdReport {
     folds: Vec<FoldReport>,
 }
 
-const CSV_HEADER: &str = "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold";
+const CSV_HEADER: &str =
+    "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold";
 
 fn stop_text(stop: &StopReason, to_hz: f64) -> String {
     match stop {
@@ -126,7 +129,13 @@ fn stop_text(stop: &StopReason, to_hz: f64) -> String {
 }
 
 /// Trace one branch, streaming rows to `csv` and reporting progress.
-fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWriter<File>>, folds: &mut Vec<FoldReport>) -> Result<(BranchReport, Branch)> {
+fn trace(
+    model: &Model,
+    args: &FrfArgs,
+    harmonics: usize,
+    csv: &mut Option<BufWriter<File>>,
+    folds: &mut Vec<FoldReport>,
+) -> Result<(BranchReport, Branch)> {
     let two_pi = 2.0 * std::f64::consts::PI;
     let mut problem = args.method.problem(model, harmonics)?;
     let dof = args.method.response_dof(model)?;
@@ -139,7 +148,11 @@ fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWr
 
     let progress = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(1000);
-        bar.set_style(ProgressStyle::with_template("H={prefix} [{bar:30}] {msg}").expect("valid template").progress_chars("=> "));
+        bar.set_style(
+            ProgressStyle::with_template("H={prefix} [{bar:30}] {msg}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
         bar.set_prefix(harmonics.to_string());
         Some(bar)
     } else {
@@ -150,7 +163,14 @@ fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWr
     let mut row_error: Option<anyhow::Error> = None;
     let branch = trace_branch(problem.as_mut(), &options, |p, event| {
         let (x, omega, fold, iterations, residual, step) = match &event {
-            Event::Point(pt) => (&pt.x, pt.omega, false, pt.iterations, pt.residual_norm, pt.step),
+            Event::Point(pt) => (
+                &pt.x,
+                pt.omega,
+                false,
+                pt.iterations,
+                pt.residual_norm,
+                pt.step,
+            ),
             Event::Fold(f) => (&f.x, f.omega, true, 0, 0.0, 0.0),
         };
         let s = p.solution(x, omega, dof)?;
@@ -177,7 +197,14 @@ fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWr
             let r = writeln!(
                 w,
                 "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{}",
-                point.frequency_hz, harmonics, point.max_qn, point.min_qn, point.amplitude_h1, point.residual_norm, point.newton_iterations, point.fold
+                point.frequency_hz,
+                harmonics,
+                point.max_qn,
+                point.min_qn,
+                point.amplitude_h1,
+                point.residual_norm,
+                point.newton_iterations,
+                point.fold
             )
             .and_then(|_| w.flush());
             if let Err(e) = r {
@@ -187,7 +214,12 @@ fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWr
         if let Some(bar) = &progress {
             let done = ((point.frequency_hz - args.from_hz) / span).clamp(0.0, 1.0);
             bar.set_position((done * 1000.0) as u64);
-            bar.set_message(format!("{:.1} Hz, {} points, step {:.1e}", point.frequency_hz, points.len() + 1, step));
+            bar.set_message(format!(
+                "{:.1} Hz, {} points, step {:.1e}",
+                point.frequency_hz,
+                points.len() + 1,
+                step
+            ));
         }
         points.push(point);
         Ok(())
@@ -208,7 +240,13 @@ fn trace(model: &Model, args: &FrfArgs, harmonics: usize, csv: &mut Option<BufWr
 }
 
 /// Fig. 9/11-style diagram: max and min of the response vs frequency per branch.
-pub fn frd_figure(model: &Model, branches: &[BranchReport], folds: &[FoldReport], title: &str, y_label: &str) -> Figure {
+pub fn frd_figure(
+    model: &Model,
+    branches: &[BranchReport],
+    folds: &[FoldReport],
+    title: &str,
+    y_label: &str,
+) -> Figure {
     let mut fig = Figure {
         title: title.to_string(),
         x_label: "frequency [kHz]".into(),
@@ -219,13 +257,19 @@ pub fn frd_figure(model: &Model, branches: &[BranchReport], folds: &[FoldReport]
         let pts: Vec<&FrdPoint> = b.points.iter().collect();
         fig.series.push(Series {
             label: format!("H = {} (max)", b.harmonics),
-            points: pts.iter().map(|p| (p.frequency_hz / 1e3, p.max_qn)).collect(),
+            points: pts
+                .iter()
+                .map(|p| (p.frequency_hz / 1e3, p.max_qn))
+                .collect(),
             style: Style::Line,
             color: k,
         });
         fig.series.push(Series {
             label: String::new(),
-            points: pts.iter().map(|p| (p.frequency_hz / 1e3, p.min_qn)).collect(),
+            points: pts
+                .iter()
+                .map(|p| (p.frequency_hz / 1e3, p.min_qn))
+                .collect(),
             style: Style::Line,
             color: k,
         });
@@ -233,7 +277,10 @@ pub fn frd_figure(model: &Model, branches: &[BranchReport], folds: &[FoldReport]
     if !folds.is_empty() {
         fig.series.push(Series {
             label: "folds".into(),
-            points: folds.iter().map(|f| (f.frequency_hz / 1e3, f.min_qn)).collect(),
+            points: folds
+                .iter()
+                .map(|f| (f.frequency_hz / 1e3, f.min_qn))
+                .collect(),
             style: Style::Markers,
             color: 7,
         });
@@ -268,7 +315,8 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     args.method.response_dof(&model)?;
     let mut csv = match &args.output {
         Some(path) => {
-            let f = File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
+            let f =
+                File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
             let mut w = BufWriter::new(f);
             writeln!(w, "{CSV_HEADER}")?;
             w.flush()?;
@@ -286,13 +334,23 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         }
         if !args.json {
             let nfolds = folds.iter().filter(|f| f.harmonics == h).count();
-            eprintln!("H = {h}: {} points, {nfolds} folds, {}", report.points.len(), report.stop);
+            eprintln!(
+                "H = {h}: {} points, {nfolds} folds, {}",
+                report.points.len(),
+                report.stop
+            );
         }
         branches.push(report);
     }
     if let Some(path) = &args.plot {
         let dof = args.method.response_dof(&model)?;
-        let fig = frd_figure(&model, &branches, &folds, &format!("Frequency response — {}", model.name), &format!("displacement of DOF {dof} (max, min)"));
+        let fig = frd_figure(
+            &model,
+            &branches,
+            &folds,
+            &format!("Frequency response — {}", model.name),
+            &format!("displacement of DOF {dof} (max, min)"),
+        );
         fig.save(path)?;
     }
     if args.json {

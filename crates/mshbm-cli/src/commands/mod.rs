@@ -3,6 +3,7 @@
 pub mod export;
 pub mod frf;
 pub mod modes;
+pub mod simulate;
 pub mod solve;
 
 use std::path::PathBuf;

@@ -60,8 +60,11 @@ impl ContinuationOptions {
             max_step: 0.1,
             optimal_iterations: 4,
             max_turn_deg: 20.0,
-            newton: NewtonOptions { max_iterations: 12, ..NewtonOptions::default() },
-            max_points: 100_000,
+            newton: NewtonOptions {
+                max_iterations: 12,
+                ..NewtonOptions::default()
+            },
+            max_points: 20_000,
         }
     }
 }
@@ -162,12 +165,21 @@ impl Scaling {
     }
     fn from_scaled(&self, s: &[f64]) -> (Vec<f64>, f64) {
         let n = s.len() - 1;
-        (s[..n].iter().map(|v| v * self.length).collect(), s[n] * self.omega)
+        (
+            s[..n].iter().map(|v| v * self.length).collect(),
+            s[n] * self.omega,
+        )
     }
 }
 
 /// The bordered matrix `[R_X; cᵀ]` in scaled variables.
-fn bordered<P: PeriodicProblem + ?Sized>(problem: &mut P, sc: &Scaling, x: &[f64], omega: f64, border: &[f64]) -> Result<(Mat<f64>, Vec<f64>)> {
+fn bordered<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    sc: &Scaling,
+    x: &[f64],
+    omega: f64,
+    border: &[f64],
+) -> Result<(Mat<f64>, Vec<f64>)> {
     let lin = problem.linearize(x, omega)?;
     let n = x.len();
     let mut a = Mat::<f64>::zeros(n + 1, n + 1);
@@ -189,7 +201,9 @@ fn solve_dense(a: &Mat<f64>, rhs: &[f64]) -> Result<Vec<f64>> {
     let x = a.partial_piv_lu().solve(&b);
     let x: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
     if x.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Singular("the bordered continuation matrix is singular".into()));
+        return Err(Error::Singular(
+            "the bordered continuation matrix is singular".into(),
+        ));
     }
     Ok(x)
 }
@@ -197,12 +211,23 @@ fn solve_dense(a: &Mat<f64>, rhs: &[f64]) -> Result<Vec<f64>> {
 /// Unit tangent at `(x, ω)`, bordered with `previous` and oriented so that
 /// `t · direction > 0` (`direction`: the previous tangent, or better the secant of the
 /// last step, which stays a valid orientation across sharp turns).
-fn tangent<P: PeriodicProblem + ?Sized>(problem: &mut P, sc: &Scaling, x: &[f64], omega: f64, previous: &[f64], direction: &[f64]) -> Result<Vec<f64>> {
+fn tangent<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    sc: &Scaling,
+    x: &[f64],
+    omega: f64,
+    previous: &[f64],
+    direction: &[f64],
+) -> Result<Vec<f64>> {
     let (a, _) = bordered(problem, sc, x, omega, previous)?;
     let mut rhs = vec![0.0; x.len() + 1];
     rhs[x.len()] = 1.0;
     let t = normalized(solve_dense(&a, &rhs)?);
-    Ok(if dot(&t, direction) < 0.0 { t.iter().map(|v| -v).collect() } else { t })
+    Ok(if dot(&t, direction) < 0.0 {
+        t.iter().map(|v| -v).collect()
+    } else {
+        t
+    })
 }
 
 /// Keller corrector from the predictor `X_0 + Δs t`. Returns the scaled point and the
@@ -227,7 +252,10 @@ fn correct<P: PeriodicProblem + ?Sized>(
             Err(e) => return Err(e),
         };
         let norm = max_abs(&r) / sc.length;
-        let arc = dot(t, &xs.iter().zip(start).map(|(a, b)| a - b).collect::<Vec<_>>()) - ds;
+        let arc = dot(
+            t,
+            &xs.iter().zip(start).map(|(a, b)| a - b).collect::<Vec<_>>(),
+        ) - ds;
         // the arclength equation is linear: after one step it holds to round-off, which
         // is relative to |X|, not to the (possibly tiny) step
         let arc_tolerance = 1e-8 * ds + 64.0 * f64::EPSILON * max_abs(&xs);
@@ -258,7 +286,10 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
 ) -> Result<Branch> {
     let (w0, w1) = (options.omega_start, options.omega_end);
     if !(w0.is_finite() && w1.is_finite() && w0 > 0.0 && w1 > 0.0 && w0 != w1) {
-        return Err(Error::argument("frequency range", "start and end must be positive and different"));
+        return Err(Error::argument(
+            "frequency range",
+            "start and end must be positive and different",
+        ));
     }
     let direction = (w1 - w0).signum();
     let sc = Scaling {
@@ -273,7 +304,15 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     };
     // first point: Newton at the start frequency
     let x0 = problem.initial_guess(w0)?;
-    let first = crate::continuation::newton::solve(problem, &x0, w0, &NewtonOptions { max_iterations: options.newton.max_iterations.max(50), ..options.newton.clone() })?;
+    let first = crate::continuation::newton::solve(
+        problem,
+        &x0,
+        w0,
+        &NewtonOptions {
+            max_iterations: options.newton.max_iterations.max(50),
+            ..options.newton.clone()
+        },
+    )?;
     if !first.converged {
         branch.stop = StopReason::StartFailed(first.reason.unwrap_or_default());
         return Ok(branch);
@@ -293,6 +332,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     branch.points.push(p0);
     let mut ds = options.initial_step;
     let cos_turn = options.max_turn_deg.to_radians().cos();
+    let mut last_escaped = false;
     loop {
         if branch.points.len() >= options.max_points {
             branch.stop = StopReason::MaxPoints;
@@ -304,7 +344,12 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         let predicted_omega = (start[n] + ds * last.tangent[n]) * sc.omega;
         if (predicted_omega - w1) * direction >= 0.0 && last.tangent[n] * direction > 0.0 {
             let frac = (w1 - last.omega) / (predicted_omega - last.omega);
-            let guess: Vec<f64> = last.x.iter().zip(&last.tangent).map(|(x, t)| x + frac * ds * t * sc.length).collect();
+            let guess: Vec<f64> = last
+                .x
+                .iter()
+                .zip(&last.tangent)
+                .map(|(x, t)| x + frac * ds * t * sc.length)
+                .collect();
             let end = crate::continuation::newton::solve(problem, &guess, w1, &options.newton)?;
             if end.converged {
                 let t = tangent(problem, &sc, &end.x, w1, &last.tangent, &last.tangent)?;
@@ -332,14 +377,20 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                 // at a grazing contact), which would make the branch jump or retrace
                 let on_branch = dot(&normalized(secant.clone()), &last.tangent) >= 0.5;
                 match tangent(problem, &sc, &x, omega, &last.tangent, &secant) {
-                    Ok(t) if on_branch && (dot(&t, &last.tangent) >= cos_turn || ds <= options.min_step * 2.0) => Some(BranchPoint {
-                        x,
-                        omega,
-                        tangent: t,
-                        iterations,
-                        residual_norm: norm,
-                        step: ds,
-                    }),
+                    Ok(t)
+                        if on_branch
+                            && (dot(&t, &last.tangent) >= cos_turn
+                                || ds <= options.min_step * 2.0) =>
+                    {
+                        Some(BranchPoint {
+                            x,
+                            omega,
+                            tangent: t,
+                            iterations,
+                            residual_norm: norm,
+                            step: ds,
+                        })
+                    }
                     _ => None,
                 }
             }
@@ -350,17 +401,22 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
             if ds < options.min_step {
                 // a corner of the branch (grazing): look for the outgoing piece on small
                 // spheres around the last point
-                if let Some(point) = escape_corner(problem, &sc, &last, options)? {
+                // (at most once in a row: a branch that needs it again straight away is
+                // stuck, not at a corner)
+                let escaped = if last_escaped {
+                    None
+                } else {
+                    escape_corner(problem, &sc, &last, options)?
+                };
+                if let Some(point) = escaped {
+                    last_escaped = true;
                     if last.tangent[n] * point.tangent[n] < 0.0 {
+                        // ω is extremal at the corner itself
                         let fold = Fold {
-                            omega: point.omega.max(last.omega).min(if direction > 0.0 { f64::INFINITY } else { point.omega.min(last.omega) }),
+                            omega: last.omega,
                             x: last.x.clone(),
                             after: branch.points.len() - 1,
                             at_kink: true,
-                        };
-                        let fold = Fold {
-                            omega: last.omega,
-                            ..fold
                         };
                         on_event(problem, Event::Fold(&fold))?;
                         branch.folds.push(fold);
@@ -393,7 +449,10 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                 // retracing itself: stop instead of going round
                 let seen = branch.folds.iter().any(|f| {
                     (f.omega - fold.omega).abs() <= 1e-7 * fold.omega
-                        && f.x.iter().zip(&fold.x).all(|(a, b)| (a - b).abs() <= 1e-6 * sc.length)
+                        && f.x
+                            .iter()
+                            .zip(&fold.x)
+                            .all(|(a, b)| (a - b).abs() <= 1e-6 * sc.length)
                 });
                 on_event(problem, Event::Fold(&fold))?;
                 branch.folds.push(fold);
@@ -403,6 +462,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                 }
             }
         }
+        last_escaped = false;
         let ratio = options.optimal_iterations.max(1) as f64 / point.iterations.max(1) as f64;
         ds = (ds * ratio.clamp(0.5, 2.0)).clamp(options.min_step, options.max_step);
         let omega = point.omega;
@@ -443,7 +503,9 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
     };
     // working values fa, fb (scaled by the Illinois rule); true values ta, tb
     let (mut a, mut fa, mut ta) = (0.0, last.tangent[n], last.tangent[n]);
-    let Some((fb0, mut xb, mut wb)) = eval(problem, ds)? else { return Ok(None) };
+    let Some((fb0, mut xb, mut wb)) = eval(problem, ds)? else {
+        return Ok(None);
+    };
     let (mut b, mut fb, mut tb) = (ds, fb0, fb0);
     let (mut xa, mut wa) = (last.x.clone(), last.omega);
     let mut side = 0i32;
@@ -453,9 +515,16 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
         }
         let s = (a * fb - b * fa) / (fb - fa);
         let s = if s <= a || s >= b { 0.5 * (a + b) } else { s };
-        let Some((fs, xs, ws)) = eval(problem, s)? else { return Ok(None) };
+        let Some((fs, xs, ws)) = eval(problem, s)? else {
+            return Ok(None);
+        };
         if fs == 0.0 {
-            return Ok(Some(Fold { omega: ws, x: xs, after: 0, at_kink: false }));
+            return Ok(Some(Fold {
+                omega: ws,
+                x: xs,
+                after: 0,
+                at_kink: false,
+            }));
         }
         if fs * ta > 0.0 {
             (a, fa, ta, xa, wa) = (s, fs, fs, xs, ws);
@@ -473,8 +542,17 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
     }
     // t_ω through zero: a smooth fold; t_ω jumping over zero: ω is still extremal along
     // the arc, at a kink of the branch (nonsmooth residual)
-    let (fold_x, fold_w, gap) = if ta.abs() < tb.abs() { (xa, wa, ta.abs()) } else { (xb, wb, tb.abs()) };
-    Ok(Some(Fold { omega: fold_w, x: fold_x, after: 0, at_kink: gap > 1e-6 }))
+    let (fold_x, fold_w, gap) = if ta.abs() < tb.abs() {
+        (xa, wa, ta.abs())
+    } else {
+        (xb, wb, tb.abs())
+    };
+    Ok(Some(Fold {
+        omega: fold_w,
+        x: fold_x,
+        after: 0,
+        at_kink: gap > 1e-6,
+    }))
 }
 
 /// Continue past a corner of the branch: Newton on `[R(X); ‖X − X_0‖² − r²] = 0` for growing
@@ -491,7 +569,12 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
     let t = &last.tangent;
     // unit vectors orthogonal to t: the ω axis and the largest x-component axis, projected
     let mut others = Vec::new();
-    for axis in [n, (0..n).max_by(|&a, &b| t[a].abs().total_cmp(&t[b].abs())).unwrap_or(0)] {
+    for axis in [
+        n,
+        (0..n)
+            .max_by(|&a, &b| t[a].abs().total_cmp(&t[b].abs()))
+            .unwrap_or(0),
+    ] {
         let mut e = vec![0.0; n + 1];
         e[axis] = 1.0;
         let c = dot(&e, t);
@@ -545,7 +628,9 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
                 }
                 let mut rhs: Vec<f64> = r.iter().map(|v| -v).collect();
                 rhs.push(-sphere);
-                let Ok(step) = solve_dense(&a, &rhs) else { break };
+                let Ok(step) = solve_dense(&a, &rhs) else {
+                    break;
+                };
                 xs.iter_mut().zip(&step).for_each(|(a, b)| *a += b);
             }
         }

@@ -47,7 +47,10 @@ pub fn redistribute_scalar_mass(
     }
     // contact nodes that already carry no mass (a model built with a massless boundary)
     // need no redistribution
-    if mass.iter().all(|(i, j, v)| v == 0.0 || (!is_contact[i] && !is_contact[j])) {
+    if mass
+        .iter()
+        .all(|(i, j, v)| v == 0.0 || (!is_contact[i] && !is_contact[j]))
+    {
         return Ok(mass.clone());
     }
 

@@ -1,6 +1,6 @@
 //! Model files (TOML) and `--set key=value` overrides.
 //!
-//! Two kinds, chosen by the top-level `kind` key:
+//! Three kinds, chosen by the top-level `kind` key:
 //!
 //! * `kind = "bar"` — the paper's clamped bar (see [`crate::model::bar`]):
 //!   ```toml
@@ -45,6 +45,20 @@
 //!   [damping]
 //!   alpha = 0.0
 //!   ```
+//! * `kind = "dropped_bar"` — a free bar dropped under gravity onto a rigid support (the
+//!   paper's Figs. 3–5, see [`crate::model::dropped_bar`]):
+//!   ```toml
+//!   kind = "dropped_bar"
+//!   [bar]
+//!   elements = 100
+//!   length = 1.0
+//!   density = 1.0
+//!   young = 1.0
+//!   area = 1.0
+//!   [drop]
+//!   kappa = 3             # integer kappa = v0 c/(g L) >= 3: exactly periodic; or `height = h0`
+//!   gravity = 1.0         # g, acting downward
+//!   ```
 //!
 //! Unknown keys are errors. Errors name the file and the field.
 
@@ -54,6 +68,7 @@ use serde::Deserialize;
 
 use crate::error::{Error, Result};
 use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
+use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::matrix_market::read_matrix;
 use crate::model::{Contact, Damping, Model};
 
@@ -118,6 +133,36 @@ struct BarLoad {
 #[serde(deny_unknown_fields)]
 struct BarContact {
     gap: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DroppedBarFile {
+    #[allow(dead_code)]
+    kind: String,
+    name: Option<String>,
+    bar: DroppedBarSection,
+    drop: DropSection,
+    #[serde(default)]
+    damping: DampingSection,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DroppedBarSection {
+    elements: usize,
+    length: f64,
+    density: f64,
+    young: f64,
+    area: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DropSection {
+    height: Option<f64>,
+    kappa: Option<f64>,
+    gravity: f64,
 }
 
 #[derive(Deserialize)]
@@ -200,12 +245,7 @@ pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Mode
     for o in overrides {
         apply_override(&mut value, o)?;
     }
-    let kind = value
-        .get("kind")
-        .ok_or_else(|| Error::field(path, "kind", "missing (expected \"bar\" or \"matrices\")"))?
-        .as_str()
-        .ok_or_else(|| Error::field(path, "kind", "must be a string (\"bar\" or \"matrices\")"))?
-        .to_string();
+    let kind = model_kind(&value, path)?;
     match kind.as_str() {
         "bar" => {
             let f: BarFile = deserialize(value, path)?;
@@ -215,12 +255,87 @@ pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Mode
             let f: MatricesFile = deserialize(value, path)?;
             matrices_model(f, path)
         }
+        "dropped_bar" => {
+            let f: DroppedBarFile = deserialize(value, path)?;
+            let (params, name) = dropped_bar_parameters(f, path)?;
+            let mut model = params.build(path)?;
+            if let Some(name) = name {
+                model.name = name;
+            }
+            Ok(model)
+        }
         other => Err(Error::field(
             path,
             "kind",
-            format!("unknown kind \"{other}\" (expected \"bar\" or \"matrices\")"),
+            format!("unknown kind \"{other}\" (expected {KINDS})"),
         )),
     }
+}
+
+const KINDS: &str = "\"bar\", \"matrices\" or \"dropped_bar\"";
+
+fn model_kind(value: &toml::Value, path: &Path) -> Result<String> {
+    Ok(value
+        .get("kind")
+        .ok_or_else(|| Error::field(path, "kind", format!("missing (expected {KINDS})")))?
+        .as_str()
+        .ok_or_else(|| Error::field(path, "kind", format!("must be a string ({KINDS})")))?
+        .to_string())
+}
+
+/// The parameters of a `kind = "dropped_bar"` model file (with `overrides` applied), or
+/// `None` for any other kind — so that callers can compare with the closed-form solution.
+pub fn load_dropped_bar(path: &Path, overrides: &[String]) -> Result<Option<DroppedBarParameters>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let mut value: toml::Value = toml::from_str(&text).map_err(|e| Error::Toml {
+        file: path.to_path_buf(),
+        message: e.to_string().trim().replace('\n', " "),
+    })?;
+    for o in overrides {
+        apply_override(&mut value, o)?;
+    }
+    if model_kind(&value, path)? != "dropped_bar" {
+        return Ok(None);
+    }
+    let f: DroppedBarFile = deserialize(value, path)?;
+    Ok(Some(dropped_bar_parameters(f, path)?.0))
+}
+
+fn dropped_bar_parameters(
+    f: DroppedBarFile,
+    path: &Path,
+) -> Result<(DroppedBarParameters, Option<String>)> {
+    let mut params = DroppedBarParameters {
+        elements: f.bar.elements,
+        length: f.bar.length,
+        density: f.bar.density,
+        young: f.bar.young,
+        area: f.bar.area,
+        height: 0.0,
+        gravity: f.drop.gravity,
+        damping: f.damping.into(),
+    };
+    params.height = match (f.drop.height, f.drop.kappa) {
+        (Some(h), None) => h,
+        (None, Some(k)) => {
+            if !(k.is_finite() && k > 0.0) {
+                return Err(Error::field(
+                    path,
+                    "drop.kappa",
+                    format!("must be positive, got {k}"),
+                ));
+            }
+            params.height_for_kappa(k)
+        }
+        _ => {
+            return Err(Error::field(
+                path,
+                "drop",
+                "give exactly one of `height` and `kappa`",
+            ))
+        }
+    };
+    Ok((params, f.name))
 }
 
 fn deserialize<T: serde::de::DeserializeOwned>(value: toml::Value, path: &Path) -> Result<T> {

@@ -10,6 +10,7 @@
 //! DOFs are numbered from 0; DOF `node * dofs_per_node + component`.
 
 pub mod bar;
+pub mod dropped_bar;
 pub mod export;
 pub mod file;
 pub mod matrix_market;

@@ -113,16 +113,28 @@ pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha
         source: PathBuf::from("bilinear oscillator"),
         name: "bilinear oscillator".into(),
         mass: SparseMatrix::from_triplets(2, 2, &[(0, 0, m)]),
-        stiffness: SparseMatrix::from_triplets(2, 2, &[(0, 0, k + k_c), (0, 1, -k_c), (1, 0, -k_c), (1, 1, k_c)]),
+        stiffness: SparseMatrix::from_triplets(
+            2,
+            2,
+            &[(0, 0, k + k_c), (0, 1, -k_c), (1, 0, -k_c), (1, 1, k_c)],
+        ),
         damping_matrix: None,
         coordinates: vec![vec![0.0], vec![1.0]],
         dofs_per_node: 1,
         dirichlet: vec![],
-        contacts: vec![Contact { dofs: vec![1], w: vec![-1.0], gap }],
+        contacts: vec![Contact {
+            dofs: vec![1],
+            w: vec![-1.0],
+            gap,
+        }],
         harmonic_load: vec![force, 0.0],
         constant_load: vec![0.0, 0.0],
         acceleration: None,
-        damping: Damping { alpha, beta: 0.0, first_mode_ratio: None },
+        damping: Damping {
+            alpha,
+            beta: 0.0,
+            first_mode_ratio: None,
+        },
     }
 }
 

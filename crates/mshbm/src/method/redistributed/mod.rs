@@ -611,7 +611,8 @@ impl PeriodicProblem for RedistributedMsHbm {
                     let samples: Vec<f64> =
                         taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
                     let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
-                    let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
+                    let min =
+                        refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
                     DofResponse {
                         dof: response_dof,
                         coefficients,

@@ -1,0 +1,797 @@
+//! `mshbm simulate`: reference time integration (Moreau–Jean or position-level Newmark on
+//! the redistributed mass), for a given time or to a periodic steady state.
+
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{BufWriter, IsTerminal, Write};
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use mshbm::integrate::analytic::DroppedBarSolution;
+use mshbm::integrate::initial::state_from_harmonics;
+use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
+use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
+use mshbm::model::dropped_bar::DroppedBarParameters;
+use mshbm::model::file::load_dropped_bar;
+use mshbm::solution::PeriodicSolution;
+use mshbm::{MassKind, Model, System};
+
+use super::ModelArgs;
+use crate::plot::{Figure, HLine, Series, Style};
+
+/// Time-stepping schemes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SchemeArg {
+    /// Moreau–Jean θ-scheme on the consistent mass with Newton's impact law
+    /// (--restitution, --theta): the paper's reference (e_N = 0).
+    Moreau,
+    /// Newmark average acceleration on the redistributed mass (massless contact boundary)
+    /// with Signorini imposed on positions at the end of each step: no impact law, the gap
+    /// never goes negative, energy is kept through impacts. The model the MS-HBM solves.
+    Redistributed,
+}
+
+/// Arguments of `mshbm simulate`.
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+
+    /// Frequency of the harmonic load F cos(2π f t) [Hz]. Required for models with a
+    /// harmonic load; for free problems it only sets the period that --periods and
+    /// --steps-per-period refer to (default period: the closed-form period of a dropped bar,
+    /// otherwise the first eigenperiod).
+    #[arg(long, value_name = "HZ")]
+    pub frequency: Option<f64>,
+
+    /// Length of the run in periods (default: 2 for free problems, 20 for forced ones).
+    /// With --steady-state: the period limit (default 1000).
+    #[arg(long, value_name = "P", conflicts_with = "duration")]
+    pub periods: Option<f64>,
+
+    /// Length of the run [s] (instead of --periods).
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+
+    /// Time steps per period (default: 2000 for forced problems, 8000 for free ones).
+    #[arg(long, value_name = "N", conflicts_with = "dt")]
+    pub steps_per_period: Option<usize>,
+
+    /// Time step [s] (instead of --steps-per-period).
+    #[arg(long, value_name = "S")]
+    pub dt: Option<f64>,
+
+    /// Time-stepping scheme. Default: `redistributed` for models with contacts (the
+    /// position-level scheme on the redistributed mass, exact Signorini, no impact law —
+    /// velocity-level θ = 1/2 on a singular mass is unstable); `moreau` with θ = 1/2 (the
+    /// trapezoidal rule) for models without contacts.
+    #[arg(long, value_enum)]
+    pub scheme: Option<SchemeArg>,
+
+    /// Restitution coefficient e_N in [0, 1] of Newton's impact law (--scheme moreau;
+    /// default 0).
+    #[arg(long, value_name = "E")]
+    pub restitution: Option<f64>,
+
+    /// θ in [0.5, 1] of the Moreau–Jean scheme (--scheme moreau; default 0.5, no numerical
+    /// damping; θ > 0.5 dissipates).
+    #[arg(long, value_name = "T")]
+    pub theta: Option<f64>,
+
+    /// Integrate period by period until the state (displacements and velocities of the DOFs
+    /// with mass) repeats to --tolerance twice in a row, then report the last period like
+    /// `mshbm solve` (exit status 1 if it does not become periodic within --periods).
+    #[arg(long)]
+    pub steady_state: bool,
+
+    /// Steady state: largest period-to-period change of the state, relative to the largest
+    /// displacement amplitude (velocities divided by ω).
+    #[arg(long, default_value_t = 1e-6)]
+    pub tolerance: f64,
+
+    /// Steady state: number of harmonics H of the reported Fourier coefficients.
+    #[arg(long, default_value_t = 10)]
+    pub harmonics: usize,
+
+    /// Steady state: model DOF whose response is reported (default: the first contact DOF).
+    #[arg(long)]
+    pub dof: Option<usize>,
+
+    /// Start from a periodic solution (JSON of `mshbm solve --json` or of
+    /// `mshbm simulate --steady-state --json`): its contact-DOF harmonics give the initial
+    /// state (the other DOFs from the linear equations in the frequency domain). Its
+    /// frequency is used unless --frequency is given (it must then agree).
+    #[arg(long, value_name = "FILE.json")]
+    pub from_solution: Option<PathBuf>,
+
+    /// Write every step as CSV: time [s], gap and force of each contact (force = impulse/dt
+    /// for Moreau–Jean), total energy, and (free problems) energy normalised by its initial
+    /// value.
+    #[arg(long, value_name = "FILE.csv")]
+    pub output: Option<PathBuf>,
+
+    /// Plot the gap and the (normalised) energy over time (the paper's Fig. 5; the closed
+    /// form is overlaid for a dropped bar with integer kappa); .svg or .png.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+
+    /// Print one JSON object on stdout: with --steady-state the same object as
+    /// `mshbm solve --json` (method "time-integration") plus "periodic", "period_change",
+    /// "periods_simulated"; otherwise a summary of the run.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// A CSV file written while the simulation runs, renamed into place at the end (so an
+/// interrupted run never leaves a half-written file under the final name).
+struct CsvStream {
+    path: PathBuf,
+    tmp: PathBuf,
+    writer: BufWriter<File>,
+    error: Option<std::io::Error>,
+    line: String,
+}
+
+impl CsvStream {
+    fn create(path: &Path, header: &str) -> Result<Self> {
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        let name = path
+            .file_name()
+            .with_context(|| format!("{}: not a file path", path.display()))?;
+        let tmp = dir.join(format!(".{}.tmp", name.to_string_lossy()));
+        let file =
+            File::create(&tmp).with_context(|| format!("{}: cannot write", path.display()))?;
+        let mut s = CsvStream {
+            path: path.to_path_buf(),
+            tmp,
+            writer: BufWriter::new(file),
+            error: None,
+            line: String::new(),
+        };
+        s.write_line(header);
+        Ok(s)
+    }
+
+    fn write_line(&mut self, line: &str) {
+        if self.error.is_none() {
+            if let Err(e) = writeln!(self.writer, "{line}") {
+                self.error = Some(e);
+            }
+        }
+    }
+
+    fn finish(mut self) -> Result<()> {
+        let result = match self.error.take() {
+            Some(e) => Err(e),
+            None => self.writer.flush(),
+        };
+        if let Err(e) = result {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(e).with_context(|| format!("{}: cannot write", self.path.display()));
+        }
+        std::fs::rename(&self.tmp, &self.path)
+            .with_context(|| format!("{}: cannot write", self.path.display()))
+    }
+}
+
+/// Everything recorded per step.
+struct Recorder {
+    csv: Option<CsvStream>,
+    /// Normalise the energy by this (free problems).
+    energy_norm: Option<f64>,
+    plot_every: u64,
+    plot_time: Vec<f64>,
+    plot_gaps: Vec<Vec<f64>>,
+    plot_energy: Vec<f64>,
+    min_gap: Vec<f64>,
+    max_force: Vec<f64>,
+    closed_steps: Vec<u64>,
+    steps: u64,
+    energy_range: (f64, f64),
+    energy_last: f64,
+    progress: ProgressBar,
+}
+
+impl Recorder {
+    fn record(&mut self, it: &Integrator) {
+        let e = it.energy();
+        let en = self.energy_norm.map(|e0| e / e0);
+        let shown = en.unwrap_or(e);
+        self.energy_range = (
+            self.energy_range.0.min(shown),
+            self.energy_range.1.max(shown),
+        );
+        self.energy_last = e;
+        for (c, (&g, &f)) in it.gaps().iter().zip(it.forces()).enumerate() {
+            self.min_gap[c] = self.min_gap[c].min(g);
+            self.max_force[c] = self.max_force[c].max(f);
+            if f > 0.0 {
+                self.closed_steps[c] += 1;
+            }
+        }
+        if let Some(csv) = &mut self.csv {
+            let mut line = std::mem::take(&mut csv.line);
+            line.clear();
+            let _ = write!(line, "{:.12e}", it.time());
+            for (&g, &f) in it.gaps().iter().zip(it.forces()) {
+                let _ = write!(line, ",{g:.12e},{f:.12e}");
+            }
+            let _ = write!(line, ",{e:.12e}");
+            if let Some(en) = en {
+                let _ = write!(line, ",{en:.12e}");
+            }
+            csv.write_line(&line);
+            csv.line = line;
+        }
+        if self.steps % self.plot_every == 0 {
+            self.plot_time.push(it.time());
+            for (c, &g) in it.gaps().iter().enumerate() {
+                self.plot_gaps[c].push(g);
+            }
+            self.plot_energy.push(shown);
+        }
+        self.steps += 1;
+        if self.steps % 1024 == 0 {
+            self.progress.set_position(self.steps);
+        }
+    }
+}
+
+fn positive(name: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        bail!("{name} must be a positive number, got {v}")
+    }
+}
+
+fn read_solution(path: &Path) -> Result<PeriodicSolution> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not a periodic solution (JSON of `mshbm solve --json`)",
+            path.display()
+        )
+    })
+}
+
+/// The initial state of `solution` for `system` (contact-DOF harmonics → all DOFs).
+fn initial_state(
+    system: &System,
+    model: &Model,
+    solution: &PeriodicSolution,
+    omega: f64,
+    path: &Path,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let mut known = Vec::new();
+    for c in &solution.contacts {
+        if c.dof >= model.n_dofs() {
+            bail!(
+                "{}: contact DOF {} does not exist in the model (DOFs 0..{})",
+                path.display(),
+                c.dof,
+                model.n_dofs() - 1
+            );
+        }
+        let Some(s) = system.system_dof(c.dof) else {
+            bail!(
+                "{}: contact DOF {} is a Dirichlet DOF of the model",
+                path.display(),
+                c.dof
+            );
+        };
+        known.push((s, c.coefficients.clone()));
+    }
+    state_from_harmonics(system, omega, &known)
+        .with_context(|| format!("{}: cannot start from this solution", path.display()))
+}
+
+pub fn run(args: &SimulateArgs) -> Result<()> {
+    // --- arguments that need no model ---
+    if let Some(f) = args.frequency {
+        positive("--frequency [Hz]", f)?;
+    }
+    if let Some(p) = args.periods {
+        positive("--periods", p)?;
+    }
+    if let Some(d) = args.duration {
+        positive("--duration [s]", d)?;
+    }
+    if let Some(dt) = args.dt {
+        positive("--dt [s]", dt)?;
+    }
+    if args.steps_per_period == Some(0) {
+        bail!("--steps-per-period must be at least 1");
+    }
+    if let Some(e) = args.restitution {
+        if !(e.is_finite() && (0.0..=1.0).contains(&e)) {
+            bail!("--restitution must lie in [0, 1], got {e}");
+        }
+    }
+    if let Some(t) = args.theta {
+        if !(t.is_finite() && (0.5..=1.0).contains(&t)) {
+            bail!("--theta must lie in [0.5, 1] (theta < 0.5 is unstable), got {t}");
+        }
+    }
+    positive("--tolerance", args.tolerance)?;
+    if args.harmonics == 0 {
+        bail!("--harmonics must be at least 1");
+    }
+    if args.steady_state {
+        if args.duration.is_some() {
+            bail!("--steady-state runs whole periods: give --periods (the period limit), not --duration");
+        }
+        if args.dt.is_some() {
+            bail!("--steady-state needs a whole number of steps per period: give --steps-per-period, not --dt");
+        }
+        if let Some(p) = args.periods {
+            if p.fract() != 0.0 {
+                bail!("--periods must be a whole number with --steady-state, got {p}");
+            }
+        }
+    }
+
+    // --- model, scheme, system ---
+    let model = args.model.load()?;
+    let dropped: Option<DroppedBarParameters> =
+        load_dropped_bar(&args.model.model, &args.model.overrides)?;
+    let analytic: Option<DroppedBarSolution> = dropped.as_ref().and_then(|p| p.analytic().ok());
+    let forced = model.harmonic_load.iter().any(|&f| f != 0.0);
+    let start = match &args.from_solution {
+        Some(path) => Some((path.clone(), read_solution(path)?)),
+        None => None,
+    };
+    let frequency = match (&start, args.frequency) {
+        (Some((path, s)), Some(f)) => {
+            if ((f - s.frequency_hz) / f).abs() > 1e-9 {
+                bail!(
+                    "--frequency {f} Hz differs from the frequency of {} ({} Hz)",
+                    path.display(),
+                    s.frequency_hz
+                );
+            }
+            Some(f)
+        }
+        (Some((_, s)), None) => Some(positive(
+            "frequency of the solution file [Hz]",
+            s.frequency_hz,
+        )?),
+        (None, f) => f,
+    };
+    if forced && frequency.is_none() {
+        bail!("the model has a harmonic load: give its --frequency [Hz]");
+    }
+    if args.steady_state && frequency.is_none() {
+        bail!("--steady-state needs a forcing --frequency [Hz]");
+    }
+    let scheme_arg = args.scheme.unwrap_or(if model.contacts.is_empty() {
+        SchemeArg::Moreau
+    } else {
+        SchemeArg::Redistributed
+    });
+    if scheme_arg == SchemeArg::Redistributed
+        && (args.restitution.is_some() || args.theta.is_some())
+    {
+        bail!("--restitution and --theta belong to --scheme moreau; the redistributed scheme has no impact law");
+    }
+    let (scheme, kind) = match scheme_arg {
+        SchemeArg::Moreau => (
+            Scheme::MoreauJean {
+                theta: args.theta.unwrap_or(0.5),
+                restitution: args.restitution.unwrap_or(0.0),
+            },
+            MassKind::Consistent,
+        ),
+        SchemeArg::Redistributed => (Scheme::PositionNewmark, MassKind::Redistributed),
+    };
+    let system = model.system(kind)?;
+
+    // --- time grid ---
+    let period = match frequency {
+        Some(f) => Some(1.0 / f),
+        None => match (&analytic, &dropped) {
+            (Some(a), _) => Some(a.period()),
+            // not exactly periodic: the same formula still sets the time scale
+            (None, Some(p)) => Some(4.0 * (p.kappa() + 1.0) * p.length / p.wave_speed()),
+            (None, None) => mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness)
+                .ok()
+                .map(|w| 2.0 * std::f64::consts::PI / w),
+        },
+    };
+    let dt = match (args.dt, period) {
+        (Some(dt), _) => dt,
+        (None, Some(t)) => {
+            t / args
+                .steps_per_period
+                .unwrap_or(if forced { 2000 } else { 8000 }) as f64
+        }
+        (None, None) => bail!(
+            "no reference period for this model (free structure): give --dt [s] and --duration [s]"
+        ),
+    };
+    let steps = match (args.duration, args.periods, period) {
+        (Some(d), _, _) => (d / dt).round(),
+        (None, Some(p), Some(t)) => (p * t / dt).round(),
+        (None, None, Some(t)) => ((if forced { 20.0 } else { 2.0 }) * t / dt).round(),
+        (None, _, None) => bail!("no reference period for this model: give --duration [s]"),
+    };
+    if !(1.0..1e12).contains(&steps) {
+        bail!("the run would have {steps} steps of dt = {dt:e} s");
+    }
+    let steps = steps as u64;
+    let steps_per_period = if args.steady_state {
+        args.steps_per_period.unwrap_or(2000)
+    } else {
+        0
+    };
+    let max_periods = args.periods.map_or(1000, |p| p as usize);
+
+    // --- integrator ---
+    let omega = frequency.map(|f| 2.0 * std::f64::consts::PI * f);
+    let mut integrator = Integrator::new(
+        &system,
+        &Settings {
+            dt,
+            scheme,
+            omega: if forced || args.steady_state {
+                omega
+            } else {
+                None
+            },
+            energy_offset: fall_energy(&model, &system),
+        },
+    )?;
+    if let Some((path, solution)) = &start {
+        let w = omega.expect("frequency of the solution");
+        let (q, v) = initial_state(&system, &model, solution, w, path)?;
+        integrator.set_state(0.0, &q, &v)?;
+    }
+    let response_dof = match args.dof {
+        Some(d) if d >= model.n_dofs() => bail!(
+            "--dof {d} out of range: the model has DOFs 0..{}",
+            model.n_dofs() - 1
+        ),
+        Some(d) => Some(d),
+        None => model.contacts.first().map(|c| c.dofs[0]),
+    };
+    if args.steady_state && response_dof.is_none() {
+        bail!("the model has no contact: give --dof");
+    }
+
+    // --- recording ---
+    let nc = system.contacts.len();
+    let e0 = integrator.energy();
+    let energy_norm = (!forced && e0 > 0.0).then_some(e0);
+    let csv = match &args.output {
+        Some(path) => {
+            let mut header = String::from("time_s");
+            for c in 0..nc {
+                let _ = write!(header, ",gap_c{c},force_c{c}");
+            }
+            header.push_str(",energy");
+            if energy_norm.is_some() {
+                header.push_str(",energy_normalized");
+            }
+            Some(CsvStream::create(path, &header)?)
+        }
+        None => None,
+    };
+    let total_steps = if args.steady_state {
+        (max_periods * steps_per_period) as u64
+    } else {
+        steps
+    };
+    let progress = if std::io::stderr().is_terminal() {
+        let bar = ProgressBar::new(total_steps);
+        bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps {msg}")
+                .expect("valid template")
+                .progress_chars("=> "),
+        );
+        bar
+    } else {
+        ProgressBar::hidden()
+    };
+    let mut rec = Recorder {
+        csv,
+        energy_norm,
+        plot_every: (total_steps / 20_000).max(1),
+        plot_time: Vec::new(),
+        plot_gaps: vec![Vec::new(); nc],
+        plot_energy: Vec::new(),
+        min_gap: vec![f64::INFINITY; nc],
+        max_force: vec![0.0; nc],
+        closed_steps: vec![0; nc],
+        steps: 0,
+        energy_range: (f64::INFINITY, f64::NEG_INFINITY),
+        energy_last: e0,
+        progress: progress.clone(),
+    };
+    rec.record(&integrator);
+
+    // --- run ---
+    let steady: Option<SteadyState> = if args.steady_state {
+        let options = SteadyStateOptions {
+            steps_per_period,
+            max_periods,
+            tolerance: args.tolerance,
+            harmonics: args.harmonics,
+            response_dof: response_dof.expect("checked"),
+        };
+        let w = omega.expect("checked");
+        Some(simulate_to_steady_state(
+            &mut integrator,
+            w,
+            &options,
+            |it| rec.record(it),
+            |p, change| progress.set_message(format!("period {p}: change {change:.2e}")),
+        )?)
+    } else {
+        integrator.run(steps as usize, |it| rec.record(it))?;
+        None
+    };
+    progress.finish_and_clear();
+    if let Some(csv) = rec.csv.take() {
+        csv.finish()?;
+    }
+
+    // --- plot ---
+    if let Some(path) = &args.plot {
+        plot(path, &model, &rec, analytic.as_ref(), steady.as_ref())?;
+    }
+
+    // --- report ---
+    let scheme_name = match scheme {
+        Scheme::MoreauJean { theta, restitution } => {
+            format!("Moreau-Jean (theta = {theta}, e_N = {restitution}), consistent mass")
+        }
+        Scheme::PositionNewmark => "position-level Newmark, redistributed mass".to_string(),
+    };
+    match &steady {
+        Some(s) => report_steady(args, &model, &scheme_name, s)?,
+        None => report_transient(args, &model, &scheme_name, &rec, dt, e0, analytic.as_ref())?,
+    }
+    if let Some(s) = &steady {
+        if !s.periodic {
+            bail!(
+                "the response did not become periodic within {} periods: period-to-period change {:.2e} > tolerance {:.1e}",
+                s.periods_simulated,
+                s.period_change,
+                args.tolerance
+            );
+        }
+    }
+    Ok(())
+}
+
+fn report_steady(args: &SimulateArgs, model: &Model, scheme: &str, s: &SteadyState) -> Result<()> {
+    if args.json {
+        println!("{}", serde_json::to_string(s)?);
+        return Ok(());
+    }
+    let sol = &s.solution;
+    println!(
+        "{} at {} Hz: {scheme}, {} steps per period",
+        model.name, sol.frequency_hz, sol.samples
+    );
+    if s.periodic {
+        println!(
+            "periodic after {} periods (period-to-period change {:.2e} < tolerance {:.1e})",
+            s.periods_simulated, s.period_change, args.tolerance
+        );
+    } else {
+        println!(
+            "NOT periodic after {} periods: period-to-period change {:.2e} > tolerance {:.1e}; \
+             the response may be quasi-periodic or chaotic, and the last period below is not a steady state",
+            s.periods_simulated, s.period_change, args.tolerance
+        );
+        if let Some(k) = s.subharmonic {
+            println!("the state repeats after {k} periods (a subharmonic response)");
+        }
+    }
+    for c in &sol.contacts {
+        println!(
+            "contact DOF {}: max {:.6e}, min {:.6e}, max force {:.6e}, a0 {:.6e}, a1 {:.6e}, b1 {:.6e}",
+            c.dof,
+            c.max,
+            c.min,
+            c.force.iter().fold(0.0f64, |m, v| m.max(*v)),
+            c.coefficients[0],
+            c.coefficients[1],
+            c.coefficients[2]
+        );
+    }
+    let r = &sol.response;
+    println!(
+        "DOF {}: max {:.6e}, min {:.6e}, first-harmonic amplitude {:.6e}",
+        r.dof,
+        r.max,
+        r.min,
+        r.amplitude_h1()
+    );
+    Ok(())
+}
+
+fn report_transient(
+    args: &SimulateArgs,
+    model: &Model,
+    scheme: &str,
+    rec: &Recorder,
+    dt: f64,
+    e0: f64,
+    analytic: Option<&DroppedBarSolution>,
+) -> Result<()> {
+    let steps = rec.steps - 1;
+    let t_end = rec
+        .plot_time
+        .last()
+        .copied()
+        .unwrap_or(0.0)
+        .max(steps as f64 * dt);
+    if args.json {
+        let contacts: Vec<serde_json::Value> = (0..rec.min_gap.len())
+            .map(|c| {
+                serde_json::json!({
+                    "contact": c,
+                    "dof": model.contacts[c].dofs[0],
+                    "min_gap": rec.min_gap[c],
+                    "max_force": rec.max_force[c],
+                    "closed_fraction": rec.closed_steps[c] as f64 / rec.steps as f64,
+                })
+            })
+            .collect();
+        let mut v = serde_json::json!({
+            "model": model.name,
+            "scheme": scheme,
+            "dt_s": dt,
+            "steps": steps,
+            "duration_s": steps as f64 * dt,
+            "contacts": contacts,
+            "energy_initial": e0,
+            "energy_final": rec.energy_last,
+        });
+        if rec.energy_norm.is_some() {
+            v["energy_normalized_min"] = rec.energy_range.0.into();
+            v["energy_normalized_max"] = rec.energy_range.1.into();
+        }
+        if let Some(a) = analytic {
+            v["analytic_period_s"] = a.period().into();
+            v["analytic_contact_duration_s"] = a.contact_duration().into();
+        }
+        println!("{v}");
+        return Ok(());
+    }
+    println!(
+        "{}: {scheme}, dt = {dt:.4e} s, {steps} steps, t = 0 .. {t_end:.6e} s",
+        model.name
+    );
+    for c in 0..rec.min_gap.len() {
+        println!(
+            "contact {c} (DOF {}): min gap {:.6e}, max force {:.6e}, closed in {:.1}% of the steps",
+            model.contacts[c].dofs[0],
+            rec.min_gap[c],
+            rec.max_force[c],
+            100.0 * rec.closed_steps[c] as f64 / rec.steps as f64
+        );
+    }
+    match rec.energy_norm {
+        Some(_) => println!(
+            "energy: initial {e0:.6e}, final {:.6e}; normalised energy in [{:.6}, {:.6}]",
+            rec.energy_last, rec.energy_range.0, rec.energy_range.1
+        ),
+        None => println!("energy: initial {e0:.6e}, final {:.6e}", rec.energy_last),
+    }
+    if let Some(a) = analytic {
+        println!(
+            "closed form (dropped bar, kappa = {:.0}): period {:.6e} s, each contact lasts 2L/c = {:.6e} s",
+            a.kappa(),
+            a.period(),
+            a.contact_duration()
+        );
+    }
+    Ok(())
+}
+
+fn plot(
+    path: &Path,
+    model: &Model,
+    rec: &Recorder,
+    analytic: Option<&DroppedBarSolution>,
+    steady: Option<&SteadyState>,
+) -> Result<()> {
+    let mut gap = Figure {
+        title: format!("{}: contact gap", model.name),
+        x_label: "time [s]".into(),
+        y_label: "gap".into(),
+        ..Figure::default()
+    };
+    for (c, g) in rec.plot_gaps.iter().enumerate().take(8) {
+        gap.series.push(Series {
+            label: format!("gap, contact {c} (DOF {})", model.contacts[c].dofs[0]),
+            points: rec
+                .plot_time
+                .iter()
+                .copied()
+                .zip(g.iter().copied())
+                .collect(),
+            style: Style::Line,
+            color: c,
+        });
+    }
+    if let Some(a) = analytic {
+        gap.series.push(Series {
+            label: "closed form (METHODS §2.3)".into(),
+            points: rec.plot_time.iter().map(|&t| (t, a.gap(t))).collect(),
+            style: Style::Dashed,
+            color: 7,
+        });
+    }
+    gap.hlines.push(HLine {
+        label: "support (gap = 0)".into(),
+        y: 0.0,
+    });
+    let energy = Figure {
+        title: if rec.energy_norm.is_some() {
+            "Total energy, normalised by its initial value".into()
+        } else {
+            "Total energy".into()
+        },
+        x_label: "time [s]".into(),
+        y_label: if rec.energy_norm.is_some() {
+            "E / E(0)".into()
+        } else {
+            "energy".into()
+        },
+        series: vec![Series {
+            label: String::new(),
+            points: rec
+                .plot_time
+                .iter()
+                .copied()
+                .zip(rec.plot_energy.iter().copied())
+                .collect(),
+            style: Style::Line,
+            color: 1,
+        }],
+        hlines: Vec::new(),
+    };
+    let mut figures = vec![gap, energy];
+    if let Some(s) = steady {
+        let sol = &s.solution;
+        let mut last = Figure {
+            title: format!(
+                "Last period at {:.4} kHz ({})",
+                sol.frequency_hz / 1e3,
+                if s.periodic {
+                    "periodic"
+                } else {
+                    "NOT periodic"
+                }
+            ),
+            x_label: "time in the period [µs]".into(),
+            y_label: "contact displacement".into(),
+            ..Figure::default()
+        };
+        for (c, series) in sol.contacts.iter().enumerate().take(8) {
+            last.series.push(Series {
+                label: format!("DOF {}", series.dof),
+                points: sol
+                    .time_s
+                    .iter()
+                    .zip(&series.displacement)
+                    .map(|(t, q)| (t * 1e6, *q))
+                    .collect(),
+                style: Style::Line,
+                color: c,
+            });
+        }
+        figures.push(last);
+    }
+    Figure::save_stacked(&figures, path)
+}

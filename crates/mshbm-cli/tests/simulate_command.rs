@@ -1,0 +1,317 @@
+//! `mshbm simulate`: the JSON object of a steady state (the same as `mshbm solve --json`),
+//! the CSV and plot outputs, starting from a solution file, and clear errors.
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+
+fn example(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn mshbm(args: &[&str]) -> std::process::Output {
+    Command::cargo_bin("mshbm")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn simulate(args: &[&str]) -> std::process::Output {
+    let mut all = vec!["simulate"];
+    all.extend_from_slice(args);
+    mshbm(&all)
+}
+
+fn success(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn one_error_line(out: &std::process::Output) -> String {
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(lines[0].starts_with("error: "), "{stderr}");
+    stderr
+}
+
+fn tmp(dir: &tempfile::TempDir, name: &str) -> PathBuf {
+    dir.path().join(name)
+}
+
+/// The fields of `mshbm solve --json` (see solve_command.rs).
+const SOLVE_FIELDS: [&str; 12] = [
+    "frequency_hz",
+    "harmonics",
+    "samples",
+    "quadrature",
+    "method",
+    "converged",
+    "iterations",
+    "residual_norm",
+    "time_s",
+    "contact_dofs",
+    "contacts",
+    "response",
+];
+
+/// A run that does not become periodic within its period limit prints the object with
+/// `"periodic": false` and the change, and exits non-zero with one error line.
+#[test]
+fn steady_state_json_has_the_solve_fields_and_says_when_not_periodic() {
+    let out = simulate(&[
+        &example("clamped_bar.toml"),
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--frequency",
+        "30000",
+        "--steady-state",
+        "--periods",
+        "3",
+        "--steps-per-period",
+        "500",
+        "--json",
+    ]);
+    let stderr = one_error_line(&out);
+    assert!(stderr.contains("did not become periodic"), "{stderr}");
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("exactly one JSON object");
+    for key in SOLVE_FIELDS {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["method"], "time-integration");
+    assert_eq!(v["quadrature"], "sampled");
+    assert_eq!(v["periodic"], false);
+    assert_eq!(v["converged"], false);
+    assert_eq!(v["periods_simulated"], 3);
+    assert_eq!(v["samples"], 500);
+    assert_eq!(v["harmonics"], 10);
+    assert!(v["period_change"].as_f64().unwrap() > 1e-6);
+    assert_eq!(v["contact_dofs"], serde_json::json!([100]));
+    let c = &v["contacts"][0];
+    assert_eq!(c["coefficients"].as_array().unwrap().len(), 21);
+    assert_eq!(c["displacement"].as_array().unwrap().len(), 500);
+    assert_eq!(v["time_s"].as_array().unwrap().len(), 500);
+    assert!(c["gap"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|g| g.as_f64().unwrap() >= 0.0));
+}
+
+/// `mshbm solve --json` → `mshbm simulate --from-solution`: a linear case (the gap is never
+/// reached) starts on its orbit and is periodic within a few periods (up to the time
+/// discretization error; from rest it takes hundreds); the frequency comes from the file
+/// and both objects describe the same orbit.
+#[test]
+fn from_solution_starts_on_the_orbit() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = example("clamped_bar.toml");
+    let common = [
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--set",
+        "contact.gap=100",
+    ];
+    let mut args = vec!["solve", model.as_str(), "--frequency", "45000", "--json"];
+    args.extend_from_slice(&common);
+    let solved = mshbm(&args);
+    success(&solved);
+    let file = tmp(&dir, "solution.json");
+    std::fs::write(&file, &solved.stdout).unwrap();
+    let mut args = vec![
+        model.as_str(),
+        "--from-solution",
+        file.to_str().unwrap(),
+        "--steady-state",
+        "--steps-per-period",
+        "4000",
+        "--periods",
+        "20",
+        "--json",
+    ];
+    args.extend_from_slice(&common);
+    let out = simulate(&args);
+    success(&out);
+    let s: serde_json::Value = serde_json::from_slice(&solved.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["periodic"], true);
+    assert_eq!(v["frequency_hz"], s["frequency_hz"]);
+    // from rest this takes hundreds of periods (1 % damping of the first mode)
+    assert!(
+        v["periods_simulated"].as_u64().unwrap() <= 5,
+        "{}",
+        v["periods_simulated"]
+    );
+    let (a, b) = (
+        &v["contacts"][0]["coefficients"],
+        &s["contacts"][0]["coefficients"],
+    );
+    let amp = b[1].as_f64().unwrap().hypot(b[2].as_f64().unwrap());
+    for k in 0..3 {
+        let d = (a[k].as_f64().unwrap() - b[k].as_f64().unwrap()).abs();
+        assert!(d < 1e-4 * amp, "coefficient {k}: {} vs {}", a[k], b[k]);
+    }
+    // a different --frequency than the file's is refused
+    let mut args = vec![
+        model.as_str(),
+        "--from-solution",
+        file.to_str().unwrap(),
+        "--frequency",
+        "46000",
+    ];
+    args.extend_from_slice(&common);
+    let stderr = one_error_line(&simulate(&args));
+    assert!(stderr.contains("differs"), "{stderr}");
+}
+
+#[test]
+fn csv_has_a_header_and_one_row_per_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = tmp(&dir, "drop.csv");
+    let out = simulate(&[
+        &example("dropped_bar.toml"),
+        "--periods",
+        "0.25",
+        "--steps-per-period",
+        "4000",
+        "--output",
+        csv.to_str().unwrap(),
+    ]);
+    success(&out);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "time_s,gap_c0,force_c0,energy,energy_normalized"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 1001);
+    assert_eq!(rows[0][0], 0.0);
+    assert_eq!(rows[0][1], 4.5);
+    assert_eq!(rows[0][4], 1.0);
+    // a quarter period (4 time units): free fall until t = 3, then in contact
+    let last = rows.last().unwrap();
+    assert!((last[0] - 4.0).abs() < 1e-12);
+    assert_eq!(last[1], 0.0);
+    assert!(last[2] > 0.0);
+    assert!(rows.iter().all(|r| (r[4] - 1.0).abs() < 1e-3));
+    // no temporary file left behind
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn plot_and_text_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = tmp(&dir, "fig5.svg");
+    let out = simulate(&[
+        &example("dropped_bar.toml"),
+        "--scheme",
+        "moreau",
+        "--restitution",
+        "1",
+        "--periods",
+        "0.5",
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    success(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout.contains("Moreau-Jean (theta = 0.5, e_N = 1)"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("2L/c"), "{stdout}");
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains("<svg") && text.contains("closed form"));
+}
+
+#[test]
+fn transient_json_summary() {
+    let out = simulate(&[&example("dropped_bar.toml"), "--periods", "0.5", "--json"]);
+    success(&out);
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["steps"], 4000);
+    assert_eq!(v["contacts"][0]["min_gap"], 0.0);
+    assert!((v["energy_initial"].as_f64().unwrap() - 4.5).abs() < 1e-12);
+    assert!((v["analytic_contact_duration_s"].as_f64().unwrap() - 2.0).abs() < 1e-12);
+}
+
+#[test]
+fn bad_input_gives_one_clear_error() {
+    let bar = example("clamped_bar.toml");
+    let drop = example("dropped_bar.toml");
+    for (args, expected) in [
+        (
+            vec![drop.as_str(), "--scheme", "moreau", "--restitution", "2"],
+            "--restitution",
+        ),
+        (
+            vec![drop.as_str(), "--scheme", "moreau", "--theta", "0.3"],
+            "--theta",
+        ),
+        (vec![drop.as_str(), "--theta", "0.6"], "--scheme moreau"),
+        (vec![bar.as_str()], "--frequency"),
+        (vec![bar.as_str(), "--frequency", "0"], "--frequency"),
+        (vec![drop.as_str(), "--steady-state"], "--frequency"),
+        (
+            vec![drop.as_str(), "--steps-per-period", "0"],
+            "--steps-per-period",
+        ),
+        (
+            vec![
+                bar.as_str(),
+                "--frequency",
+                "30000",
+                "--steady-state",
+                "--dt",
+                "1e-8",
+            ],
+            "--steps-per-period",
+        ),
+        (
+            vec![
+                bar.as_str(),
+                "--frequency",
+                "30000",
+                "--from-solution",
+                "/nonexistent.json",
+            ],
+            "nonexistent.json",
+        ),
+        (
+            vec![
+                bar.as_str(),
+                "--frequency",
+                "30000",
+                "--set",
+                "damping.beta=1e-9",
+            ],
+            "damping",
+        ),
+        (
+            vec![drop.as_str(), "--set", "drop.height=2"],
+            "exactly one of `height` and `kappa`",
+        ),
+        (
+            vec![drop.as_str(), "--set", "drop.gravity=-1"],
+            "drop.gravity",
+        ),
+        (vec![drop.as_str(), "--set", "drop.wind=1"], "wind"),
+    ] {
+        let stderr = one_error_line(&simulate(&args));
+        assert!(stderr.contains(expected), "{args:?}: {stderr}");
+    }
+}

@@ -1,0 +1,656 @@
+//! Reference time integration of `M q'' + C q' + K q = f(t) + W λ` with unilateral contacts
+//! (METHODS §3.1–§3.2), run for a given time or to a periodic steady state — the paper's
+//! baseline for the MS-HBM (Figs. 5 and 9).
+//!
+//! Two schemes ([`Scheme`]):
+//!
+//! * **Moreau–Jean θ-scheme** ([`Scheme::MoreauJean`], METHODS §3.1): velocity level,
+//!   impulses per step, Newton's impact law `0 ≤ U⁺ + e U⁻ ⊥ P ≥ 0` on the contacts that are
+//!   closed at the predicted position `q_k + h(1−θ) v_k`. The iteration matrix
+//!   `M̂ = M + hθC + h²θ²K` is factored once. With the consistent mass this is the paper's
+//!   reference ("original mass matrix, e_N = 0"). On a singular (redistributed) mass it is
+//!   only stable for `θ > ½` (METHODS §3.2: the massless rows become a trapezoidal average
+//!   of an algebraic equation, with a parasitic `(−1)^k` mode), so `θ = ½` is refused there.
+//! * **Position-level Newmark** ([`Scheme::PositionNewmark`], METHODS §3.2, Khenous-type):
+//!   average acceleration (β = ¼, γ = ½) on a mass with a massless contact boundary, with
+//!   Signorini imposed on the positions at the end of the step (no impact law):
+//!   `Â = (4/h²) M + (2/h) C + K` (factored once, positive definite even for a free body),
+//!   `u_free = Â⁻¹ b`, `0 ≤ g = Wᵀ(u_free + Â⁻¹ W λ) + g0 ⊥ λ ≥ 0`. The gap is never
+//!   negative and, without damping and forcing, the energy is conserved through the impacts.
+//!   Needs every contact DOF massless and damping that does not act on the massless DOFs
+//!   (`C_NN = C_NL = 0`, as the redistributed MS-HBM).
+//!
+//! The per-step LCP is solved by the same exact solver as the MS-HBM
+//! ([`crate::contact::lcp::LcpSolver`]). Massless DOFs carry no velocity state: after every
+//! [`Integrator::set_state`] they are put in static equilibrium with the rest (the static
+//! contact problem of eqs. 26–29, [`StaticContact`]).
+//!
+//! **Energy** ([`Integrator::energy`]): `E = ½ vᵀMv + ½ qᵀKq − qᵀ f_const + E_offset`, with `M`
+//! the mass in use, `f_const` the constant load (including an acceleration field) and
+//! `E_offset` from the settings. For a free body under an acceleration field (the dropped
+//! bar) [`fall_energy`] gives the offset that makes the datum "resting on the support"
+//! (METHODS §2.5: `E = ½vᵀMv + ½uᵀKu + g 1ᵀMu + m g h0`), so `E/E(0)` is the normalised
+//! energy of the paper's Fig. 5.
+//!
+//! [`steady_state`] integrates period by period until the state repeats;
+//! [`initial`] builds the initial state of a harmonic solution (e.g. from `mshbm solve`);
+//! [`analytic`] has the closed-form references.
+
+pub mod analytic;
+pub mod initial;
+mod moreau;
+mod newmark;
+pub mod steady_state;
+
+use faer::Mat;
+
+use crate::error::{Error, Result};
+use crate::method::redistributed::static_contact::StaticContact;
+use crate::model::{Model, System};
+use crate::modes::massless_dofs;
+use crate::sparse::SparseMatrix;
+
+/// The time-stepping scheme.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Scheme {
+    /// Moreau–Jean θ-scheme with Newton's impact law (METHODS §3.1); `theta ∈ [½, 1]`,
+    /// `restitution` `e_N ∈ [0, 1]`.
+    MoreauJean { theta: f64, restitution: f64 },
+    /// Newmark average acceleration with position-level Signorini for a massless contact
+    /// boundary (METHODS §3.2).
+    PositionNewmark,
+}
+
+impl Scheme {
+    /// Short name for reports (`"moreau-jean"`, `"position-newmark"`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Scheme::MoreauJean { .. } => "moreau-jean",
+            Scheme::PositionNewmark => "position-newmark",
+        }
+    }
+}
+
+/// Settings of an [`Integrator`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// Time step `h > 0`.
+    pub dt: f64,
+    pub scheme: Scheme,
+    /// Angular frequency ω [rad/s] of the harmonic load `F cos ωt`; required when the
+    /// system has a non-zero harmonic load, ignored otherwise.
+    pub omega: Option<f64>,
+    /// Constant added to the energy (e.g. [`fall_energy`]).
+    pub energy_offset: f64,
+}
+
+/// Energy offset that puts the datum of a free body's potential energy at the first
+/// contact: for a model without Dirichlet DOFs under a uniform acceleration `a`, the work
+/// of the acceleration load while the body translates rigidly along `a` from `q = 0` until
+/// a contact closes (`m |a| h0` for the dropped bar: METHODS §2.5). Zero when the model is
+/// held (Dirichlet DOFs), has no acceleration field, or no contact closes along `a`.
+pub fn fall_energy(model: &Model, system: &System) -> f64 {
+    let Some(acc) = &model.acceleration else {
+        return 0.0;
+    };
+    if !model.dirichlet.is_empty() {
+        return 0.0;
+    }
+    let norm = acc.iter().map(|a| a * a).sum::<f64>().sqrt();
+    if norm == 0.0 {
+        return 0.0;
+    }
+    let dpn = model.dofs_per_node;
+    // unit translation along a, system numbering (no Dirichlet DOFs: system = model DOFs)
+    let d: Vec<f64> = system
+        .model_dof
+        .iter()
+        .map(|&m| acc[m % dpn] / norm)
+        .collect();
+    let mut distance = f64::INFINITY;
+    for c in &system.contacts {
+        let rate: f64 = c.w.iter().map(|&(i, w)| w * d[i]).sum();
+        if rate < 0.0 && c.gap >= 0.0 {
+            distance = distance.min(c.gap / -rate);
+        }
+    }
+    if !distance.is_finite() {
+        return 0.0;
+    }
+    // f_acc = M (1 ⊗ a) = |a| M d;  offset = distance · f_accᵀ d
+    let md = system.mass.mul_vec(&d);
+    distance * norm * d.iter().zip(&md).map(|(a, b)| a * b).sum::<f64>()
+}
+
+/// Compressed sparse columns for fast repeated products (`y += α A x`).
+#[derive(Clone, Debug)]
+pub(crate) struct Csc {
+    col_ptr: Vec<usize>,
+    row: Vec<usize>,
+    val: Vec<f64>,
+}
+
+impl Csc {
+    pub(crate) fn new(a: &SparseMatrix) -> Self {
+        let mut col_ptr = vec![0; a.ncols() + 1];
+        let mut row = Vec::with_capacity(a.nnz());
+        let mut val = Vec::with_capacity(a.nnz());
+        for (i, j, v) in a.iter() {
+            if v != 0.0 {
+                row.push(i);
+                val.push(v);
+                col_ptr[j + 1] += 1;
+            }
+        }
+        for j in 0..a.ncols() {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        Csc { col_ptr, row, val }
+    }
+
+    /// `y += alpha A x`.
+    pub(crate) fn mul_add(&self, alpha: f64, x: &[f64], y: &mut [f64]) {
+        for (j, &xj) in x.iter().enumerate() {
+            if xj == 0.0 {
+                continue;
+            }
+            let s = alpha * xj;
+            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
+                y[self.row[k]] += self.val[k] * s;
+            }
+        }
+    }
+
+    /// `xᵀ A x`.
+    pub(crate) fn quadratic_form(&self, x: &[f64]) -> f64 {
+        let mut s = 0.0;
+        for (j, &xj) in x.iter().enumerate() {
+            if xj == 0.0 {
+                continue;
+            }
+            let mut col = 0.0;
+            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
+                col += self.val[k] * x[self.row[k]];
+            }
+            s += col * xj;
+        }
+        s
+    }
+}
+
+/// A sparse symmetric positive definite matrix factored once (sparse Cholesky), solved many
+/// times. Uses faer's low-level API so that a solve needs no allocation and runs
+/// sequentially (the per-step systems are small; thread start-up would dominate).
+pub(crate) struct SpdSolver {
+    symbolic: faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    values: Vec<f64>,
+    buf: Mat<f64>,
+    mem: faer::dyn_stack::MemBuffer,
+}
+
+impl SpdSolver {
+    pub(crate) fn new(a: &SparseMatrix, what: &str) -> Result<Self> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
+        let not_pd = || Error::Singular(format!("{what} is not positive definite"));
+        let m = a.to_faer();
+        let symbolic = factorize_symbolic_cholesky(
+            m.symbolic(),
+            faer::Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map_err(|e| Error::Numerical(format!("sparse Cholesky analysis of {what}: {e:?}")))?;
+        let mut values = vec![0.0; symbolic.len_val()];
+        let par = faer::Par::Seq;
+        let mut mem =
+            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut values,
+                m.as_ref(),
+                faer::Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|_| not_pd())?;
+        let mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, par));
+        Ok(SpdSolver {
+            symbolic,
+            values,
+            buf: Mat::zeros(a.nrows(), 1),
+            mem,
+        })
+    }
+
+    /// `x ← A⁻¹ x`.
+    pub(crate) fn solve(&mut self, x: &mut [f64]) {
+        use faer::dyn_stack::MemStack;
+        use faer::sparse::linalg::cholesky::LltRef;
+        for (i, v) in x.iter().enumerate() {
+            self.buf[(i, 0)] = *v;
+        }
+        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            faer::Conj::No,
+            self.buf.as_mut(),
+            faer::Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        for (i, v) in x.iter_mut().enumerate() {
+            *v = self.buf[(i, 0)];
+        }
+    }
+}
+
+/// Contacts in system numbering: `g = Σ w q + g0`.
+#[derive(Clone, Debug)]
+pub(crate) struct Contacts {
+    pub(crate) w: Vec<Vec<(usize, f64)>>,
+    pub(crate) gap: Vec<f64>,
+}
+
+impl Contacts {
+    pub(crate) fn len(&self) -> usize {
+        self.gap.len()
+    }
+
+    /// `Wᵢᵀ x` (without `g0`).
+    pub(crate) fn dot(&self, i: usize, x: &[f64]) -> f64 {
+        self.w[i].iter().map(|&(d, w)| w * x[d]).sum()
+    }
+
+    /// Gaps `Wᵀ q + g0`.
+    pub(crate) fn gaps_into(&self, q: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.dot(i, q) + self.gap[i];
+        }
+    }
+
+    /// Column `i` of `W` as a dense vector of length `n`.
+    pub(crate) fn column(&self, i: usize, n: usize) -> Vec<f64> {
+        let mut c = vec![0.0; n];
+        for &(d, w) in &self.w[i] {
+            c[d] += w;
+        }
+        c
+    }
+}
+
+/// The immutable data of an integration: matrices, loads, contacts.
+pub(crate) struct Data {
+    pub(crate) n: usize,
+    pub(crate) dt: f64,
+    pub(crate) mass: Csc,
+    pub(crate) stiffness: Csc,
+    pub(crate) damping: Csc,
+    pub(crate) constant_load: Vec<f64>,
+    pub(crate) harmonic_load: Vec<f64>,
+    pub(crate) omega: f64,
+    pub(crate) contacts: Contacts,
+    pub(crate) massless: Vec<usize>,
+    pub(crate) massive: Vec<usize>,
+    pub(crate) energy_offset: f64,
+}
+
+impl Data {
+    /// `f(t) = f_const + f_harm cos ωt` into `out`.
+    pub(crate) fn load_into(&self, t: f64, out: &mut [f64]) {
+        let c = if self.omega != 0.0 {
+            (self.omega * t).cos()
+        } else {
+            0.0
+        };
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.constant_load[i] + c * self.harmonic_load[i];
+        }
+    }
+}
+
+/// The evolving state.
+pub(crate) struct State {
+    pub(crate) t0: f64,
+    pub(crate) steps: u64,
+    pub(crate) q: Vec<f64>,
+    pub(crate) v: Vec<f64>,
+    pub(crate) gaps: Vec<f64>,
+    pub(crate) forces: Vec<f64>,
+}
+
+impl State {
+    pub(crate) fn time(&self, dt: f64) -> f64 {
+        self.t0 + self.steps as f64 * dt
+    }
+}
+
+enum Kernel {
+    Moreau(Box<moreau::MoreauJean>),
+    Newmark(Box<newmark::PositionNewmark>),
+}
+
+/// A time integrator for one [`System`] (see the module docs).
+///
+/// It starts at rest at `t = 0` with `q = 0` (massless DOFs in static equilibrium); use
+/// [`Integrator::set_state`] for other initial conditions. Each [`Integrator::step`]
+/// advances by `dt`; times are `t0 + k·dt` (no accumulated rounding), so a harmonic load
+/// keeps its phase over long runs.
+pub struct Integrator {
+    data: Data,
+    state: State,
+    kernel: Kernel,
+    scheme: Scheme,
+    stiffness_nn: SparseMatrix,
+    stiffness_nm: SparseMatrix,
+    model_dof: Vec<usize>,
+    n_model_dofs: usize,
+}
+
+impl Integrator {
+    /// Set up the scheme for `system` (factors the iteration matrix once).
+    pub fn new(system: &System, settings: &Settings) -> Result<Self> {
+        let n = system.n_dofs();
+        if n == 0 {
+            return Err(Error::argument("system", "the system has no free DOFs"));
+        }
+        let dt = settings.dt;
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(Error::argument(
+                "time step",
+                format!("must be positive, got {dt}"),
+            ));
+        }
+        let forced = system.harmonic_load.iter().any(|&f| f != 0.0);
+        let omega = match settings.omega {
+            Some(w) if w.is_finite() && w > 0.0 => w,
+            Some(w) => {
+                return Err(Error::argument(
+                    "frequency",
+                    format!(
+                        "must be positive, got {} Hz",
+                        w / (2.0 * std::f64::consts::PI)
+                    ),
+                ))
+            }
+            None if forced => {
+                return Err(Error::argument(
+                    "frequency",
+                    "the model has a harmonic load: give its frequency",
+                ))
+            }
+            None => 0.0,
+        };
+        if !settings.energy_offset.is_finite() {
+            return Err(Error::argument("energy offset", "must be finite"));
+        }
+        let massless = massless_dofs(&system.mass);
+        let mut is_massless = vec![false; n];
+        massless.iter().for_each(|&i| is_massless[i] = true);
+        let massive: Vec<usize> = (0..n).filter(|&i| !is_massless[i]).collect();
+        let contacts = Contacts {
+            w: system.contacts.iter().map(|c| c.w.clone()).collect(),
+            gap: system.contacts.iter().map(|c| c.gap).collect(),
+        };
+        let data = Data {
+            n,
+            dt,
+            mass: Csc::new(&system.mass),
+            stiffness: Csc::new(&system.stiffness),
+            damping: Csc::new(&system.damping),
+            constant_load: system.constant_load.clone(),
+            harmonic_load: system.harmonic_load.clone(),
+            omega,
+            contacts,
+            massless,
+            massive,
+            energy_offset: settings.energy_offset,
+        };
+        let kernel = match settings.scheme {
+            Scheme::MoreauJean { theta, restitution } => {
+                if !(theta.is_finite() && (0.5..=1.0).contains(&theta)) {
+                    return Err(Error::argument(
+                        "theta",
+                        format!("must lie in [0.5, 1], got {theta}"),
+                    ));
+                }
+                if !(restitution.is_finite() && (0.0..=1.0).contains(&restitution)) {
+                    return Err(Error::argument(
+                        "restitution",
+                        format!(
+                            "the restitution coefficient must lie in [0, 1], got {restitution}"
+                        ),
+                    ));
+                }
+                if !data.massless.is_empty() && theta <= 0.5 {
+                    return Err(Error::argument(
+                        "theta",
+                        "the velocity-level Moreau-Jean scheme with theta = 0.5 is unstable on a singular (redistributed) mass \
+                         (METHODS §3.2); use the position-level scheme or theta > 0.5",
+                    ));
+                }
+                Kernel::Moreau(Box::new(moreau::MoreauJean::new(
+                    system,
+                    &data,
+                    theta,
+                    restitution,
+                )?))
+            }
+            Scheme::PositionNewmark => {
+                Kernel::Newmark(Box::new(newmark::PositionNewmark::new(system, &data)?))
+            }
+        };
+        let nc = data.contacts.len();
+        let mut integrator = Integrator {
+            stiffness_nn: system.stiffness.submatrix(&data.massless, &data.massless),
+            stiffness_nm: system.stiffness.submatrix(&data.massless, &data.massive),
+            state: State {
+                t0: 0.0,
+                steps: 0,
+                q: vec![0.0; n],
+                v: vec![0.0; n],
+                gaps: vec![0.0; nc],
+                forces: vec![0.0; nc],
+            },
+            data,
+            kernel,
+            scheme: settings.scheme,
+            model_dof: system.model_dof.clone(),
+            n_model_dofs: system.n_model_dofs,
+        };
+        integrator.set_state(0.0, &vec![0.0; n], &vec![0.0; n])?;
+        Ok(integrator)
+    }
+
+    /// Restart from `(q, v)` at `time` (system numbering). The massless DOFs are put in
+    /// static equilibrium with the others and the contacts (their given values are
+    /// replaced; their velocities are set to zero).
+    pub fn set_state(&mut self, time: f64, q: &[f64], v: &[f64]) -> Result<()> {
+        let n = self.data.n;
+        if q.len() != n || v.len() != n {
+            return Err(Error::argument(
+                "initial state",
+                format!(
+                    "expected {n} displacements and velocities, got {} and {}",
+                    q.len(),
+                    v.len()
+                ),
+            ));
+        }
+        if !time.is_finite() || q.iter().chain(v).any(|x| !x.is_finite()) {
+            return Err(Error::argument("initial state", "must be finite"));
+        }
+        let s = &mut self.state;
+        s.t0 = time;
+        s.steps = 0;
+        s.q.copy_from_slice(q);
+        s.v.copy_from_slice(v);
+        s.forces.iter_mut().for_each(|f| *f = 0.0);
+        self.static_massless()?;
+        for &i in &self.data.massless {
+            self.state.v[i] = 0.0;
+        }
+        self.data
+            .contacts
+            .gaps_into(&self.state.q, &mut self.state.gaps);
+        match &mut self.kernel {
+            Kernel::Moreau(k) => k.reset(&self.data, &mut self.state),
+            Kernel::Newmark(k) => k.reset(&self.data, &mut self.state),
+        }
+    }
+
+    /// Static equilibrium of the massless DOFs `Z` (eqs. 26–29): `K_ZZ q_Z = f_Z − K_ZM q_M
+    /// + W_Z λ` with Signorini on the contacts that involve `Z`.
+    fn static_massless(&mut self) -> Result<()> {
+        let d = &self.data;
+        let z = &d.massless;
+        if z.is_empty() {
+            return Ok(());
+        }
+        let nz = z.len();
+        let mut pos = vec![usize::MAX; d.n];
+        z.iter().enumerate().for_each(|(k, &i)| pos[i] = k);
+        // contacts involving Z, with the massive part moved into the gap
+        let involved: Vec<usize> = (0..d.contacts.len())
+            .filter(|&c| d.contacts.w[c].iter().any(|&(i, _)| pos[i] != usize::MAX))
+            .collect();
+        let nc = involved.len();
+        let mut w = vec![0.0; nz * nc];
+        let mut gap = vec![0.0; nc];
+        for (k, &c) in involved.iter().enumerate() {
+            gap[k] = d.contacts.gap[c];
+            for &(i, wi) in &d.contacts.w[c] {
+                if pos[i] != usize::MAX {
+                    w[pos[i] * nc + k] += wi;
+                } else {
+                    gap[k] += wi * self.state.q[i];
+                }
+            }
+        }
+        let mut contact = StaticContact::new(&self.stiffness_nn, w, gap)?;
+        let t = self.state.time(d.dt);
+        let mut f = vec![0.0; d.n];
+        d.load_into(t, &mut f);
+        let qm: Vec<f64> = d.massive.iter().map(|&i| self.state.q[i]).collect();
+        let kq = self.stiffness_nm.mul_vec(&qm);
+        let b: Vec<f64> = (0..nz).map(|k| f[z[k]] - kq[k]).collect();
+        let set = contact.solve(&b)?;
+        let qz = set.displacement(&b);
+        let lambda = set.force(&b);
+        for (k, &i) in z.iter().enumerate() {
+            self.state.q[i] = qz[k];
+        }
+        for (k, &c) in involved.iter().enumerate() {
+            self.state.forces[c] = lambda[k];
+        }
+        Ok(())
+    }
+
+    /// Advance one step.
+    pub fn step(&mut self) -> Result<()> {
+        match &mut self.kernel {
+            Kernel::Moreau(k) => k.step(&self.data, &mut self.state)?,
+            Kernel::Newmark(k) => k.step(&self.data, &mut self.state)?,
+        }
+        self.state.steps += 1;
+        Ok(())
+    }
+
+    /// Advance `steps` steps, calling `observer` after each.
+    pub fn run(&mut self, steps: usize, mut observer: impl FnMut(&Integrator)) -> Result<()> {
+        for _ in 0..steps {
+            self.step()?;
+            observer(self);
+        }
+        Ok(())
+    }
+
+    /// The scheme.
+    pub fn scheme(&self) -> Scheme {
+        self.scheme
+    }
+
+    /// Time step.
+    pub fn dt(&self) -> f64 {
+        self.data.dt
+    }
+
+    /// Current time.
+    pub fn time(&self) -> f64 {
+        self.state.time(self.data.dt)
+    }
+
+    /// Steps since the last [`Integrator::set_state`].
+    pub fn steps(&self) -> u64 {
+        self.state.steps
+    }
+
+    /// Displacements (system numbering).
+    pub fn q(&self) -> &[f64] {
+        &self.state.q
+    }
+
+    /// Velocities (system numbering). For massless DOFs this is a diagnostic
+    /// (`Δq/h` with the position-level scheme, zero after [`Integrator::set_state`]).
+    pub fn v(&self) -> &[f64] {
+        &self.state.v
+    }
+
+    /// Gaps `Wᵀq + g0` of the contacts at the current time (negative = penetration, which
+    /// the velocity-level scheme allows).
+    pub fn gaps(&self) -> &[f64] {
+        &self.state.gaps
+    }
+
+    /// Contact forces `λ ≥ 0`: at the current time for the position-level scheme, the
+    /// impulse of the last step divided by `dt` for Moreau–Jean.
+    pub fn forces(&self) -> &[f64] {
+        &self.state.forces
+    }
+
+    /// System DOF of a model DOF: `None` for a Dirichlet DOF, an error when out of range.
+    pub fn system_dof(&self, model_dof: usize) -> Result<Option<usize>> {
+        if model_dof >= self.n_model_dofs {
+            return Err(Error::argument(
+                "dof",
+                format!(
+                    "DOF {model_dof} does not exist (the model has DOFs 0..{})",
+                    self.n_model_dofs - 1
+                ),
+            ));
+        }
+        Ok(self.model_dof.iter().position(|&d| d == model_dof))
+    }
+
+    /// `(model DOF, system DOF)` of the first DOF of each contact.
+    pub fn contact_first_dofs(&self) -> Vec<(usize, usize)> {
+        self.data
+            .contacts
+            .w
+            .iter()
+            .map(|w| (self.model_dof[w[0].0], w[0].0))
+            .collect()
+    }
+
+    /// DOFs with mass (the state that a periodic orbit must repeat).
+    pub fn massive_dofs(&self) -> &[usize] {
+        &self.data.massive
+    }
+
+    /// DOFs without mass (statically determined).
+    pub fn massless_dofs(&self) -> &[usize] {
+        &self.data.massless
+    }
+
+    /// `E = ½ vᵀMv + ½ qᵀKq − qᵀ f_const + E_offset` (see the module docs).
+    pub fn energy(&self) -> f64 {
+        let d = &self.data;
+        let s = &self.state;
+        0.5 * d.mass.quadratic_form(&s.v) + 0.5 * d.stiffness.quadratic_form(&s.q)
+            - s.q
+                .iter()
+                .zip(&d.constant_load)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+            + d.energy_offset
+    }
+}

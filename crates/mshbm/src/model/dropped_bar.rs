@@ -1,0 +1,141 @@
+//! The elastic bar dropped under gravity onto a rigid support (the paper's Figs. 3–5,
+//! METHODS §2): a free bar of two-node elements (eq. 45) along the vertical axis, released
+//! at rest and undeformed with its lower end at height `h0` above the support.
+//!
+//! Node `i` is at height `x_i = i·length/elements` above the lower end (node 0); the DOFs
+//! are the upward displacements. The contact is at node 0 with `g = h0 + u_0` (`W = +1`).
+//! Gravity is a uniform acceleration `−g` ([`Model::acceleration`]), so its load uses the
+//! mass the method uses: `−g M_R 1` with the redistributed mass (METHODS §2.5), which keeps
+//! free flight rigid. The stiffness of the free bar is singular (rigid translation); the
+//! time integrators' iteration matrices are nevertheless positive definite, but methods
+//! that need `K⁻¹` (the MS-HBM) refuse this model.
+//!
+//! The closed-form solution is [`crate::integrate::analytic::DroppedBarSolution`]
+//! ([`DroppedBarParameters::analytic`]).
+
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::fe::bar1d;
+use crate::integrate::analytic::DroppedBarSolution;
+use crate::model::{Contact, Damping, Model};
+
+/// Parameters of the dropped bar (units are the user's).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DroppedBarParameters {
+    pub elements: usize,
+    /// Length of the bar.
+    pub length: f64,
+    pub density: f64,
+    /// Young's modulus.
+    pub young: f64,
+    /// Cross-section area.
+    pub area: f64,
+    /// Height `h0` of the lower end above the support at release.
+    pub height: f64,
+    /// Gravitational acceleration `g > 0` (acting downward).
+    pub gravity: f64,
+    pub damping: Damping,
+}
+
+impl DroppedBarParameters {
+    /// The nondimensional setup of METHODS §2.5: 100 elements, `L = c = g = ρ = E = A = 1`,
+    /// `κ = 3` (`h0 = 4.5`, period 16).
+    pub fn nondimensional() -> Self {
+        DroppedBarParameters {
+            elements: 100,
+            length: 1.0,
+            density: 1.0,
+            young: 1.0,
+            area: 1.0,
+            height: DroppedBarSolution::height_for_kappa(3.0, 1.0, 1.0, 1.0),
+            gravity: 1.0,
+            damping: Damping::default(),
+        }
+    }
+
+    /// Wave speed `c = sqrt(E/ρ)`.
+    pub fn wave_speed(&self) -> f64 {
+        (self.young / self.density).sqrt()
+    }
+
+    /// `κ = v0 c/(g L)`: the closed form is exactly periodic iff it is an integer ≥ 3.
+    pub fn kappa(&self) -> f64 {
+        (2.0 * self.gravity * self.height).sqrt() * self.wave_speed() / (self.gravity * self.length)
+    }
+
+    /// Drop height giving `κ` for these bar parameters.
+    pub fn height_for_kappa(&self, kappa: f64) -> f64 {
+        DroppedBarSolution::height_for_kappa(kappa, self.length, self.wave_speed(), self.gravity)
+    }
+
+    /// The closed-form solution of METHODS §2.3 (fails unless `κ` is an integer ≥ 3).
+    pub fn analytic(&self) -> Result<DroppedBarSolution> {
+        DroppedBarSolution::new(
+            self.length,
+            self.wave_speed(),
+            self.gravity,
+            self.height,
+            self.density * self.area,
+        )
+    }
+
+    /// Build the model; `source` names the origin in error messages.
+    pub fn build(&self, source: &Path) -> Result<Model> {
+        let positive = |field: &str, v: f64| -> Result<()> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::field(
+                    source,
+                    field,
+                    format!("must be positive, got {v}"),
+                ))
+            }
+        };
+        if self.elements < 2 {
+            return Err(Error::field(
+                source,
+                "bar.elements",
+                format!("must be at least 2, got {}", self.elements),
+            ));
+        }
+        positive("bar.length", self.length)?;
+        positive("bar.density", self.density)?;
+        positive("bar.young", self.young)?;
+        positive("bar.area", self.area)?;
+        positive("drop.gravity", self.gravity)?;
+        if !(self.height.is_finite() && self.height >= 0.0) {
+            return Err(Error::field(
+                source,
+                "drop.height",
+                format!("must be a finite non-negative height, got {}", self.height),
+            ));
+        }
+        let ne = self.elements;
+        let n = ne + 1;
+        let (mass, stiffness) =
+            bar1d::assemble(ne, self.length, self.density, self.young, self.area);
+        let model = Model {
+            source: source.to_path_buf(),
+            name: format!("bar dropped onto a rigid support, {ne} elements"),
+            mass,
+            stiffness,
+            damping_matrix: None,
+            coordinates: bar1d::node_coordinates(ne, self.length),
+            dofs_per_node: 1,
+            dirichlet: vec![],
+            contacts: vec![Contact {
+                dofs: vec![0],
+                w: vec![1.0],
+                gap: self.height,
+            }],
+            harmonic_load: vec![0.0; n],
+            constant_load: vec![0.0; n],
+            acceleration: Some(vec![-self.gravity]),
+            damping: self.damping.clone(),
+        };
+        model.validate()?;
+        Ok(model)
+    }
+}
