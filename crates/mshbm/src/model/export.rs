@@ -81,7 +81,11 @@ pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> 
         let _ = writeln!(t, "acceleration = [{}]", a.join(", "));
     }
     let d = &model.damping;
-    let _ = writeln!(t, "\n[damping]\nalpha = {:?}\nbeta = {:?}", d.alpha, d.beta);
+    let _ = writeln!(
+        t,
+        "\n[damping]\nalpha = {:?}\nbeta = {:?}\nbeta_linear = {:?}",
+        d.alpha, d.beta, d.beta_linear
+    );
     if let Some(z) = d.first_mode_ratio {
         let _ = writeln!(t, "first_mode_ratio = {z:?}");
     }

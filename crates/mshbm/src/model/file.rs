@@ -18,8 +18,10 @@
 //!   [contact]
 //!   gap = 0.2             # initial gap g0 [mm]; omit the table for no contact
 //!   [damping]
-//!   alpha = 0.0           # C = alpha M_used + beta K [1/s], [s]
+//!   alpha = 0.0           # C = alpha M_used + beta K + beta_linear K_LL [1/s], [s], [s]
 //!   beta = 0.0
+//!   beta_linear = 0.0     # stiffness-proportional on the linear part only (K without the
+//!                         # contact-node rows/columns): allowed by the redistributed method
 //!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
 //!   ```
 //! * `kind = "matrices"` — a general model from Matrix Market files (paths relative to the
@@ -79,6 +81,8 @@ struct DampingSection {
     alpha: f64,
     #[serde(default)]
     beta: f64,
+    #[serde(default)]
+    beta_linear: f64,
     first_mode_ratio: Option<f64>,
 }
 
@@ -87,6 +91,7 @@ impl From<DampingSection> for Damping {
         Damping {
             alpha: d.alpha,
             beta: d.beta,
+            beta_linear: d.beta_linear,
             first_mode_ratio: d.first_mode_ratio,
         }
     }

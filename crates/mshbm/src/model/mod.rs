@@ -44,6 +44,11 @@ pub struct Damping {
     /// Stiffness-proportional coefficient (s). Couples into the contact DOFs, so the
     /// redistributed method refuses it.
     pub beta: f64,
+    /// Stiffness-proportional coefficient (s) of the linear part only: `C += beta_linear ·
+    /// K_LL`, the stiffness with the rows and columns of the contact nodes removed. It
+    /// damps the high modes that contact excites while keeping the massless contact DOFs
+    /// free of damping (`C_NN = C_NL = 0`), so the redistributed method accepts it.
+    pub beta_linear: f64,
     /// If set, `alpha = 2 ζ ω₁` with `ω₁` the first eigenfrequency (rad/s) of the system
     /// with the mass the method uses and all contacts open, so that the first mode has
     /// modal damping ratio `ζ` (mass-proportional damping gives `ζ_k = alpha / (2 ω_k)`).
@@ -267,7 +272,11 @@ impl Model {
             }
         }
         let d = &self.damping;
-        for (name, v) in [("damping.alpha", d.alpha), ("damping.beta", d.beta)] {
+        for (name, v) in [
+            ("damping.alpha", d.alpha),
+            ("damping.beta", d.beta),
+            ("damping.beta_linear", d.beta_linear),
+        ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::field(
                     file,

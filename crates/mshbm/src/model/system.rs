@@ -107,6 +107,22 @@ impl Model {
         };
         let beta = self.damping.beta;
         let mut damping = SparseMatrix::linear_combination(alpha, &mass, beta, &stiffness);
+        if self.damping.beta_linear != 0.0 {
+            // β_L K_LL: stiffness-proportional damping with the contact-node rows and
+            // columns left out
+            let t: Vec<(usize, usize, f64)> = stiffness
+                .iter()
+                .filter(|&(i, j, _)| !is_nonlinear[i] && !is_nonlinear[j])
+                .map(|(i, j, v)| (i, j, self.damping.beta_linear * v))
+                .collect();
+            let n_free = stiffness.nrows();
+            damping = SparseMatrix::linear_combination(
+                1.0,
+                &damping,
+                1.0,
+                &SparseMatrix::from_triplets(n_free, n_free, &t),
+            );
+        }
         if let Some(c) = &self.damping_matrix {
             damping = SparseMatrix::linear_combination(
                 1.0,

@@ -97,8 +97,7 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
         acceleration: None,
         damping: Damping {
             alpha: damping_alpha,
-            beta: 0.0,
-            first_mode_ratio: None,
+            ..Damping::default()
         },
     }
 }
@@ -132,8 +131,7 @@ pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha
         acceleration: None,
         damping: Damping {
             alpha,
-            beta: 0.0,
-            first_mode_ratio: None,
+            ..Damping::default()
         },
     }
 }
