@@ -15,7 +15,7 @@ use clap::{Parser, Subcommand};
 /// Units are those of the model file (the paper's bar: mm, t, s, N, MPa); frequencies are
 /// always in Hz. DOFs are numbered from 0.
 #[derive(Parser, Debug)]
-#[command(name = "mshbm", version, about, long_about = None)]
+#[command(name = "mshbm", version)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -17,7 +17,6 @@ use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::{load_dropped_bar, load_model};
 use mshbm::solution::PeriodicSolution;
-use mshbm::sparse::SparseMatrix;
 use mshbm::{MassKind, Model};
 
 fn clamped_bar(overrides: &[&str]) -> Model {

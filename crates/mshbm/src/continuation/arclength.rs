@@ -163,7 +163,7 @@ impl Scaling {
         s.push(omega / self.omega);
         s
     }
-    fn from_scaled(&self, s: &[f64]) -> (Vec<f64>, f64) {
+    fn unscale(&self, s: &[f64]) -> (Vec<f64>, f64) {
         let n = s.len() - 1;
         (
             s[..n].iter().map(|v| v * self.length).collect(),
@@ -242,7 +242,7 @@ fn correct<P: PeriodicProblem + ?Sized>(
 ) -> Result<Option<(Vec<f64>, usize, f64)>> {
     let mut xs: Vec<f64> = start.iter().zip(t).map(|(a, b)| a + ds * b).collect();
     for it in 0..=newton.max_iterations {
-        let (x, omega) = sc.from_scaled(&xs);
+        let (x, omega) = sc.unscale(&xs);
         if !(omega.is_finite() && omega > 0.0) {
             return Ok(None);
         }
@@ -370,7 +370,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         let corrected = correct(problem, &sc, &start, &last.tangent, ds, &options.newton)?;
         let accepted = match corrected {
             Some((xs, iterations, norm)) => {
-                let (x, omega) = sc.from_scaled(&xs);
+                let (x, omega) = sc.unscale(&xs);
                 let secant: Vec<f64> = xs.iter().zip(&start).map(|(a, b)| a - b).collect();
                 // the corrector must stay near the predictor: a secant far off the tangent
                 // means it landed on another part of the curve (e.g. a nearby branch born
@@ -493,7 +493,7 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
     let eval = |problem: &mut P, s: f64| -> Result<Option<(f64, Vec<f64>, f64)>> {
         match correct(problem, sc, start, &last.tangent, s, &options.newton)? {
             Some((xs, _, _)) => {
-                let (x, omega) = sc.from_scaled(&xs);
+                let (x, omega) = sc.unscale(&xs);
                 let secant: Vec<f64> = xs.iter().zip(start).map(|(a, b)| a - b).collect();
                 let t = tangent(problem, sc, &x, omega, &last.tangent, &secant)?;
                 Ok(Some((t[n], x, omega)))
@@ -594,7 +594,7 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
         for dir in starts {
             let mut xs: Vec<f64> = x0.iter().zip(&dir).map(|(a, b)| a + radius * b).collect();
             for it in 0..=options.newton.max_iterations {
-                let (x, omega) = sc.from_scaled(&xs);
+                let (x, omega) = sc.unscale(&xs);
                 if !(omega.is_finite() && omega > 0.0) {
                     break;
                 }

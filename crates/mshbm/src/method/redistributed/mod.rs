@@ -272,8 +272,8 @@ impl RedistributedMsHbm {
         let f = self.frequency.as_ref().expect("prepared");
         let n = self.n();
         let mut b = vec![0.0; n * n_coefficients(self.harmonics)];
-        for i in 0..n {
-            b[i] = -f.u0[0][i].re
+        for (i, mean) in b.iter_mut().enumerate().take(n) {
+            *mean = -f.u0[0][i].re
                 + self.constant_load_n[i]
                 + (0..n).map(|j| f.g[0][i * n + j].re * x[j]).sum::<f64>();
         }

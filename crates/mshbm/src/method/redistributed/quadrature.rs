@@ -192,6 +192,7 @@ fn first_negative(coef: &[f64], a: f64, end: f64) -> Option<f64> {
 }
 
 /// Decompose one period into active-set groups.
+#[allow(clippy::needless_range_loop)] // cells j use the grid points j and j + 1
 pub fn integrate(
     contact: &mut StaticContact,
     load: &[f64],
