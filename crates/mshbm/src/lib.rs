@@ -14,6 +14,7 @@ pub mod fe;
 pub mod model;
 pub mod modes;
 pub mod sparse;
+pub mod stability;
 
 pub use error::{Error, Result};
 pub use model::{MassKind, Model, System};

@@ -5,6 +5,7 @@ use faer::Mat;
 
 use crate::error::Result;
 use crate::solution::PeriodicSolution;
+use crate::stability::Floquet;
 
 /// Residual, Jacobian and frequency derivative at one point.
 pub struct Linearization {
@@ -36,4 +37,9 @@ pub trait PeriodicProblem {
     /// The periodic solution described by `x` at `ω`, with the time series of the contacts
     /// and of the model DOF `response_dof`. Newton statistics are left at their defaults.
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution>;
+
+    /// Floquet multipliers of the solution `x` at `ω`, for methods that provide them.
+    fn floquet(&mut self, _x: &[f64], _omega: f64) -> Result<Option<Floquet>> {
+        Ok(None)
+    }
 }

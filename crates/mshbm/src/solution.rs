@@ -49,6 +49,9 @@ pub struct PeriodicSolution {
     pub contact_dofs: Vec<usize>,
     pub contacts: Vec<ContactSeries>,
     pub response: DofResponse,
+    /// Floquet multipliers and stability, when computed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability: Option<crate::stability::Floquet>,
 }
 
 impl DofResponse {

@@ -280,6 +280,7 @@ pub fn simulate_to_steady_state(
                 max: rmax,
                 min: rmin,
             },
+            stability: None,
         },
         periodic,
         period_change: change,

@@ -63,6 +63,9 @@ pub struct Integration {
     pub sample_group: Vec<usize>,
     /// Located switching times (exact quadrature only).
     pub switches: Vec<Switch>,
+    /// The period cut into intervals of constant active set, `(τ_start, τ_end, group)`,
+    /// in order (exact: at the switching times; sampled: runs of grid cells).
+    pub intervals: Vec<(f64, f64, usize)>,
 }
 
 /// Load `b(τ)` from its coefficients (`load[c·n + i]`).
@@ -218,10 +221,18 @@ pub fn integrate(
         sets.push(set);
     }
     let mut switches = Vec::new();
+    let mut intervals: Vec<(f64, f64, usize)> = Vec::new();
     match quadrature {
         Quadrature::Sampled => {
+            let two_pi = 2.0 * std::f64::consts::PI;
             for (j, &g) in sample_group.iter().enumerate() {
                 sampling.add_sample_gram(j, &mut groups.groups[g].gram);
+                // the sample's set holds on its cell [τ_j, τ_j+1)
+                let end = sampling.taus.get(j + 1).copied().unwrap_or(two_pi);
+                match intervals.last_mut() {
+                    Some(last) if last.2 == g => last.1 = end,
+                    _ => intervals.push((sampling.taus[j], end, g)),
+                }
             }
         }
         Quadrature::Exact => {
@@ -241,6 +252,7 @@ pub fn integrate(
                 if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&set, load, n, nc, ncoef, a) {
                     let g = groups.of(&set);
                     add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
+                    intervals.push((run_start, a, g));
                     run_start = a;
                     set = sets[j].clone();
                 }
@@ -260,6 +272,7 @@ pub fn integrate(
                     };
                     let g = groups.of(&set);
                     add_interval_gram(h, run_start, root, &mut groups.groups[g].gram);
+                    intervals.push((run_start, root, g));
                     switches.push(Switch { tau: root });
                     run_start = root;
                     guard += 1;
@@ -283,12 +296,14 @@ pub fn integrate(
             }
             let g = groups.of(&set);
             add_interval_gram(h, run_start, two_pi, &mut groups.groups[g].gram);
+            intervals.push((run_start, two_pi, g));
         }
     }
     Ok(Integration {
         groups: groups.groups,
         sample_group,
         switches,
+        intervals,
     })
 }
 
