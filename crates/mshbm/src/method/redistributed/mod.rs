@@ -21,6 +21,8 @@
 pub mod quadrature;
 pub mod static_contact;
 
+use std::rc::Rc;
+
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
@@ -80,7 +82,11 @@ pub struct RedistributedMsHbm {
     contact: StaticContact,
     frequency: Option<FrequencyData>,
     length_scale: f64,
+    /// First-order matrix and its eigendecomposition per active set (stability).
+    stability_cache: std::collections::HashMap<Vec<bool>, Rc<StabilityData>>,
 }
+
+type StabilityData = (Mat<f64>, Option<crate::stability::ModalExponential>);
 
 fn zero() -> c64 {
     c64::new(0.0, 0.0)
@@ -188,6 +194,7 @@ impl RedistributedMsHbm {
             contact,
             frequency: None,
             length_scale,
+            stability_cache: std::collections::HashMap::new(),
             system,
         })
     }
@@ -461,6 +468,35 @@ impl RedistributedMsHbm {
         crate::continuation::newton::newton_direction(&jac, &r0)
     }
 
+    /// First-order matrix of the linearised L-system for the active set with compliance
+    /// `P_A`: state `z = (w q_L, q̇_L)` with `w` ~ the highest frequency, which balances
+    /// the blocks (a similarity: multipliers unchanged) and keeps exponentials accurate.
+    fn state_matrix(&self, compliance: &[f64]) -> Mat<f64> {
+        let n = self.n();
+        let nl = self.linear.n_dofs();
+        let m = self.linear.mass.to_dense();
+        let lu = m.partial_piv_lu();
+        let k = self.linear.stiffness.to_dense();
+        let minv_c = lu.solve(self.linear.damping.to_dense());
+        let minv_k_ll = lu.solve(&k);
+        let w_ref = (0..nl).map(|j| (0..nl).map(|i| minv_k_ll[(i, j)].abs()).sum::<f64>()).fold(0.0f64, f64::max).sqrt().max(1.0);
+        let p = Mat::<f64>::from_fn(n, n, |i, j| compliance[i * n + j]);
+        let k_eff = &k - self.k_ln.to_dense() * (&p * self.k_nl.to_dense());
+        let minv_k = lu.solve(&k_eff);
+        Mat::<f64>::from_fn(2 * nl, 2 * nl, |i, j| match (i < nl, j < nl) {
+            (true, true) => 0.0,
+            (true, false) => {
+                if j - nl == i {
+                    w_ref
+                } else {
+                    0.0
+                }
+            }
+            (false, true) => -minv_k[(i - nl, j)] / w_ref,
+            (false, false) => -minv_c[(i - nl, j - nl)],
+        })
+    }
+
     /// `q̂_L,k` for the model DOF at L-index `l` (coefficients `[a0, a1, b1, …]`).
     fn linear_dof_coefficients(&self, x: &[f64], l: usize) -> Result<Vec<f64>> {
         let f = self.frequency.as_ref().expect("prepared");
@@ -663,47 +699,31 @@ impl PeriodicProblem for RedistributedMsHbm {
             ));
         }
         let (_, integration, _) = self.evaluate(x, omega)?;
-        let n = self.n();
-        let m = self.linear.mass.to_dense();
-        let c = self.linear.damping.to_dense();
-        let k = self.linear.stiffness.to_dense();
-        let k_ln = self.k_ln.to_dense();
-        let k_nl = self.k_nl.to_dense();
-        let lu = m.partial_piv_lu();
-        let minv_c = lu.solve(&c);
-        // state z = (w q, q̇) with w ~ the highest frequency balances the two blocks of the
-        // first-order matrix (a similarity: the multipliers are unchanged), which keeps
-        // the scaling-and-squaring exponential accurate for stiff FE models
-        let minv_k_ll = lu.solve(&k);
-        let w_ref = (0..nl).map(|j| (0..nl).map(|i| minv_k_ll[(i, j)].abs()).sum::<f64>()).fold(0.0f64, f64::max).sqrt().max(omega);
-        let state_matrices: Vec<Mat<f64>> = integration
-            .groups
-            .iter()
-            .map(|g| {
-                let p = Mat::<f64>::from_fn(n, n, |i, j| g.set.compliance[i * n + j]);
-                let k_eff = &k - &k_ln * (&p * &k_nl);
-                let minv_k = lu.solve(&k_eff);
-                Mat::<f64>::from_fn(2 * nl, 2 * nl, |i, j| match (i < nl, j < nl) {
-                    (true, true) => 0.0,
-                    (true, false) => {
-                        if j - nl == i {
-                            w_ref
-                        } else {
-                            0.0
-                        }
-                    }
-                    (false, true) => -minv_k[(i - nl, j)] / w_ref,
-                    (false, false) => -minv_c[(i - nl, j - nl)],
-                })
-            })
-            .collect();
-        let pieces: Vec<(&Mat<f64>, f64)> = integration
+        // the first-order matrices depend only on the active set (not on ω): build them,
+        // and their eigendecompositions, once per set
+        for g in &integration.groups {
+            if !self.stability_cache.contains_key(&g.set.closed) {
+                let a = self.state_matrix(&g.set.compliance);
+                let modal = crate::stability::ModalExponential::new(&a);
+                self.stability_cache.insert(g.set.closed.clone(), Rc::new((a, modal)));
+            }
+        }
+        let data: Vec<Rc<StabilityData>> =
+            integration.groups.iter().map(|g| self.stability_cache[&g.set.closed].clone()).collect();
+        let intervals: Vec<(usize, f64)> = integration
             .intervals
             .iter()
             .filter(|(a, b, _)| b > a)
-            .map(|&(a, b, g)| (&state_matrices[g], (b - a) / omega))
+            .map(|&(a, b, g)| (g, (b - a) / omega))
             .collect();
-        let phi = crate::stability::piecewise_monodromy(&pieces);
+        let phi = if intervals.iter().all(|(g, _)| data[*g].1.is_some()) {
+            let pieces: Vec<(&crate::stability::ModalExponential, f64)> =
+                intervals.iter().map(|&(g, dt)| (data[g].1.as_ref().expect("checked"), dt)).collect();
+            crate::stability::modal_monodromy(&pieces)
+        } else {
+            let pieces: Vec<(&Mat<f64>, f64)> = intervals.iter().map(|&(g, dt)| (&data[g].0, dt)).collect();
+            crate::stability::piecewise_monodromy(&pieces)
+        };
         let values = phi.eigenvalues().map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
         Ok(Some(crate::stability::Floquet::from_eigenvalues(values)))
     }
