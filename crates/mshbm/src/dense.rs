@@ -50,19 +50,6 @@ pub fn solve_small(a: &[f64], b: &[f64], rel_tol: f64) -> Option<Vec<f64>> {
     Some(x)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn solves_and_detects_singularity() {
-        let a = [0.0, 2.0, 1.0, 1.0];
-        let x = solve_small(&a, &[4.0, 3.0], 1e-14).unwrap();
-        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15);
-        assert!(solve_small(&[1.0, 2.0, 2.0, 4.0], &[1.0, 1.0], 1e-12).is_none());
-    }
-}
-
 /// Matrix exponential `exp(A)` by scaling and squaring with the diagonal (6, 6) Padé
 /// approximant (Moler & Van Loan, "Nineteen dubious ways", method 3): relative accuracy
 /// near machine precision for the moderately scaled matrices of the Floquet products.
@@ -70,8 +57,14 @@ pub fn expm(a: &faer::Mat<f64>) -> faer::Mat<f64> {
     use faer::linalg::solvers::Solve;
     use faer::Mat;
     let n = a.nrows();
-    let norm1 = (0..n).map(|j| (0..n).map(|i| a[(i, j)].abs()).sum::<f64>()).fold(0.0, f64::max);
-    let squarings = if norm1 > 0.5 { (norm1 / 0.5).log2().ceil() as i32 } else { 0 };
+    let norm1 = (0..n)
+        .map(|j| (0..n).map(|i| a[(i, j)].abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let squarings = if norm1 > 0.5 {
+        (norm1 / 0.5).log2().ceil() as i32
+    } else {
+        0
+    };
     let scaled = a * (0.5f64).powi(squarings);
     let q = 6;
     let mut c = 1.0;
@@ -89,4 +82,17 @@ pub fn expm(a: &faer::Mat<f64>) -> faer::Mat<f64> {
         f = &f * &f;
     }
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solves_and_detects_singularity() {
+        let a = [0.0, 2.0, 1.0, 1.0];
+        let x = solve_small(&a, &[4.0, 3.0], 1e-14).unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15);
+        assert!(solve_small(&[1.0, 2.0, 2.0, 4.0], &[1.0, 1.0], 1e-12).is_none());
+    }
 }

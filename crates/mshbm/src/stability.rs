@@ -65,9 +65,16 @@ impl ModalExponential {
         let v_inv = v.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
         let scaled = Mat::<c64>::from_fn(n, n, |i, j| v[(i, j)] * lambda[j]);
         let back = &scaled * &v_inv;
-        let norm = (0..n).flat_map(|i| (0..n).map(move |j| (i, j))).fold(0.0f64, |m, (i, j)| m.max(a[(i, j)].abs()));
-        let err = (0..n).flat_map(|i| (0..n).map(move |j| (i, j))).fold(0.0f64, |m, (i, j)| m.max((back[(i, j)] - c64::new(a[(i, j)], 0.0)).norm()));
-        (err <= 1e-10 * norm.max(f64::MIN_POSITIVE) && err.is_finite()).then_some(ModalExponential { v, lambda, v_inv })
+        let norm = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .fold(0.0f64, |m, (i, j)| m.max(a[(i, j)].abs()));
+        let err = (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .fold(0.0f64, |m, (i, j)| {
+                m.max((back[(i, j)] - c64::new(a[(i, j)], 0.0)).norm())
+            });
+        (err <= 1e-10 * norm.max(f64::MIN_POSITIVE) && err.is_finite())
+            .then_some(ModalExponential { v, lambda, v_inv })
     }
 
     /// `exp(A t)`.

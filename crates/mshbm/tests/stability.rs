@@ -20,12 +20,24 @@ use mshbm::MassKind;
 fn linear_limit_multipliers_are_exponentials_of_the_damped_eigenvalues() {
     let model = load_model(
         &common::examples().join("clamped_bar.toml"),
-        &["bar.elements=20".into(), "contact.gap=100".into(), "damping.first_mode_ratio=0.01".into()],
+        &[
+            "bar.elements=20".into(),
+            "contact.gap=100".into(),
+            "damping.first_mode_ratio=0.01".into(),
+        ],
     )
     .unwrap();
     let f = 30e3;
     let omega = 2.0 * PI * f;
-    let mut p = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics: 3, samples: None, quadrature: Quadrature::Exact }).unwrap();
+    let mut p = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            harmonics: 3,
+            samples: None,
+            quadrature: Quadrature::Exact,
+        },
+    )
+    .unwrap();
     let (_, out) = solve_at_frequency(&mut p, omega, 20, &NewtonOptions::default()).unwrap();
     assert!(out.converged);
     let floquet = p.floquet(&out.x, omega).unwrap().unwrap();
@@ -34,7 +46,8 @@ fn linear_limit_multipliers_are_exponentials_of_the_damped_eigenvalues() {
     // system with the massless DOF condensed statically, multipliers exp(s_k T)
     let s = model.system(MassKind::Redistributed).unwrap();
     let (l, nset) = (&s.linear_dofs, &s.nonlinear_dofs);
-    let dense = |a: &mshbm::sparse::SparseMatrix, r: &[usize], c: &[usize]| a.submatrix(r, c).to_dense();
+    let dense =
+        |a: &mshbm::sparse::SparseMatrix, r: &[usize], c: &[usize]| a.submatrix(r, c).to_dense();
     let k_nn = dense(&s.stiffness, nset, nset);
     let k_nl = dense(&s.stiffness, nset, l);
     let k_ln = dense(&s.stiffness, l, nset);
@@ -53,15 +66,26 @@ fn linear_limit_multipliers_are_exponentials_of_the_damped_eigenvalues() {
         (false, false) => -mc[(i - nl, j - nl)],
     });
     let period = 1.0 / f;
-    let reference: Vec<c64> = a.eigenvalues().unwrap().iter().map(|s| (s * period).exp()).collect();
+    let reference: Vec<c64> = a
+        .eigenvalues()
+        .unwrap()
+        .iter()
+        .map(|s| (s * period).exp())
+        .collect();
     assert_eq!(floquet.multipliers.len(), reference.len());
     let mut worst = 0.0f64;
     for mu in &floquet.multipliers {
         let mu = c64::new(mu[0], mu[1]);
-        let d = reference.iter().map(|r| (r - mu).norm()).fold(f64::INFINITY, f64::min);
+        let d = reference
+            .iter()
+            .map(|r| (r - mu).norm())
+            .fold(f64::INFINITY, f64::min);
         worst = worst.max(d);
     }
-    println!("max |μ − exp(s_k T)| = {worst:.2e}; largest |μ| = {}", floquet.max_multiplier);
+    println!(
+        "max |μ − exp(s_k T)| = {worst:.2e}; largest |μ| = {}",
+        floquet.max_multiplier
+    );
     assert!(worst < 1e-8, "{worst}");
     // mass-proportional damping: every mode decays at α/2, so |μ| = exp(−αT/2) for all
     let expected = (-s.alpha * period / 2.0).exp();
@@ -73,7 +97,15 @@ fn linear_limit_multipliers_are_exponentials_of_the_damped_eigenvalues() {
 fn stability_changes_at_the_folds_of_the_bilinear_oscillator() {
     let model = common::bilinear_oscillator(1.0, 1.0, 3.0, 1.0, 0.1, 0.04);
     for harmonics in [5, 10] {
-        let mut p = RedistributedMsHbm::new(&model, &RedistributedOptions { harmonics, samples: None, quadrature: Quadrature::Exact }).unwrap();
+        let mut p = RedistributedMsHbm::new(
+            &model,
+            &RedistributedOptions {
+                harmonics,
+                samples: None,
+                quadrature: Quadrature::Exact,
+            },
+        )
+        .unwrap();
         let mut options = ContinuationOptions::new(0.5, 2.5);
         options.max_step = 0.01;
         let branch = trace_branch(&mut p, &options, |_, _| Ok(())).unwrap();
@@ -83,27 +115,45 @@ fn stability_changes_at_the_folds_of_the_bilinear_oscillator() {
         for pt in &branch.points {
             let f = p.floquet(&pt.x, pt.omega).unwrap().unwrap();
             stable.push(f.stable);
-            largest_real.push(f.multipliers.iter().filter(|m| m[1].abs() < 1e-12).map(|m| m[0]).fold(f64::NEG_INFINITY, f64::max));
+            largest_real.push(
+                f.multipliers
+                    .iter()
+                    .filter(|m| m[1].abs() < 1e-12)
+                    .map(|m| m[0])
+                    .fold(f64::NEG_INFINITY, f64::max),
+            );
         }
-        let changes: Vec<usize> = (1..stable.len()).filter(|&k| stable[k] != stable[k - 1]).collect();
+        let changes: Vec<usize> = (1..stable.len())
+            .filter(|&k| stable[k] != stable[k - 1])
+            .collect();
         // one change per fold: stable below the upper fold, unstable on the middle branch,
         // stable again after the lower fold
         assert_eq!(changes.len(), 2, "H = {harmonics}: changes at {changes:?}");
         assert!(stable[0] && !stable[changes[0]] && stable[stable.len() - 1]);
         let mid = (changes[0] + changes[1]) / 2;
-        assert!(largest_real[mid] > 1.0, "a real multiplier outside the unit circle: {}", largest_real[mid]);
+        assert!(
+            largest_real[mid] > 1.0,
+            "a real multiplier outside the unit circle: {}",
+            largest_real[mid]
+        );
         for (c, fold) in changes.iter().zip(&branch.folds) {
             // a real multiplier crosses +1 between points c-1 and c; on a turning point ω
             // is flat, so compare frequencies
             let (w0, w1) = (branch.points[c - 1].omega, branch.points[*c].omega);
             let (m0, m1) = (largest_real[c - 1], largest_real[*c]);
-            assert!((m0 - 1.0) * (m1 - 1.0) <= 0.0, "the multiplier crosses +1: {m0} → {m1}");
+            assert!(
+                (m0 - 1.0) * (m1 - 1.0) <= 0.0,
+                "the multiplier crosses +1: {m0} → {m1}"
+            );
             let crossing = w0 + (1.0 - m0) / (m1 - m0) * (w1 - w0);
             let rel = crossing / fold.omega - 1.0;
             println!("H = {harmonics}: fold at {:.8}, multiplier +1 at {crossing:.8} (relative {rel:.1e})", fold.omega);
             // the monodromy is that of the H-truncated approximation, so the crossing
             // approaches the fold as H grows rather than sitting exactly on it
-            assert!(rel.abs() < if harmonics == 5 { 2e-3 } else { 5e-4 }, "H = {harmonics}: {rel}");
+            assert!(
+                rel.abs() < if harmonics == 5 { 2e-3 } else { 5e-4 },
+                "H = {harmonics}: {rel}"
+            );
         }
     }
 }

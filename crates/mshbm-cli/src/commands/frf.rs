@@ -14,7 +14,7 @@ use mshbm::continuation::arclength::{
 use mshbm::Model;
 use serde::Serialize;
 
-use super::solve::MethodArgs;
+use super::solve::{Method, MethodArgs, Variant};
 use super::ModelArgs;
 use crate::plot::{Figure, HLine, Series, Style};
 
@@ -69,6 +69,16 @@ pub struct FrfArgs {
     /// Print one JSON object on stdout: {"branches": [...], "folds": [...]}.
     #[arg(long)]
     pub json: bool,
+
+    /// With --method hbm-aft: also trace the redistributed MS-HBM (same --samples and
+    /// --quadrature) for each H and overlay it in the plot, CSV and JSON — the paper's
+    /// Fig. 11: `frf examples/clamped_bar_gap0.toml --set damping.first_mode_ratio=0.01
+    /// --from 20000 --to 100000 --method hbm-aft --penalty 1e6,1e7,1e8 --quadrature exact
+    /// --overlay-mshbm --plot fig11.png`. With the classical sampled AFT, a stiff penalty
+    /// (kp ≳ 10× the contact stiffness) makes branches stop at folds that fall on kinks of
+    /// the residual; --quadrature exact integrates the penalty force and avoids that.
+    #[arg(long)]
+    pub overlay_mshbm: bool,
 }
 
 /// One point of the diagram as reported.
@@ -81,11 +91,16 @@ pub struct FrdPoint {
     pub residual_norm: f64,
     pub newton_iterations: usize,
     pub fold: bool,
+    /// hbm-aft: largest penetration `max(−g)` over the contacts and the AFT samples.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_penetration: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
 pub struct FoldReport {
     pub harmonics: usize,
+    /// The branch's label (see [`BranchReport::label`]).
+    pub label: String,
     pub frequency_hz: f64,
     pub max_qn: f64,
     pub min_qn: f64,
@@ -97,6 +112,13 @@ pub struct FoldReport {
 #[derive(Clone, Debug, Serialize)]
 pub struct BranchReport {
     pub harmonics: usize,
+    /// "redistributed", "hbm-aft", …
+    pub method: String,
+    /// e.g. "H = 5", or "HBM-AFT kp = 1.000e7, H = 5" when several configurations run.
+    pub label: String,
+    /// hbm-aft: penalty stiffness of the (first) contact.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub penalty: Option<f64>,
     pub points: Vec<FrdPoint>,
     /// "reached end", or why the branch stopped.
     pub stop: String,
@@ -111,6 +133,8 @@ struct FrdReport {
 
 const CSV_HEADER: &str =
     "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold";
+/// Extra columns when hbm-aft runs (several methods or penalties share the file).
+const CSV_METHOD_COLUMNS: &str = ",method,penalty,max_penetration";
 
 fn stop_text(stop: &StopReason, to_hz: f64) -> String {
     match stop {
@@ -128,16 +152,31 @@ fn stop_text(stop: &StopReason, to_hz: f64) -> String {
     }
 }
 
-/// Trace one branch, streaming rows to `csv` and reporting progress.
+/// Trace one branch, streaming rows to `csv` and reporting progress. `several`: more than
+/// one configuration runs (labels name the method; CSV rows carry the method columns).
 fn trace(
     model: &Model,
     args: &FrfArgs,
     harmonics: usize,
+    variant: &Variant,
+    several: bool,
     csv: &mut Option<BufWriter<File>>,
     folds: &mut Vec<FoldReport>,
 ) -> Result<(BranchReport, Branch)> {
     let two_pi = 2.0 * std::f64::consts::PI;
-    let mut problem = args.method.problem(model, harmonics)?;
+    let built = args.method.problem_for(model, harmonics, variant)?;
+    let mut problem = built.problem;
+    let method_name = match variant.method {
+        Method::Redistributed => "redistributed",
+        Method::Mshbm => "mshbm",
+        Method::HbmAft => "hbm-aft",
+    };
+    let label = if several {
+        format!("{}, H = {harmonics}", built.label)
+    } else {
+        format!("H = {harmonics}")
+    };
+    let method_columns = several || variant.method == Method::HbmAft;
     let dof = args.method.response_dof(model)?;
     let mut options = ContinuationOptions::new(two_pi * args.from_hz, two_pi * args.to_hz);
     options.initial_step = args.step;
@@ -149,11 +188,11 @@ fn trace(
     let progress = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(1000);
         bar.set_style(
-            ProgressStyle::with_template("H={prefix} [{bar:30}] {msg}")
+            ProgressStyle::with_template("{prefix} [{bar:30}] {msg}")
                 .expect("valid template")
                 .progress_chars("=> "),
         );
-        bar.set_prefix(harmonics.to_string());
+        bar.set_prefix(label.clone());
         Some(bar)
     } else {
         None
@@ -182,10 +221,17 @@ fn trace(
             residual_norm: if fold { s.residual_norm } else { residual },
             newton_iterations: iterations,
             fold,
+            max_penetration: (s.method == "hbm-aft").then(|| {
+                s.contacts
+                    .iter()
+                    .flat_map(|c| c.gap.iter())
+                    .fold(f64::NEG_INFINITY, |m, g| m.max(-g))
+            }),
         };
         if let Event::Fold(f) = &event {
             folds.push(FoldReport {
                 harmonics,
+                label: label.clone(),
                 frequency_hz: point.frequency_hz,
                 max_qn: point.max_qn,
                 min_qn: point.min_qn,
@@ -194,9 +240,24 @@ fn trace(
             });
         }
         if let Some(w) = csv.as_mut() {
+            let extra = if method_columns {
+                format!(
+                    ",{method_name},{},{}",
+                    built
+                        .penalty
+                        .map(|k| format!("{k:.6e}"))
+                        .unwrap_or_default(),
+                    point
+                        .max_penetration
+                        .map(|p| format!("{p:.6e}"))
+                        .unwrap_or_default()
+                )
+            } else {
+                String::new()
+            };
             let r = writeln!(
                 w,
-                "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{}",
+                "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{}{extra}",
                 point.frequency_hz,
                 harmonics,
                 point.max_qn,
@@ -232,6 +293,9 @@ fn trace(
     }
     let report = BranchReport {
         harmonics,
+        method: method_name.to_string(),
+        label,
+        penalty: built.penalty,
         points,
         stop: stop_text(&branch.stop, args.to_hz),
         completed: branch.stop.is_success(),
@@ -256,7 +320,7 @@ pub fn frd_figure(
     for (k, b) in branches.iter().enumerate() {
         let pts: Vec<&FrdPoint> = b.points.iter().collect();
         fig.series.push(Series {
-            label: format!("H = {} (max)", b.harmonics),
+            label: format!("{} (max)", b.label),
             points: pts
                 .iter()
                 .map(|p| (p.frequency_hz / 1e3, p.max_qn))
@@ -311,6 +375,21 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     if !(args.min_step > 0.0 && args.min_step <= args.step && args.step <= args.max_step) {
         bail!("steps must satisfy 0 < --min-step <= --step <= --max-step");
     }
+    let mut variants = args.method.variants()?;
+    if args.overlay_mshbm {
+        if args.method.method != Method::HbmAft {
+            bail!("--overlay-mshbm overlays the MS-HBM on --method hbm-aft; give --method hbm-aft");
+        }
+        variants.insert(
+            0,
+            Variant {
+                method: Method::Redistributed,
+                penalty: None,
+            },
+        );
+    }
+    let several = variants.len() > 1;
+    let method_columns = variants.iter().any(|v| v.method == Method::HbmAft);
     let model = args.model.load()?;
     args.method.response_dof(&model)?;
     let mut csv = match &args.output {
@@ -318,7 +397,11 @@ pub fn run(args: &FrfArgs) -> Result<()> {
             let f =
                 File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
             let mut w = BufWriter::new(f);
-            writeln!(w, "{CSV_HEADER}")?;
+            if method_columns {
+                writeln!(w, "{CSV_HEADER}{CSV_METHOD_COLUMNS}")?;
+            } else {
+                writeln!(w, "{CSV_HEADER}")?;
+            }
             w.flush()?;
             Some(w)
         }
@@ -327,20 +410,25 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     let mut branches = Vec::new();
     let mut folds = Vec::new();
     let mut failure: Option<String> = None;
-    for &h in &args.harmonics {
-        let (report, _) = trace(&model, args, h, &mut csv, &mut folds)?;
-        if !report.completed && failure.is_none() {
-            failure = Some(format!("H = {h}: {}", report.stop));
+    for variant in &variants {
+        for &h in &args.harmonics {
+            let before = folds.len();
+            let (report, _) = trace(&model, args, h, variant, several, &mut csv, &mut folds)?;
+            if !report.completed && failure.is_none() {
+                failure = Some(format!("{}: {}", report.label, report.stop));
+            }
+            if !args.json {
+                let nfolds = folds.len() - before;
+                let iterations: usize = report.points.iter().map(|p| p.newton_iterations).sum();
+                eprintln!(
+                    "{}: {} points, {iterations} Newton iterations, {nfolds} folds, {}",
+                    report.label,
+                    report.points.len(),
+                    report.stop
+                );
+            }
+            branches.push(report);
         }
-        if !args.json {
-            let nfolds = folds.iter().filter(|f| f.harmonics == h).count();
-            eprintln!(
-                "H = {h}: {} points, {nfolds} folds, {}",
-                report.points.len(),
-                report.stop
-            );
-        }
-        branches.push(report);
     }
     if let Some(path) = &args.plot {
         let dof = args.method.response_dof(&model)?;
@@ -358,8 +446,8 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     } else {
         for f in &folds {
             println!(
-                "fold (H = {}): {:.3} Hz, max {:.6e}{}",
-                f.harmonics,
+                "fold ({}): {:.3} Hz, max {:.6e}{}",
+                f.label,
                 f.frequency_hz,
                 f.max_qn,
                 if f.at_kink { " (at a kink)" } else { "" }

@@ -3,14 +3,15 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
+use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
-use mshbm::Model;
+use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
 use crate::output::write_atomic;
@@ -21,6 +22,62 @@ use crate::plot::{Figure, HLine, Series, Style};
 pub enum Method {
     /// MS-HBM with redistributed mass: static contact per sample, semi-analytical Jacobian.
     Redistributed,
+    /// General MS-HBM (paper Section 2): consistent mass, the contact and friction DOFs
+    /// integrated over one period by Moreau–Jean (impacts with e_N = 0, Coulomb friction),
+    /// finite-difference Jacobian. `--samples` = time steps per period (default
+    /// max(512, 32·(2H+1))). With impacts Newton typically stalls near 1e-5: use e.g.
+    /// `--tolerance 1e-4`.
+    Mshbm,
+    /// Baseline: classical harmonic balance with the alternating frequency–time method and
+    /// penalty contact kp·max(0, −g) (the paper's Fig. 11), condensed exactly onto the
+    /// contact DOFs; consistent mass unless --mass redistributed; --penalty sets kp.
+    HbmAft,
+}
+
+/// Mass matrix of `--method hbm-aft`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MassArg {
+    /// The consistent mass of the model (the classical method).
+    Consistent,
+    /// The redistributed mass with a massless contact boundary, as the MS-HBM uses.
+    Redistributed,
+}
+
+/// One configuration to run: a method and, for hbm-aft, one penalty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variant {
+    pub method: Method,
+    pub penalty: Option<Penalty>,
+}
+
+/// A method built for one model and number of harmonics.
+pub struct Built {
+    pub problem: Box<dyn PeriodicProblem>,
+    /// e.g. "MS-HBM" or "HBM-AFT kp = 1.05e8".
+    pub label: String,
+    /// Penalty stiffness of the (first) contact, hbm-aft only.
+    pub penalty: Option<f64>,
+}
+
+/// `--penalty` value: a stiffness (`1e8`) or a multiple of the contact stiffness (`100x`).
+fn parse_penalty(text: &str) -> Result<Penalty> {
+    let t = text.trim();
+    let (number, relative) = match t.strip_suffix(['x', 'X']) {
+        Some(n) => (n.trim(), true),
+        None => (t, false),
+    };
+    let expected = "a positive stiffness [force/length] such as 1e8, or a positive multiple of the contact stiffness such as 100x";
+    let v: f64 = number
+        .parse()
+        .map_err(|_| anyhow!("--penalty {text:?}: expected {expected}"))?;
+    if !(v.is_finite() && v > 0.0) {
+        bail!("--penalty must be positive, got {text}: expected {expected}");
+    }
+    Ok(if relative {
+        Penalty::Relative(v)
+    } else {
+        Penalty::Stiffness(v)
+    })
 }
 
 /// Quadrature of the Fourier coefficients of the contact displacement.
@@ -44,9 +101,32 @@ pub struct MethodArgs {
     #[arg(long, value_name = "NS")]
     pub samples: Option<usize>,
 
-    /// Quadrature of the Fourier coefficients of the contact displacement.
-    #[arg(long, value_enum, default_value_t = QuadratureArg::Exact)]
-    pub quadrature: QuadratureArg,
+    /// Quadrature of the Fourier coefficients of the contact displacement (hbm-aft: of the
+    /// penalty force). Default: exact for redistributed; sampled for hbm-aft (the classical
+    /// AFT), where exact integrates the force between the located penetration times and
+    /// gives a smooth residual, so that continuation passes folds at stiff penalties.
+    #[arg(long, value_enum)]
+    pub quadrature: Option<QuadratureArg>,
+
+    /// Mass matrix of --method hbm-aft: consistent (default, the classical method) or
+    /// redistributed (massless contact boundary, as the MS-HBM), to separate the effect of
+    /// the contact treatment from that of the mass. The MS-HBM methods fix their mass.
+    #[arg(long, value_enum)]
+    pub mass: Option<MassArg>,
+
+    /// Penalty stiffness kp of --method hbm-aft (contact force kp·max(0, −g)): a stiffness
+    /// [force/length, e.g. 1e8 N/mm], or a multiple of the contact DOF's own stiffness
+    /// written with a trailing x (e.g. 100x). Default: 100x (the paper's bar has
+    /// K_NN = EA/h = 1.05e6 N/mm, so kp = 1.05e8 N/mm). The result depends on kp;
+    /// stiffer is closer to exact contact but costs Newton iterations and continuation
+    /// steps. frf takes a comma-separated list and traces one branch per kp.
+    #[arg(
+        long,
+        value_name = "KP",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub penalty: Vec<String>,
 
     /// Newton tolerance: max-norm of the residual relative to the model's length scale
     /// (the largest gap or static deflection of the contact DOFs).
@@ -78,11 +158,91 @@ impl MethodArgs {
         })
     }
 
-    /// Build the method for `harmonics`.
+    /// The penalties of `--penalty` (validated), or the default `100x`.
+    pub fn penalties(&self) -> Result<Vec<Penalty>> {
+        if self.penalty.is_empty() {
+            return Ok(vec![Penalty::default()]);
+        }
+        self.penalty.iter().map(|s| parse_penalty(s)).collect()
+    }
+
+    /// Check the combination of options and list the configurations to run: one per
+    /// `--penalty` value for hbm-aft, one otherwise.
+    pub fn variants(&self) -> Result<Vec<Variant>> {
+        if self.method == Method::HbmAft {
+            return Ok(self
+                .penalties()?
+                .into_iter()
+                .map(|p| Variant {
+                    method: Method::HbmAft,
+                    penalty: Some(p),
+                })
+                .collect());
+        }
+        if !self.penalty.is_empty() {
+            bail!("--penalty applies to --method hbm-aft only (the MS-HBM treats contact exactly)");
+        }
+        if self.mass.is_some() {
+            bail!("--mass applies to --method hbm-aft only (the MS-HBM methods fix their mass)");
+        }
+        Ok(vec![Variant {
+            method: self.method,
+            penalty: None,
+        }])
+    }
+
+    /// Build `variant` for `harmonics`, with its label.
+    pub fn problem_for(&self, model: &Model, harmonics: usize, variant: &Variant) -> Result<Built> {
+        if variant.method != Method::HbmAft {
+            let mut args = self.clone();
+            args.method = variant.method;
+            args.penalty.clear();
+            args.mass = None;
+            return Ok(Built {
+                problem: args.problem(model, harmonics)?,
+                label: match variant.method {
+                    Method::Redistributed => "MS-HBM".to_string(),
+                    Method::Mshbm => "general MS-HBM".to_string(),
+                    Method::HbmAft => unreachable!(),
+                },
+                penalty: None,
+            });
+        }
+        let quadrature = match self.quadrature.unwrap_or(QuadratureArg::Sampled) {
+            QuadratureArg::Exact => Quadrature::Exact,
+            QuadratureArg::Sampled => Quadrature::Sampled,
+        };
+        let options = HbmAftOptions {
+            harmonics,
+            samples: self.samples,
+            mass: match self.mass.unwrap_or(MassArg::Consistent) {
+                MassArg::Consistent => MassKind::Consistent,
+                MassArg::Redistributed => MassKind::Redistributed,
+            },
+            penalty: variant.penalty.unwrap_or_default(),
+            quadrature,
+        };
+        let problem = HbmAft::new(model, &options)?;
+        let kp = problem.penalties()[0];
+        Ok(Built {
+            label: format!("HBM-AFT kp = {kp:.3e}"),
+            penalty: Some(kp),
+            problem: Box::new(problem),
+        })
+    }
+
+    /// Build the method for `harmonics` (hbm-aft: with the one `--penalty` value).
     pub fn problem(&self, model: &Model, harmonics: usize) -> Result<Box<dyn PeriodicProblem>> {
         match self.method {
+            Method::HbmAft => {
+                let variants = self.variants()?;
+                if variants.len() > 1 {
+                    bail!("give one --penalty value here (frf traces one branch per value)");
+                }
+                Ok(self.problem_for(model, harmonics, &variants[0])?.problem)
+            }
             Method::Redistributed => {
-                let quadrature = match self.quadrature {
+                let quadrature = match self.quadrature.unwrap_or(QuadratureArg::Exact) {
                     QuadratureArg::Exact => Quadrature::Exact,
                     QuadratureArg::Sampled => Quadrature::Sampled,
                 };
@@ -93,6 +253,15 @@ impl MethodArgs {
                 };
                 Ok(Box::new(RedistributedMsHbm::new(model, &options)?))
             }
+            Method::Mshbm => {
+                let options = mshbm::method::shooting::GeneralOptions {
+                    steps: self.samples,
+                    ..mshbm::method::shooting::GeneralOptions::new(harmonics)
+                };
+                Ok(Box::new(mshbm::method::shooting::GeneralMsHbm::new(
+                    model, &options,
+                )?))
+            }
         }
     }
 
@@ -100,9 +269,10 @@ impl MethodArgs {
     pub fn response_dof(&self, model: &Model) -> Result<usize> {
         let dof = match self.dof {
             Some(d) => d,
-            None => match model.contacts.first() {
-                Some(c) => c.dofs[0],
-                None => bail!("the model has no contact: give --dof"),
+            None => match (model.contacts.first(), model.frictions.first()) {
+                (Some(c), _) => c.dofs[0],
+                (None, Some(f)) => f.dofs[0],
+                (None, None) => bail!("the model has no contact: give --dof"),
             },
         };
         if dof >= model.n_dofs() {
@@ -223,10 +393,18 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             );
         }
     }
+    let variants = args.method.variants()?;
+    if variants.len() > 1 {
+        bail!("solve takes one --penalty value (frf traces one branch per value)");
+    }
     let model = args.model.load()?;
     let dof = args.method.response_dof(&model)?;
     let newton = args.method.newton()?;
-    let mut problem = args.method.problem(&model, args.harmonics)?;
+    let Built {
+        mut problem, label, ..
+    } = args
+        .method
+        .problem_for(&model, args.harmonics, &variants[0])?;
     let omega = 2.0 * std::f64::consts::PI * args.frequency;
     let (solution, outcome) = solve_at_frequency(problem.as_mut(), omega, dof, &newton)?;
     if let Some(path) = &args.output {
@@ -239,7 +417,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&solution)?);
     } else {
         println!(
-            "{} at {} Hz, H = {}, {} samples, {} quadrature",
+            "{} at {} Hz, H = {}, {} samples, {} quadrature, {label}",
             model.name, args.frequency, solution.harmonics, solution.samples, solution.quadrature
         );
         println!(
@@ -254,6 +432,12 @@ pub fn run(args: &SolveArgs) -> Result<()> {
                 c.min,
                 c.force.iter().fold(0.0f64, |m, v| m.max(*v))
             );
+            if solution.method == "hbm-aft" {
+                println!(
+                    "  penalty contact: max penetration −g {:.6e} (at the samples)",
+                    c.gap.iter().fold(f64::NEG_INFINITY, |m, g| m.max(-g))
+                );
+            }
         }
         let r = &solution.response;
         println!(

@@ -133,6 +133,77 @@ impl Sampling {
             }
         }
     }
+
+    /// Values at sample `j` of `n` signals whose coefficients are harmonic-major
+    /// (`coefficients[c·n + i]`), written into `out` (`n`): one sample of the inverse DFT,
+    /// `q(τ_j) = (b(τ_j) ⊗ I) q̂`.
+    pub fn synthesize_into(&self, j: usize, coefficients: &[f64], n: usize, out: &mut [f64]) {
+        out[..n].iter_mut().for_each(|v| *v = 0.0);
+        for (c, &b) in self.basis[j].iter().enumerate() {
+            if b != 0.0 {
+                for (o, &q) in out[..n].iter_mut().zip(&coefficients[c * n..(c + 1) * n]) {
+                    *o += b * q;
+                }
+            }
+        }
+    }
+
+    /// Fourier coefficients, harmonic-major (`c·n + i`), of `n` signals sampled at every
+    /// `τ_j` (`samples[j·n + i]`): the DFT of METHODS §0 for a set of DOFs.
+    pub fn dft_set(&self, samples: &[f64], n: usize) -> Vec<f64> {
+        let ns = self.len() as f64;
+        let mut out = vec![0.0; n * n_coefficients(self.harmonics)];
+        for (j, b) in self.basis.iter().enumerate() {
+            let row = &samples[j * n..(j + 1) * n];
+            if row.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            for (m, &bm) in b.iter().enumerate() {
+                let f = weight(m) * bm / ns;
+                for (o, &v) in out[m * n..(m + 1) * n].iter_mut().zip(row) {
+                    *o += f * v;
+                }
+            }
+        }
+        out
+    }
+}
+
+/// The maximum (`sign = 1`) or minimum (`sign = −1`) over one period of the trigonometric
+/// polynomial with coefficients `coef`: the best of `samples` equidistant values, refined
+/// by golden-section search on the bracket around it.
+pub fn polynomial_extremum(coef: &[f64], samples: usize, sign: f64) -> f64 {
+    let samples = samples.max(8);
+    let step = 2.0 * PI / samples as f64;
+    let (mut best_tau, mut best) = (0.0, f64::NEG_INFINITY);
+    for j in 0..samples {
+        let tau = j as f64 * step;
+        let v = sign * evaluate(coef, tau);
+        if v > best {
+            (best_tau, best) = (tau, v);
+        }
+    }
+    let f = |t: f64| sign * evaluate(coef, t);
+    let (mut a, mut d) = (best_tau - step, best_tau + step);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut b, mut c) = (d - g * (d - a), a + g * (d - a));
+    let (mut fb, mut fc) = (f(b), f(c));
+    for _ in 0..60 {
+        if fb > fc {
+            d = c;
+            c = b;
+            fc = fb;
+            b = d - g * (d - a);
+            fb = f(b);
+        } else {
+            a = b;
+            b = c;
+            fb = fc;
+            c = a + g * (d - a);
+            fc = f(c);
+        }
+    }
+    sign * best.max(fb).max(fc)
 }
 
 /// Add the exact Gram block of the interval `[a, b]` (`Γ_mc += w_m/(2π) ∫_a^b b_m b_c dτ`,
@@ -209,6 +280,30 @@ mod tests {
         for (a, b) in coef.iter().zip(&back) {
             assert!((a - b).abs() < 1e-13);
         }
+    }
+
+    #[test]
+    fn set_transforms_invert_each_other_and_extrema_are_refined() {
+        let (h, n) = (3, 2);
+        let s = Sampling::new(h, 64);
+        let coef: Vec<f64> = (0..n * n_coefficients(h))
+            .map(|i| (i as f64 * 0.71).cos())
+            .collect();
+        let mut samples = vec![0.0; s.len() * n];
+        for j in 0..s.len() {
+            s.synthesize_into(j, &coef, n, &mut samples[j * n..(j + 1) * n]);
+        }
+        let back = s.dft_set(&samples, n);
+        assert!(coef.iter().zip(&back).all(|(a, b)| (a - b).abs() < 1e-13));
+        let scalar: Vec<f64> = (0..n_coefficients(h)).map(|c| coef[c * n + 1]).collect();
+        let fine = (0..200_000)
+            .map(|j| evaluate(&scalar, 2.0 * PI * j as f64 / 200_000.0))
+            .fold(f64::NEG_INFINITY, f64::max);
+        let max = polynomial_extremum(&scalar, 16, 1.0);
+        assert!(
+            (max - fine).abs() < 1e-9 && max >= fine - 1e-15,
+            "{max} vs {fine}"
+        );
     }
 
     #[test]

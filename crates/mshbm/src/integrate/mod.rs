@@ -20,6 +20,24 @@
 //!   Needs every contact DOF massless and damping that does not act on the massless DOFs
 //!   (`C_NN = C_NL = 0`, as the redistributed MS-HBM).
 //!
+//! **Coulomb friction** (METHODS §3.3, Moreau–Jean only): friction elements
+//! ([`crate::model::Friction`]) add tangential impulses `P_T` along their direction `w_T`
+//! with `|P_T| ≤ h μ F_N` (prescribed normal force, always active) or `|P_T| ≤ μ P_N`
+//! (normal force of a unilateral contact, active while that contact is in the index set),
+//! and the law `P_T ∈ −bound · Sign(γ_T⁺)` on the post-step slip velocity `γ_T⁺ = w_Tᵀ v_{k+1}`
+//! (`e_T = 0`). The impulses of one step solve the proximal equations
+//! `P_N = prox_{ℝ≥0}(P_N − r ξ_N)`, `P_T = prox_{[−b, b]}(P_T − r γ_T)` by Gauss–Seidel
+//! sweeps with `r_i = 1/G_ii` (each row solved exactly given the others, so a single
+//! element is exact in one sweep: stick `P_T = −γ_free/G_TT` when `|γ_free/G_TT| ≤ b`, slip
+//! `−b sign γ_free` otherwise), then the stick/slip/contact status found is *polished* by
+//! one exact linear solve (kept when it satisfies every law), so stick/slip is exact per
+//! step. `|P_T| ≤ b` holds exactly (clamped). [`Integrator::friction_forces`] reports
+//! `P_T/h`.
+//!
+//! **Periodic load** ([`Integrator::set_periodic_load`]): a trigonometric polynomial load
+//! `Σ_c F_c b_c(ωt)` can be added to `f(t)` — the coupling force of the linear subsystem on
+//! the nonlinear one in the general MS-HBM (paper eq. 10).
+//!
 //! The per-step LCP is solved by the same exact solver as the MS-HBM
 //! ([`crate::contact::lcp::LcpSolver`]). Massless DOFs carry no velocity state: after every
 //! [`Integrator::set_state`] they are put in static equilibrium with the rest (the static
@@ -278,6 +296,33 @@ impl Contacts {
     }
 }
 
+/// Friction elements in system numbering (see the module docs).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Frictions {
+    pub(crate) w: Vec<Vec<(usize, f64)>>,
+    pub(crate) mu: Vec<f64>,
+    /// `Ok(F_N)` prescribed normal force, `Err(i)` the force of contact `i`.
+    pub(crate) normal: Vec<std::result::Result<f64, usize>>,
+}
+
+impl Frictions {
+    pub(crate) fn len(&self) -> usize {
+        self.mu.len()
+    }
+
+    pub(crate) fn dot(&self, i: usize, x: &[f64]) -> f64 {
+        self.w[i].iter().map(|&(d, w)| w * x[d]).sum()
+    }
+
+    pub(crate) fn column(&self, i: usize, n: usize) -> Vec<f64> {
+        let mut c = vec![0.0; n];
+        for &(d, w) in &self.w[i] {
+            c[d] += w;
+        }
+        c
+    }
+}
+
 /// The immutable data of an integration: matrices, loads, contacts.
 pub(crate) struct Data {
     pub(crate) n: usize,
@@ -289,6 +334,9 @@ pub(crate) struct Data {
     pub(crate) harmonic_load: Vec<f64>,
     pub(crate) omega: f64,
     pub(crate) contacts: Contacts,
+    pub(crate) frictions: Frictions,
+    /// Harmonics and coefficients (harmonic-major, `c·n + i`) of the periodic load.
+    pub(crate) periodic_load: Option<(usize, Vec<f64>)>,
     pub(crate) massless: Vec<usize>,
     pub(crate) massive: Vec<usize>,
     pub(crate) energy_offset: f64,
@@ -305,6 +353,15 @@ impl Data {
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.constant_load[i] + c * self.harmonic_load[i];
         }
+        if let Some((h, coef)) = &self.periodic_load {
+            let n = self.n;
+            let b = crate::harmonic::basis(*h, self.omega * t);
+            for (ci, bc) in b.iter().enumerate() {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o += bc * coef[ci * n + i];
+                }
+            }
+        }
     }
 }
 
@@ -316,6 +373,8 @@ pub(crate) struct State {
     pub(crate) v: Vec<f64>,
     pub(crate) gaps: Vec<f64>,
     pub(crate) forces: Vec<f64>,
+    /// Friction forces (impulse of the last step / h).
+    pub(crate) friction_forces: Vec<f64>,
 }
 
 impl State {
@@ -391,6 +450,33 @@ impl Integrator {
             w: system.contacts.iter().map(|c| c.w.clone()).collect(),
             gap: system.contacts.iter().map(|c| c.gap).collect(),
         };
+        let frictions = Frictions {
+            w: system.frictions.iter().map(|f| f.w.clone()).collect(),
+            mu: system.frictions.iter().map(|f| f.mu).collect(),
+            normal: system
+                .frictions
+                .iter()
+                .map(|f| match f.normal {
+                    crate::model::FrictionNormal::Force(p) => Ok(p),
+                    crate::model::FrictionNormal::Contact(c) => Err(c),
+                })
+                .collect(),
+        };
+        if let Some(bad) = frictions.normal.iter().find_map(|nf| match nf {
+            Err(c) if *c >= system.contacts.len() => Some(*c),
+            _ => None,
+        }) {
+            return Err(Error::argument(
+                "friction",
+                format!("friction refers to contact {bad}, which does not exist"),
+            ));
+        }
+        if frictions.len() > 0 && settings.scheme == Scheme::PositionNewmark {
+            return Err(Error::argument(
+                "scheme",
+                "friction needs the Moreau-Jean scheme (the position-level scheme is frictionless)",
+            ));
+        }
         let data = Data {
             n,
             dt,
@@ -401,6 +487,8 @@ impl Integrator {
             harmonic_load: system.harmonic_load.clone(),
             omega,
             contacts,
+            frictions,
+            periodic_load: None,
             massless,
             massive,
             energy_offset: settings.energy_offset,
@@ -450,6 +538,7 @@ impl Integrator {
                 v: vec![0.0; n],
                 gaps: vec![0.0; nc],
                 forces: vec![0.0; nc],
+                friction_forces: vec![0.0; data.frictions.len()],
             },
             data,
             kernel,
@@ -485,6 +574,7 @@ impl Integrator {
         s.q.copy_from_slice(q);
         s.v.copy_from_slice(v);
         s.forces.iter_mut().for_each(|f| *f = 0.0);
+        s.friction_forces.iter_mut().for_each(|f| *f = 0.0);
         self.static_massless()?;
         for &i in &self.data.massless {
             self.state.v[i] = 0.0;
@@ -605,6 +695,49 @@ impl Integrator {
     /// impulse of the last step divided by `dt` for Moreau–Jean.
     pub fn forces(&self) -> &[f64] {
         &self.state.forces
+    }
+
+    /// Moreau–Jean only: use the *anticipating* index set (all contacts take part, a contact
+    /// open at the predicted position acts only to prevent `g_{k+1} < 0`; see the `moreau`
+    /// module docs). Makes a step a continuous function of the state for `e_N = 0`. Off by
+    /// default; ignored by the position-level scheme.
+    pub fn set_contact_anticipation(&mut self, on: bool) {
+        if let Kernel::Moreau(k) = &mut self.kernel {
+            k.anticipate = on;
+        }
+    }
+
+    /// Friction forces `P_T/h` of the last step, one per friction element (`|·| ≤ μ F_N`).
+    pub fn friction_forces(&self) -> &[f64] {
+        &self.state.friction_forces
+    }
+
+    /// Add the periodic load `Σ_c F_c b_c(ωt)` (coefficients harmonic-major, entry `c·n + i`
+    /// for system DOF `i`, `c < 2H + 1`) to `f(t)`, with the integrator's ω (which must
+    /// have been given in the settings). Replaces a previous periodic load.
+    pub fn set_periodic_load(&mut self, harmonics: usize, coefficients: Vec<f64>) -> Result<()> {
+        let n = self.data.n;
+        if coefficients.len() != n * crate::harmonic::n_coefficients(harmonics) {
+            return Err(Error::argument(
+                "periodic load",
+                format!(
+                    "expected {} coefficients, got {}",
+                    n * crate::harmonic::n_coefficients(harmonics),
+                    coefficients.len()
+                ),
+            ));
+        }
+        if self.data.omega == 0.0 {
+            return Err(Error::argument(
+                "frequency",
+                "a periodic load needs the frequency in the settings",
+            ));
+        }
+        if coefficients.iter().any(|v| !v.is_finite()) {
+            return Err(Error::argument("periodic load", "must be finite"));
+        }
+        self.data.periodic_load = Some((harmonics, coefficients));
+        Ok(())
     }
 
     /// System DOF of a model DOF: `None` for a Dirichlet DOF, an error when out of range.

@@ -118,3 +118,44 @@ pub fn dynamic_stiffness_derivative_times(
     }
     out
 }
+
+/// Fourier coefficients (harmonic-major, `c·n + i`) of the load on the N-DOFs
+/// `b(τ) = −K_NL q_L(τ) + f_N(τ)` for the N-coefficients `x`, given per harmonic `k`
+/// `G_k = K_NL A_k⁻¹ K_LN` (`n × n`, row-major) and `u0_k = K_NL A_k⁻¹ f_L,k`, so that
+/// `K_NL q̂_L,k = u0_k − G_k z_k` with `z_k = a_k − i b_k` (eqs. 6/25). `constant_n` and
+/// `harmonic_n` are the constant and `cos ωt` loads on N.
+pub fn interface_load_coefficients(
+    g: &[Vec<c64>],
+    u0: &[Vec<c64>],
+    constant_n: &[f64],
+    harmonic_n: &[f64],
+    x: &[f64],
+) -> Vec<f64> {
+    let n = constant_n.len();
+    let harmonics = g.len() - 1;
+    let mut b = vec![0.0; n * (2 * harmonics + 1)];
+    for (i, mean) in b.iter_mut().enumerate().take(n) {
+        *mean =
+            -u0[0][i].re + constant_n[i] + (0..n).map(|j| g[0][i * n + j].re * x[j]).sum::<f64>();
+    }
+    for k in 1..=harmonics {
+        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+        let gk = &g[k];
+        for i in 0..n {
+            let mut bc = -u0[k][i].re;
+            let mut bs = u0[k][i].im;
+            if k == 1 {
+                bc += harmonic_n[i];
+            }
+            for j in 0..n {
+                let (gr, gi) = (gk[i * n + j].re, gk[i * n + j].im);
+                let (a, s) = (x[ci + j], x[si + j]);
+                bc += gr * a + gi * s;
+                bs += -gi * a + gr * s;
+            }
+            b[ci + i] = bc;
+            b[si + i] = bs;
+        }
+    }
+    b
+}

@@ -156,6 +156,7 @@ impl BarParameters {
             contacts,
             harmonic_load,
             constant_load: vec![0.0; n],
+            frictions: vec![],
             acceleration: None,
             damping: self.damping.clone(),
         };

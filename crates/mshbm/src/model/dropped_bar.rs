@@ -132,6 +132,7 @@ impl DroppedBarParameters {
             }],
             harmonic_load: vec![0.0; n],
             constant_load: vec![0.0; n],
+            frictions: vec![],
             acceleration: Some(vec![-self.gravity]),
             damping: self.damping.clone(),
         };

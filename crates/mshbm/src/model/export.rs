@@ -72,6 +72,20 @@ pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> 
             c.gap
         );
     }
+    for f in &model.frictions {
+        let w: Vec<String> = f.w.iter().map(|x| format!("{x:?}")).collect();
+        let normal = match f.normal {
+            crate::model::FrictionNormal::Force(p) => format!("normal_force = {p:?}"),
+            crate::model::FrictionNormal::Contact(c) => format!("contact = {c}"),
+        };
+        let _ = writeln!(
+            t,
+            "\n[[frictions]]\ndofs = {:?}\nw = [{}]\nmu = {:?}\n{normal}",
+            f.dofs,
+            w.join(", "),
+            f.mu
+        );
+    }
     let _ = writeln!(
         t,
         "\n[load]\nharmonic_file = \"harmonic_load.mtx\"\nconstant_file = \"constant_load.mtx\""

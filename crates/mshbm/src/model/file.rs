@@ -40,6 +40,11 @@
 //!   dofs = [100]
 //!   w = [-1.0]
 //!   gap = 0.2
+//!   [[frictions]]               # Coulomb friction: slip velocity sum_i w_i qdot_{dofs_i},
+//!   dofs = [3]                  # force in [-mu F_N, mu F_N] along w
+//!   w = [1.0]
+//!   mu = 0.3
+//!   normal_force = 10.0         # prescribed F_N; or `contact = 0` (F_N = force of contacts[0])
 //!   [load]
 //!   harmonic = [[50, 4000.0]]   # (dof, amplitude) pairs of F cos(wt); or harmonic_file = "f.mtx"
 //!   constant = []               # (dof, value) pairs; or constant_file = "f0.mtx"
@@ -72,7 +77,7 @@ use crate::error::{Error, Result};
 use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
 use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::matrix_market::read_matrix;
-use crate::model::{Contact, Damping, Model};
+use crate::model::{Contact, Damping, Friction, FrictionNormal, Model};
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -181,6 +186,8 @@ struct MatricesFile {
     #[serde(default)]
     contacts: Vec<ContactSection>,
     #[serde(default)]
+    frictions: Vec<FrictionSection>,
+    #[serde(default)]
     load: LoadSection,
     #[serde(default)]
     damping: DampingSection,
@@ -221,6 +228,16 @@ struct ContactSection {
     dofs: Vec<usize>,
     w: Vec<f64>,
     gap: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FrictionSection {
+    dofs: Vec<usize>,
+    w: Vec<f64>,
+    mu: f64,
+    normal_force: Option<f64>,
+    contact: Option<usize>,
 }
 
 #[derive(Deserialize, Default)]
@@ -542,6 +559,26 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
         };
     let harmonic_load = load_vector("load.harmonic", &f.load.harmonic, &f.load.harmonic_file)?;
     let constant_load = load_vector("load.constant", &f.load.constant, &f.load.constant_file)?;
+    let mut frictions = Vec::with_capacity(f.frictions.len());
+    for (k, fr) in f.frictions.into_iter().enumerate() {
+        let normal = match (fr.normal_force, fr.contact) {
+            (Some(p), None) => FrictionNormal::Force(p),
+            (None, Some(c)) => FrictionNormal::Contact(c),
+            _ => {
+                return Err(Error::field(
+                    path,
+                    format!("frictions[{k}]"),
+                    "give exactly one of `normal_force` (prescribed normal force) and `contact` (index of the unilateral contact whose force is the normal force)",
+                ))
+            }
+        };
+        frictions.push(Friction {
+            dofs: fr.dofs,
+            w: fr.w,
+            mu: fr.mu,
+            normal,
+        });
+    }
     let model = Model {
         source: path.to_path_buf(),
         name: f.name.unwrap_or_else(|| path.display().to_string()),
@@ -562,6 +599,7 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
             .collect(),
         harmonic_load,
         constant_load,
+        frictions,
         acceleration: f.load.acceleration,
         damping: f.damping.into(),
     };

@@ -16,7 +16,7 @@ pub mod file;
 pub mod matrix_market;
 mod system;
 
-pub use system::{MassKind, System};
+pub use system::{MassKind, System, SystemContact, SystemFriction};
 
 use std::path::PathBuf;
 
@@ -33,6 +33,32 @@ pub struct Contact {
     pub w: Vec<f64>,
     /// Initial gap `g0` (model length unit).
     pub gap: f64,
+}
+
+/// What presses a friction element together.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FrictionNormal {
+    /// A prescribed normal force `F_N ≥ 0` (a friction damper): the friction force lies in
+    /// `[−μ F_N, μ F_N]` at all times.
+    Force(f64),
+    /// The force `λ_i` of unilateral contact `i` (index into [`Model::contacts`]): the
+    /// friction force lies in `[−μ λ_i, μ λ_i]`, zero while the contact is open.
+    Contact(usize),
+}
+
+/// A Coulomb friction element (METHODS §3.3): slip velocity `γ_T = Σ_i w_i q̇_{dofs_i}`,
+/// friction force `+w λ_T` on the structure with `λ_T ∈ −μ F_N Sign(γ_T)` (set-valued:
+/// stick when `|λ_T| < μ F_N`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Friction {
+    /// DOFs the slip depends on (model numbering).
+    pub dofs: Vec<usize>,
+    /// `∂γ_T/∂q̇` for each of `dofs` (the slip direction, a column of `W_T`).
+    pub w: Vec<f64>,
+    /// Friction coefficient `μ ≥ 0`.
+    pub mu: f64,
+    /// Normal force: prescribed, or that of a unilateral contact.
+    pub normal: FrictionNormal,
 }
 
 /// Rayleigh-type damping `C = alpha·M + beta·K (+ C_file)`, where `M` is the mass matrix
@@ -77,6 +103,9 @@ pub struct Model {
     pub dirichlet: Vec<usize>,
     /// Unilateral contacts.
     pub contacts: Vec<Contact>,
+    /// Coulomb friction elements (used by the time integration and the general MS-HBM;
+    /// the redistributed MS-HBM refuses them).
+    pub frictions: Vec<Friction>,
     /// Amplitude of the harmonic load `f(t) = harmonic_load · cos(ωt)`, one entry per DOF.
     pub harmonic_load: Vec<f64>,
     /// Constant load, one entry per DOF.
@@ -101,11 +130,27 @@ impl Model {
     }
 
     /// Nodes that carry a contact DOF (these become massless under redistribution).
+    /// Friction DOFs are not included (see [`Model::nonlinear_nodes`]).
     pub fn contact_nodes(&self) -> Vec<usize> {
         let mut nodes: Vec<usize> = self
             .contacts
             .iter()
             .flat_map(|c| c.dofs.iter().map(|&d| d / self.dofs_per_node))
+            .collect();
+        nodes.sort_unstable();
+        nodes.dedup();
+        nodes
+    }
+
+    /// Nodes that carry a contact or a friction DOF: the nonlinear subsystem `N` of the
+    /// general MS-HBM (all DOFs of these nodes).
+    pub fn nonlinear_nodes(&self) -> Vec<usize> {
+        let mut nodes: Vec<usize> = self
+            .contacts
+            .iter()
+            .flat_map(|c| c.dofs.iter())
+            .chain(self.frictions.iter().flat_map(|f| f.dofs.iter()))
+            .map(|&d| d / self.dofs_per_node)
             .collect();
         nodes.sort_unstable();
         nodes.dedup();
@@ -242,6 +287,73 @@ impl Model {
             }
             if !c.gap.is_finite() {
                 return Err(Error::field(file, field("gap"), "must be finite"));
+            }
+        }
+        for (k, f) in self.frictions.iter().enumerate() {
+            let field = |x: &str| format!("frictions[{k}].{x}");
+            if f.dofs.is_empty() {
+                return Err(Error::field(
+                    file,
+                    field("dofs"),
+                    "a friction element needs at least one DOF",
+                ));
+            }
+            if f.dofs.len() != f.w.len() {
+                return Err(Error::field(
+                    file,
+                    field("w"),
+                    format!("{} coefficients for {} DOFs", f.w.len(), f.dofs.len()),
+                ));
+            }
+            for &d in &f.dofs {
+                if d >= n {
+                    return Err(Error::field(
+                        file,
+                        field("dofs"),
+                        format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
+                    ));
+                }
+                if self.dirichlet.contains(&d) {
+                    return Err(Error::field(
+                        file,
+                        field("dofs"),
+                        format!("DOF {d} is also a Dirichlet DOF"),
+                    ));
+                }
+            }
+            if f.w.iter().any(|v| !v.is_finite()) || f.w.iter().all(|&v| v == 0.0) {
+                return Err(Error::field(
+                    file,
+                    field("w"),
+                    "the slip direction must be finite and non-zero",
+                ));
+            }
+            if !(f.mu.is_finite() && f.mu >= 0.0) {
+                return Err(Error::field(
+                    file,
+                    field("mu"),
+                    format!("must be a finite non-negative number, got {}", f.mu),
+                ));
+            }
+            match f.normal {
+                FrictionNormal::Force(p) if !(p.is_finite() && p >= 0.0) => {
+                    return Err(Error::field(
+                        file,
+                        field("normal_force"),
+                        format!("must be a finite non-negative number, got {p}"),
+                    ))
+                }
+                FrictionNormal::Contact(c) if c >= self.contacts.len() => {
+                    return Err(Error::field(
+                        file,
+                        field("contact"),
+                        format!(
+                            "contact {c} does not exist (the model has {} contacts)",
+                            self.contacts.len()
+                        ),
+                    ))
+                }
+                _ => {}
             }
         }
         for (name, v) in [

@@ -26,6 +26,16 @@ pub struct SystemContact {
     pub gap: f64,
 }
 
+/// A friction element in system numbering.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SystemFriction {
+    /// `(system DOF, ∂γ_T/∂q̇)` pairs.
+    pub w: Vec<(usize, f64)>,
+    pub mu: f64,
+    /// Normal force (a contact index refers to [`System::contacts`]).
+    pub normal: crate::model::FrictionNormal,
+}
+
 /// A model with its mass choice applied and Dirichlet DOFs removed.
 #[derive(Clone, Debug)]
 pub struct System {
@@ -39,12 +49,15 @@ pub struct System {
     pub model_dof: Vec<usize>,
     /// Number of DOFs of the model (Dirichlet DOFs included).
     pub n_model_dofs: usize,
-    /// System DOFs of the nonlinear part `N`: all DOFs of the contact nodes (with a
-    /// redistributed mass they are exactly the massless DOFs).
+    /// System DOFs of the nonlinear part `N`: all DOFs of the nodes that carry a contact or
+    /// a friction DOF ([`Model::nonlinear_nodes`]; with a redistributed mass, which refuses
+    /// friction, they are exactly the massless DOFs).
     pub nonlinear_dofs: Vec<usize>,
     /// System DOFs of the linear part `L`: all others.
     pub linear_dofs: Vec<usize>,
     pub contacts: Vec<SystemContact>,
+    /// Coulomb friction elements.
+    pub frictions: Vec<SystemFriction>,
     /// Cosine amplitude of the harmonic load, system numbering.
     pub harmonic_load: Vec<f64>,
     /// Constant load (including the acceleration field's load), system numbering.
@@ -89,7 +102,14 @@ impl Model {
         let mass = full_mass.submatrix(&model_dof, &model_dof);
         let stiffness = self.stiffness.submatrix(&model_dof, &model_dof);
 
-        let contact_nodes = self.contact_nodes();
+        if kind == MassKind::Redistributed && !self.frictions.is_empty() {
+            return Err(Error::field(
+                &self.source,
+                "frictions",
+                "the redistributed mass (massless contact boundary) does not support friction; use the general MS-HBM (consistent mass)",
+            ));
+        }
+        let contact_nodes = self.nonlinear_nodes();
         let dpn = self.dofs_per_node;
         let nonlinear_dofs: Vec<usize> = contact_nodes
             .iter()
@@ -154,6 +174,19 @@ impl Model {
                 gap: c.gap,
             })
             .collect();
+        let frictions = self
+            .frictions
+            .iter()
+            .map(|f| SystemFriction {
+                w: f.dofs
+                    .iter()
+                    .zip(&f.w)
+                    .map(|(&d, &w)| (system_of[d], w))
+                    .collect(),
+                mu: f.mu,
+                normal: f.normal.clone(),
+            })
+            .collect();
         Ok(System {
             mass_kind: kind,
             mass,
@@ -164,6 +197,7 @@ impl Model {
             nonlinear_dofs,
             linear_dofs,
             contacts,
+            frictions,
             harmonic_load,
             constant_load,
             alpha,

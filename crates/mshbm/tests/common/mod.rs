@@ -94,6 +94,7 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
         contacts,
         harmonic_load,
         constant_load: vec![0.0; n],
+        frictions: vec![],
         acceleration: None,
         damping: Damping {
             alpha: damping_alpha,
@@ -128,6 +129,7 @@ pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha
         }],
         harmonic_load: vec![force, 0.0],
         constant_load: vec![0.0, 0.0],
+        frictions: vec![],
         acceleration: None,
         damping: Damping {
             alpha,

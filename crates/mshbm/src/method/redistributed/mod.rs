@@ -280,33 +280,13 @@ impl RedistributedMsHbm {
     /// subsystem for the unknowns `x`.
     fn load_coefficients(&self, x: &[f64]) -> Vec<f64> {
         let f = self.frequency.as_ref().expect("prepared");
-        let n = self.n();
-        let mut b = vec![0.0; n * n_coefficients(self.harmonics)];
-        for (i, mean) in b.iter_mut().enumerate().take(n) {
-            *mean = -f.u0[0][i].re
-                + self.constant_load_n[i]
-                + (0..n).map(|j| f.g[0][i * n + j].re * x[j]).sum::<f64>();
-        }
-        for k in 1..=self.harmonics {
-            let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-            let g = &f.g[k];
-            for i in 0..n {
-                let mut bc = -f.u0[k][i].re;
-                let mut bs = f.u0[k][i].im;
-                if k == 1 {
-                    bc += self.harmonic_load_n[i];
-                }
-                for j in 0..n {
-                    let (gr, gi) = (g[i * n + j].re, g[i * n + j].im);
-                    let (a, s) = (x[ci + j], x[si + j]);
-                    bc += gr * a + gi * s;
-                    bs += -gi * a + gr * s;
-                }
-                b[ci + i] = bc;
-                b[si + i] = bs;
-            }
-        }
-        b
+        crate::linear::interface_load_coefficients(
+            &f.g,
+            &f.u0,
+            &self.constant_load_n,
+            &self.harmonic_load_n,
+            x,
+        )
     }
 
     /// `∂B/∂ω` at `x` (two sparse solves per harmonic).
@@ -479,7 +459,11 @@ impl RedistributedMsHbm {
         let k = self.linear.stiffness.to_dense();
         let minv_c = lu.solve(self.linear.damping.to_dense());
         let minv_k_ll = lu.solve(&k);
-        let w_ref = (0..nl).map(|j| (0..nl).map(|i| minv_k_ll[(i, j)].abs()).sum::<f64>()).fold(0.0f64, f64::max).sqrt().max(1.0);
+        let w_ref = (0..nl)
+            .map(|j| (0..nl).map(|i| minv_k_ll[(i, j)].abs()).sum::<f64>())
+            .fold(0.0f64, f64::max)
+            .sqrt()
+            .max(1.0);
         let p = Mat::<f64>::from_fn(n, n, |i, j| compliance[i * n + j]);
         let k_eff = &k - self.k_ln.to_dense() * (&p * self.k_nl.to_dense());
         let minv_k = lu.solve(&k_eff);
@@ -705,11 +689,15 @@ impl PeriodicProblem for RedistributedMsHbm {
             if !self.stability_cache.contains_key(&g.set.closed) {
                 let a = self.state_matrix(&g.set.compliance);
                 let modal = crate::stability::ModalExponential::new(&a);
-                self.stability_cache.insert(g.set.closed.clone(), Rc::new((a, modal)));
+                self.stability_cache
+                    .insert(g.set.closed.clone(), Rc::new((a, modal)));
             }
         }
-        let data: Vec<Rc<StabilityData>> =
-            integration.groups.iter().map(|g| self.stability_cache[&g.set.closed].clone()).collect();
+        let data: Vec<Rc<StabilityData>> = integration
+            .groups
+            .iter()
+            .map(|g| self.stability_cache[&g.set.closed].clone())
+            .collect();
         let intervals: Vec<(usize, f64)> = integration
             .intervals
             .iter()
@@ -717,14 +705,19 @@ impl PeriodicProblem for RedistributedMsHbm {
             .map(|&(a, b, g)| (g, (b - a) / omega))
             .collect();
         let phi = if intervals.iter().all(|(g, _)| data[*g].1.is_some()) {
-            let pieces: Vec<(&crate::stability::ModalExponential, f64)> =
-                intervals.iter().map(|&(g, dt)| (data[g].1.as_ref().expect("checked"), dt)).collect();
+            let pieces: Vec<(&crate::stability::ModalExponential, f64)> = intervals
+                .iter()
+                .map(|&(g, dt)| (data[g].1.as_ref().expect("checked"), dt))
+                .collect();
             crate::stability::modal_monodromy(&pieces)
         } else {
-            let pieces: Vec<(&Mat<f64>, f64)> = intervals.iter().map(|&(g, dt)| (&data[g].0, dt)).collect();
+            let pieces: Vec<(&Mat<f64>, f64)> =
+                intervals.iter().map(|&(g, dt)| (&data[g].0, dt)).collect();
             crate::stability::piecewise_monodromy(&pieces)
         };
-        let values = phi.eigenvalues().map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
+        let values = phi
+            .eigenvalues()
+            .map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
         Ok(Some(crate::stability::Floquet::from_eigenvalues(values)))
     }
 }
