@@ -12,7 +12,7 @@ fn bar() -> String {
 }
 
 const HEADER: &str =
-    "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold";
+    "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
 
 #[test]
 fn csv_json_and_plot_for_two_branches() {
@@ -81,7 +81,9 @@ fn csv_json_and_plot_for_two_branches() {
         .sum();
     assert_eq!(rows.len(), points);
     assert_eq!(
-        rows.iter().filter(|r| r.ends_with(",true")).count(),
+        rows.iter()
+            .filter(|r| r.split(',').nth(7) == Some("true"))
+            .count(),
         folds.len()
     );
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
@@ -136,7 +138,7 @@ fn injected_failure_keeps_the_points_and_says_where_it_stopped() {
         "the points found before the failure are kept"
     );
     // every row is complete
-    assert!(rows[1..].iter().all(|r| r.split(',').count() == 8));
+    assert!(rows[1..].iter().all(|r| r.split(',').count() == 10));
 }
 
 #[test]
@@ -157,5 +159,50 @@ fn bad_ranges_are_clear_errors() {
             stderr.starts_with("error: ") && stderr.lines().count() == 1,
             "{stderr}"
         );
+    }
+}
+
+#[test]
+fn stability_columns_are_filled_with_stability() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("frd.csv");
+    let out = Command::cargo_bin("mshbm")
+        .unwrap()
+        .args([
+            "frf",
+            &bar(),
+            "--from",
+            "20000",
+            "--to",
+            "23000",
+            "--harmonics",
+            "3",
+            "--set",
+            "damping.first_mode_ratio=0.01",
+            "--stability",
+            "--json",
+        ])
+        .args(["--output", &csv.display().to_string()])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let pts = v["branches"][0]["points"].as_array().unwrap();
+    for p in pts {
+        let stable = p["stable"]
+            .as_bool()
+            .expect("stable present with --stability");
+        let m = p["max_multiplier"].as_f64().unwrap();
+        assert_eq!(stable, m < 1.0 - 1e-9);
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    for row in text.lines().skip(1) {
+        let cols: Vec<&str> = row.split(',').collect();
+        assert!(cols[8] == "true" || cols[8] == "false", "{row}");
+        assert!(cols[9].parse::<f64>().unwrap() > 0.0);
     }
 }

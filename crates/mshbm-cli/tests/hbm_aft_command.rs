@@ -142,9 +142,9 @@ fn frf_overlays_the_ms_hbm_and_several_penalties() {
     let rows: Vec<&str> = text.lines().collect();
     assert_eq!(
         rows[0],
-        "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,method,penalty,max_penetration"
+        "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier,method,penalty,max_penetration"
     );
-    assert!(rows[1..].iter().all(|r| r.split(',').count() == 11));
+    assert!(rows[1..].iter().all(|r| r.split(',').count() == 13));
     assert!(rows.iter().any(|r| r.contains(",hbm-aft,1.000000e6,")));
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
 }

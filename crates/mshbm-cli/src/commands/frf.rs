@@ -58,7 +58,8 @@ pub struct FrfArgs {
     pub max_turn: f64,
 
     /// CSV file, one row per point (appended as points are found):
-    /// frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold.
+    /// frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,
+    /// stable,max_multiplier (the last two empty without --stability).
     #[arg(long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
@@ -69,6 +70,12 @@ pub struct FrfArgs {
     /// Print one JSON object on stdout: {"branches": [...], "folds": [...]}.
     #[arg(long)]
     pub json: bool,
+
+    /// Compute the Floquet multipliers of every point (redistributed MS-HBM; dense, so
+    /// ~50 ms per point for the paper's bar): CSV columns stable,max_multiplier, and
+    /// unstable parts dashed in the plot.
+    #[arg(long)]
+    pub stability: bool,
 
     /// With --method hbm-aft: also trace the redistributed MS-HBM (same --samples and
     /// --quadrature) for each H and overlay it in the plot, CSV and JSON — the paper's
@@ -91,6 +98,12 @@ pub struct FrdPoint {
     pub residual_norm: f64,
     pub newton_iterations: usize,
     pub fold: bool,
+    /// Stable (all Floquet multipliers inside the unit circle), when computed (--stability).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stable: Option<bool>,
+    /// Largest Floquet multiplier modulus, when computed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_multiplier: Option<f64>,
     /// hbm-aft: largest penetration `max(−g)` over the contacts and the AFT samples.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_penetration: Option<f64>,
@@ -132,7 +145,7 @@ struct FrdReport {
 }
 
 const CSV_HEADER: &str =
-    "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold";
+    "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
 /// Extra columns when hbm-aft runs (several methods or penalties share the file).
 const CSV_METHOD_COLUMNS: &str = ",method,penalty,max_penetration";
 
@@ -213,6 +226,11 @@ fn trace(
             Event::Fold(f) => (&f.x, f.omega, true, 0, 0.0, 0.0),
         };
         let s = p.solution(x, omega, dof)?;
+        let floquet = if args.stability {
+            p.floquet(x, omega)?
+        } else {
+            None
+        };
         let point = FrdPoint {
             frequency_hz: s.frequency_hz,
             max_qn: s.response.max,
@@ -221,6 +239,8 @@ fn trace(
             residual_norm: if fold { s.residual_norm } else { residual },
             newton_iterations: iterations,
             fold,
+            stable: floquet.as_ref().map(|f| f.stable),
+            max_multiplier: floquet.as_ref().map(|f| f.max_multiplier),
             max_penetration: (s.method == "hbm-aft").then(|| {
                 s.contacts
                     .iter()
@@ -257,7 +277,7 @@ fn trace(
             };
             let r = writeln!(
                 w,
-                "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{}{extra}",
+                "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{},{},{}{extra}",
                 point.frequency_hz,
                 harmonics,
                 point.max_qn,
@@ -265,7 +285,12 @@ fn trace(
                 point.amplitude_h1,
                 point.residual_norm,
                 point.newton_iterations,
-                point.fold
+                point.fold,
+                point.stable.map(|b| b.to_string()).unwrap_or_default(),
+                point
+                    .max_multiplier
+                    .map(|m| format!("{m:.9}"))
+                    .unwrap_or_default()
             )
             .and_then(|_| w.flush());
             if let Err(e) = r {
@@ -318,25 +343,52 @@ pub fn frd_figure(
         ..Figure::default()
     };
     for (k, b) in branches.iter().enumerate() {
-        let pts: Vec<&FrdPoint> = b.points.iter().collect();
-        fig.series.push(Series {
-            label: format!("{} (max)", b.label),
-            points: pts
-                .iter()
-                .map(|p| (p.frequency_hz / 1e3, p.max_qn))
-                .collect(),
-            style: Style::Line,
-            color: k,
-        });
-        fig.series.push(Series {
-            label: String::new(),
-            points: pts
-                .iter()
-                .map(|p| (p.frequency_hz / 1e3, p.min_qn))
-                .collect(),
-            style: Style::Line,
-            color: k,
-        });
+        // one series per run of equal stability: unstable parts dashed
+        let mut runs: Vec<(bool, Vec<&FrdPoint>)> = Vec::new();
+        for p in b.points.iter().filter(|p| !p.fold) {
+            let unstable = p.stable == Some(false);
+            match runs.last_mut() {
+                Some((u, pts)) if *u == unstable => pts.push(p),
+                _ => {
+                    // share the boundary point so the curve stays connected
+                    let mut pts: Vec<&FrdPoint> = runs
+                        .last()
+                        .and_then(|(_, q)| q.last().copied())
+                        .into_iter()
+                        .collect();
+                    pts.push(p);
+                    runs.push((unstable, pts));
+                }
+            }
+        }
+        let mut labelled = false;
+        for (unstable, pts) in &runs {
+            let style = if *unstable {
+                Style::Dashed
+            } else {
+                Style::Line
+            };
+            let label = if labelled {
+                String::new()
+            } else {
+                format!("{} (max, min)", b.label)
+            };
+            labelled = true;
+            for (i, value) in [|p: &FrdPoint| p.max_qn, |p: &FrdPoint| p.min_qn]
+                .into_iter()
+                .enumerate()
+            {
+                fig.series.push(Series {
+                    label: if i == 0 { label.clone() } else { String::new() },
+                    points: pts
+                        .iter()
+                        .map(|p| (p.frequency_hz / 1e3, value(p)))
+                        .collect(),
+                    style,
+                    color: k,
+                });
+            }
+        }
     }
     if !folds.is_empty() {
         fig.series.push(Series {

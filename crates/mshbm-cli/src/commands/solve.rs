@@ -302,6 +302,11 @@ pub struct SolveArgs {
     #[command(flatten)]
     pub method: MethodArgs,
 
+    /// Skip the Floquet multipliers (stability), computed by default for methods that
+    /// provide them (the redistributed MS-HBM; dense, up to 1500 linear DOFs).
+    #[arg(long)]
+    pub no_stability: bool,
+
     /// Print the solution as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -406,7 +411,13 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         .method
         .problem_for(&model, args.harmonics, &variants[0])?;
     let omega = 2.0 * std::f64::consts::PI * args.frequency;
-    let (solution, outcome) = solve_at_frequency(problem.as_mut(), omega, dof, &newton)?;
+    let (mut solution, outcome) = solve_at_frequency(problem.as_mut(), omega, dof, &newton)?;
+    if outcome.converged && !args.no_stability {
+        match problem.floquet(&outcome.x, omega) {
+            Ok(st) => solution.stability = st,
+            Err(e) => eprintln!("note: stability not computed: {e}"),
+        }
+    }
     if let Some(path) = &args.output {
         write_atomic(path, time_series_csv(&solution).as_bytes())?;
     }
@@ -424,6 +435,13 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             "converged: {} after {} Newton iterations (relative residual {:.2e})",
             solution.converged, solution.iterations, solution.residual_norm
         );
+        if let Some(st) = &solution.stability {
+            println!(
+                "{}: largest Floquet multiplier modulus {:.6}",
+                if st.stable { "stable" } else { "unstable" },
+                st.max_multiplier
+            );
+        }
         for c in &solution.contacts {
             println!(
                 "contact DOF {}: max {:.6e}, min {:.6e}, max force {:.6e}",
