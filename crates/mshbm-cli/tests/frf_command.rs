@@ -199,6 +199,14 @@ fn stability_columns_are_filled_with_stability() {
         let m = p["max_multiplier"].as_f64().unwrap();
         assert_eq!(stable, m < 1.0 - 1e-9);
     }
+    // every reported stability change sits between two points whose stability differs
+    for b in v["bifurcations"].as_array().unwrap() {
+        let f = b["frequency_hz"].as_f64().unwrap();
+        assert!(
+            ["fold", "period-doubling", "neimark-sacker"].contains(&b["kind"].as_str().unwrap())
+        );
+        assert!((20000.0..=23000.0).contains(&f), "{f}");
+    }
     let text = std::fs::read_to_string(&csv).unwrap();
     for row in text.lines().skip(1) {
         let cols: Vec<&str> = row.split(',').collect();

@@ -95,3 +95,87 @@ pub fn modal_monodromy(pieces: &[(&ModalExponential, f64)]) -> Mat<f64> {
     }
     Mat::<f64>::from_fn(n, n, |i, j| phi[(i, j)].re)
 }
+
+/// How a multiplier leaves (or enters) the unit circle between two neighbouring solutions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Crossing {
+    /// A real multiplier through +1 (fold, or branch point).
+    Fold,
+    /// A real multiplier through −1 (period doubling).
+    PeriodDoubling,
+    /// A complex pair through the unit circle (Neimark–Sacker, quasi-periodic motion).
+    NeimarkSacker,
+}
+
+/// Numbers of multipliers outside the unit circle: (real positive, real negative, complex).
+pub fn outside_counts(f: &Floquet) -> (usize, usize, usize) {
+    let tol = 1e-9;
+    let mut counts = (0, 0, 0);
+    for m in &f.multipliers {
+        if m[0].hypot(m[1]) <= 1.0 + tol {
+            continue;
+        }
+        if m[1].abs() > 1e-9 * m[0].hypot(m[1]) {
+            counts.2 += 1;
+        } else if m[0] > 0.0 {
+            counts.0 += 1;
+        } else {
+            counts.1 += 1;
+        }
+    }
+    counts
+}
+
+/// The crossings of the unit circle between two neighbouring solutions of a branch.
+pub fn crossings(before: &Floquet, after: &Floquet) -> Vec<Crossing> {
+    let (a, b) = (outside_counts(before), outside_counts(after));
+    let mut out = Vec::new();
+    if a.0 != b.0 {
+        out.push(Crossing::Fold);
+    }
+    if a.1 != b.1 {
+        out.push(Crossing::PeriodDoubling);
+    }
+    if a.2 != b.2 {
+        out.push(Crossing::NeimarkSacker);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn floquet(values: &[(f64, f64)]) -> Floquet {
+        Floquet::from_eigenvalues(values.iter().map(|&(re, im)| c64::new(re, im)).collect())
+    }
+
+    #[test]
+    fn crossings_are_classified_by_where_the_multiplier_leaves() {
+        let inside = floquet(&[(0.9, 0.0), (-0.5, 0.0), (0.3, 0.4), (0.3, -0.4)]);
+        assert!(inside.stable);
+        assert_eq!(
+            crossings(
+                &inside,
+                &floquet(&[(1.1, 0.0), (-0.5, 0.0), (0.3, 0.4), (0.3, -0.4)])
+            ),
+            vec![Crossing::Fold]
+        );
+        assert_eq!(
+            crossings(
+                &inside,
+                &floquet(&[(0.9, 0.0), (-1.2, 0.0), (0.3, 0.4), (0.3, -0.4)])
+            ),
+            vec![Crossing::PeriodDoubling]
+        );
+        assert_eq!(
+            crossings(
+                &inside,
+                &floquet(&[(0.9, 0.0), (-0.5, 0.0), (0.6, 0.9), (0.6, -0.9)])
+            ),
+            vec![Crossing::NeimarkSacker]
+        );
+        assert!(crossings(&inside, &inside).is_empty());
+    }
+}

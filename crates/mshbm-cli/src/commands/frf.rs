@@ -142,6 +142,28 @@ pub struct BranchReport {
 struct FrdReport {
     branches: Vec<BranchReport>,
     folds: Vec<FoldReport>,
+    /// Stability changes between neighbouring points (with --stability).
+    bifurcations: Vec<BifurcationReport>,
+}
+
+/// What the branches found besides their points.
+#[derive(Default)]
+struct Found {
+    folds: Vec<FoldReport>,
+    bifurcations: Vec<BifurcationReport>,
+}
+
+/// A multiplier crossing the unit circle between two neighbouring points of a branch.
+#[derive(Clone, Debug, Serialize)]
+pub struct BifurcationReport {
+    pub harmonics: usize,
+    pub label: String,
+    /// "fold" (+1), "period-doubling" (−1) or "neimark-sacker" (complex pair).
+    pub kind: mshbm::stability::Crossing,
+    /// Where the largest multiplier modulus passes 1, interpolated between the two points.
+    pub frequency_hz: f64,
+    pub max_qn: f64,
+    pub min_qn: f64,
 }
 
 const CSV_HEADER: &str =
@@ -174,8 +196,13 @@ fn trace(
     variant: &Variant,
     several: bool,
     csv: &mut Option<BufWriter<File>>,
-    folds: &mut Vec<FoldReport>,
+    found: &mut Found,
 ) -> Result<(BranchReport, Branch)> {
+    let Found {
+        folds,
+        bifurcations,
+    } = found;
+    let mut previous: Option<(mshbm::stability::Floquet, f64)> = None;
     let two_pi = 2.0 * std::f64::consts::PI;
     let built = args.method.problem_for(model, harmonics, variant)?;
     let mut problem = built.problem;
@@ -231,6 +258,24 @@ fn trace(
         } else {
             None
         };
+        if let (Some(now), false) = (&floquet, fold) {
+            let hz = omega / (2.0 * std::f64::consts::PI);
+            if let Some((before, hz_before)) = &previous {
+                for kind in mshbm::stability::crossings(before, now) {
+                    let (m0, m1) = (before.max_multiplier - 1.0, now.max_multiplier - 1.0);
+                    let t = if m0 * m1 < 0.0 { m0 / (m0 - m1) } else { 0.5 };
+                    bifurcations.push(BifurcationReport {
+                        harmonics,
+                        label: label.clone(),
+                        kind,
+                        frequency_hz: hz_before + t * (hz - hz_before),
+                        max_qn: s.response.max,
+                        min_qn: s.response.min,
+                    });
+                }
+            }
+            previous = Some((now.clone(), hz));
+        }
         let point = FrdPoint {
             frequency_hz: s.frequency_hz,
             max_qn: s.response.max,
@@ -460,17 +505,17 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         None => None,
     };
     let mut branches = Vec::new();
-    let mut folds = Vec::new();
+    let mut found = Found::default();
     let mut failure: Option<String> = None;
     for variant in &variants {
         for &h in &args.harmonics {
-            let before = folds.len();
-            let (report, _) = trace(&model, args, h, variant, several, &mut csv, &mut folds)?;
+            let before = found.folds.len();
+            let (report, _) = trace(&model, args, h, variant, several, &mut csv, &mut found)?;
             if !report.completed && failure.is_none() {
                 failure = Some(format!("{}: {}", report.label, report.stop));
             }
             if !args.json {
-                let nfolds = folds.len() - before;
+                let nfolds = found.folds.len() - before;
                 let iterations: usize = report.points.iter().map(|p| p.newton_iterations).sum();
                 eprintln!(
                     "{}: {} points, {iterations} Newton iterations, {nfolds} folds, {}",
@@ -482,6 +527,10 @@ pub fn run(args: &FrfArgs) -> Result<()> {
             branches.push(report);
         }
     }
+    let Found {
+        folds,
+        bifurcations,
+    } = found;
     if let Some(path) = &args.plot {
         let dof = args.method.response_dof(&model)?;
         let fig = frd_figure(
@@ -494,7 +543,14 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         fig.save(path)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string(&FrdReport { branches, folds })?);
+        println!(
+            "{}",
+            serde_json::to_string(&FrdReport {
+                branches,
+                folds,
+                bifurcations
+            })?
+        );
     } else {
         for f in &folds {
             println!(
@@ -503,6 +559,12 @@ pub fn run(args: &FrfArgs) -> Result<()> {
                 f.frequency_hz,
                 f.max_qn,
                 if f.at_kink { " (at a kink)" } else { "" }
+            );
+        }
+        for b in &bifurcations {
+            println!(
+                "stability change ({}): {:?} near {:.3} Hz",
+                b.label, b.kind, b.frequency_hz
             );
         }
         if let Some(path) = &args.output {
