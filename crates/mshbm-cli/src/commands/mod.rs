@@ -14,8 +14,9 @@ use clap::Args;
 /// Arguments shared by every command that reads a model.
 #[derive(Args, Debug, Clone)]
 pub struct ModelArgs {
-    /// Model file (TOML): `kind = "bar"` (the paper's bar) or `kind = "matrices"`
-    /// (Matrix Market M, K, optional C). See examples/.
+    /// Model file (TOML): `kind = "bar"` (the paper's clamped bar), `kind = "dropped_bar"`
+    /// (a free bar falling onto a support) or `kind = "matrices"` (Matrix Market M, K,
+    /// optional C, with contacts and friction elements). See examples/.
     pub model: PathBuf,
 
     /// Override one field of the model file by its dotted path, e.g.
