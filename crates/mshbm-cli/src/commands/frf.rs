@@ -174,7 +174,7 @@ const CSV_METHOD_COLUMNS: &str = ",method,penalty,max_penetration";
 fn stop_text(stop: &StopReason, to_hz: f64) -> String {
     match stop {
         StopReason::ReachedEnd => format!("reached {to_hz} Hz"),
-        StopReason::LeftRange => "the branch turned back past the start frequency".into(),
+        StopReason::LeftRange => "the branch turned back past the start frequency without reaching the end (it may have retraced itself after a sharp turn)".into(),
         StopReason::MaxPoints => "point limit reached".into(),
         StopReason::StartFailed(why) => format!("no solution at the start frequency: {why}"),
         StopReason::Retraced { omega } => format!(

@@ -119,8 +119,10 @@ pub enum StopReason {
 }
 
 impl StopReason {
+    /// Whether the sweep reached its end frequency (a branch that turns back past the
+    /// start frequency has not covered the range the user asked for).
     pub fn is_success(&self) -> bool {
-        matches!(self, StopReason::ReachedEnd | StopReason::LeftRange)
+        matches!(self, StopReason::ReachedEnd)
     }
 }
 
