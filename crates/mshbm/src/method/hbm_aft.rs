@@ -305,19 +305,8 @@ impl HbmAft {
     /// Set up the method for `model` (mass choice, partition, penalty, checks).
     pub fn new(model: &Model, options: &HbmAftOptions) -> Result<Self> {
         let h = options.harmonics;
-        if h == 0 {
-            return Err(Error::argument("harmonics", "must be at least 1"));
-        }
         let samples = options.samples.unwrap_or_else(|| default_samples(h));
-        if samples < n_coefficients(h) {
-            return Err(Error::argument(
-                "samples",
-                format!(
-                    "{samples} samples cannot resolve {h} harmonics: need at least 2H+1 = {}",
-                    n_coefficients(h)
-                ),
-            ));
-        }
+        super::check_resolution(h, samples, "samples")?;
         let pv = options.penalty.value();
         if !(pv.is_finite() && pv > 0.0) {
             return Err(Error::argument(
@@ -493,15 +482,7 @@ impl HbmAft {
         if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
             return Ok(());
         }
-        if !(omega.is_finite() && omega > 0.0) {
-            return Err(Error::argument(
-                "frequency",
-                format!(
-                    "must be positive, got {} Hz",
-                    omega / (2.0 * std::f64::consts::PI)
-                ),
-            ));
-        }
+        super::check_frequency(omega)?;
         let factors = self.linear.factor(omega, self.harmonics)?;
         let n = self.n();
         let nl = self.linear.n_dofs();

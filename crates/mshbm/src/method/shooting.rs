@@ -187,19 +187,8 @@ impl GeneralMsHbm {
     /// Set up the method for `model` (consistent mass, partition, checks).
     pub fn new(model: &Model, options: &GeneralOptions) -> Result<Self> {
         let h = options.harmonics;
-        if h == 0 {
-            return Err(Error::argument("harmonics", "must be at least 1"));
-        }
         let steps = options.steps.unwrap_or_else(|| default_steps(h));
-        if steps < n_coefficients(h) {
-            return Err(Error::argument(
-                "samples",
-                format!(
-                    "{steps} steps per period cannot resolve {h} harmonics: need at least 2H+1 = {}",
-                    n_coefficients(h)
-                ),
-            ));
-        }
+        super::check_resolution(h, steps, "steps per period")?;
         if !(options.theta.is_finite() && (0.5..=1.0).contains(&options.theta)) {
             return Err(Error::argument(
                 "theta",
@@ -368,15 +357,7 @@ impl GeneralMsHbm {
     }
 
     fn frequency_data(&self, omega: f64) -> Result<FrequencyData> {
-        if !(omega.is_finite() && omega > 0.0) {
-            return Err(Error::argument(
-                "frequency",
-                format!(
-                    "must be positive, got {} Hz",
-                    omega / (2.0 * std::f64::consts::PI)
-                ),
-            ));
-        }
+        super::check_frequency(omega)?;
         let n = self.n();
         let hh = self.harmonics;
         let Some(linear) = &self.linear else {

@@ -96,19 +96,8 @@ impl RedistributedMsHbm {
     /// Set up the method for `model` (mass redistribution, partition, checks).
     pub fn new(model: &Model, options: &RedistributedOptions) -> Result<Self> {
         let h = options.harmonics;
-        if h == 0 {
-            return Err(Error::argument("harmonics", "must be at least 1"));
-        }
         let samples = options.samples.unwrap_or_else(|| default_samples(h));
-        if samples < n_coefficients(h) {
-            return Err(Error::argument(
-                "samples",
-                format!(
-                    "{samples} samples cannot resolve {h} harmonics: need at least 2H+1 = {}",
-                    n_coefficients(h)
-                ),
-            ));
-        }
+        super::check_resolution(h, samples, "samples")?;
         if model.contacts.is_empty() {
             return Err(Error::argument(
                 "model",
@@ -232,15 +221,7 @@ impl RedistributedMsHbm {
         if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
             return Ok(());
         }
-        if !(omega.is_finite() && omega > 0.0) {
-            return Err(Error::argument(
-                "frequency",
-                format!(
-                    "must be positive, got {} Hz",
-                    omega / (2.0 * std::f64::consts::PI)
-                ),
-            ));
-        }
+        super::check_frequency(omega)?;
         let factors = self.linear.factor(omega, self.harmonics)?;
         let n = self.n();
         let nl = self.linear.n_dofs();
