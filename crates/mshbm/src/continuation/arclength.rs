@@ -1,9 +1,10 @@
 //! Pseudo-arclength continuation of periodic solutions in `(x, ω)` (METHODS §7.1), written
 //! once over [`PeriodicProblem`].
 //!
-//! Unknowns are scaled to O(1): `X = [x / ℓ; ω / ω_ref]` with `ℓ` the problem's length scale
-//! and `ω_ref` the start frequency (ω ~ 1e5 rad/s against displacements ~ 0.1 mm otherwise
-//! dominate every norm). Each step:
+//! Unknowns are scaled to O(1): `X = [x / ℓ; ln(ω / ω_ref)]` with `ℓ` the problem's length
+//! scale and `ω_ref` the start frequency (ω ~ 1e5 rad/s against displacements ~ 0.1 mm
+//! otherwise dominate every norm; the logarithm weighs a relative change of frequency the
+//! same over the whole sweep). Each step:
 //!
 //! * predictor `X_p = X_0 + Δs t` along the unit tangent `t` (solved from
 //!   `[R_X; t_prevᵀ] t = [0; 1]` and oriented along the secant of the last step, so that a
@@ -154,6 +155,10 @@ fn normalized(mut v: Vec<f64>) -> Vec<f64> {
     v
 }
 
+/// Scaled unknowns `X = [x / ℓ; ln(ω / ω_ref)]`: displacements relative to the problem's
+/// length scale, frequency as a relative (logarithmic) change, so that the weight of the
+/// frequency in the arclength is the same at 1 kHz and at 100 kHz and does not depend on
+/// where the sweep started.
 struct Scaling {
     length: f64,
     omega: f64,
@@ -162,14 +167,14 @@ struct Scaling {
 impl Scaling {
     fn to_scaled(&self, x: &[f64], omega: f64) -> Vec<f64> {
         let mut s: Vec<f64> = x.iter().map(|v| v / self.length).collect();
-        s.push(omega / self.omega);
+        s.push((omega / self.omega).ln());
         s
     }
     fn unscale(&self, s: &[f64]) -> (Vec<f64>, f64) {
         let n = s.len() - 1;
         (
             s[..n].iter().map(|v| v * self.length).collect(),
-            s[n] * self.omega,
+            self.omega * s[n].exp(),
         )
     }
 }
@@ -189,7 +194,7 @@ fn bordered<P: PeriodicProblem + ?Sized>(
         for j in 0..n {
             a[(i, j)] = lin.jacobian[(i, j)] * sc.length;
         }
-        a[(i, n)] = lin.d_omega[i] * sc.omega;
+        a[(i, n)] = lin.d_omega[i] * omega; // dω / d ln ω
     }
     for j in 0..=n {
         a[(n, j)] = border[j];
@@ -232,6 +237,11 @@ fn tangent<P: PeriodicProblem + ?Sized>(
     })
 }
 
+/// Largest distance of a corrected point from its predictor, relative to the step.
+const MAX_CORRECTOR_TRAVEL: f64 = 0.5;
+/// Largest ratio of two successive corrector updates.
+const MAX_CONTRACTION: f64 = 0.5;
+
 /// Keller corrector from the predictor `X_0 + Δs t`. Returns the scaled point and the
 /// iterations, or `None` when it does not converge.
 fn correct<P: PeriodicProblem + ?Sized>(
@@ -242,7 +252,9 @@ fn correct<P: PeriodicProblem + ?Sized>(
     ds: f64,
     newton: &NewtonOptions,
 ) -> Result<Option<(Vec<f64>, usize, f64)>> {
-    let mut xs: Vec<f64> = start.iter().zip(t).map(|(a, b)| a + ds * b).collect();
+    let predictor: Vec<f64> = start.iter().zip(t).map(|(a, b)| a + ds * b).collect();
+    let mut xs = predictor.clone();
+    let mut previous_update = f64::INFINITY;
     for it in 0..=newton.max_iterations {
         let (x, omega) = sc.unscale(&xs);
         if !(omega.is_finite() && omega > 0.0) {
@@ -262,6 +274,18 @@ fn correct<P: PeriodicProblem + ?Sized>(
         // is relative to |X|, not to the (possibly tiny) step
         let arc_tolerance = 1e-8 * ds + 64.0 * f64::EPSILON * max_abs(&xs);
         if norm <= newton.tolerance && arc.abs() <= arc_tolerance {
+            // the point must lie near the predictor: a corrector that travels further than
+            // half the step has left the piece of branch it started on (e.g. jumped across
+            // an S of two close folds, or onto a nearby piece born at a grazing contact)
+            let travelled = xs
+                .iter()
+                .zip(&predictor)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
+            if travelled > MAX_CORRECTOR_TRAVEL * ds {
+                return Ok(None);
+            }
             return Ok(Some((xs, it, norm)));
         }
         if it == newton.max_iterations {
@@ -273,6 +297,16 @@ fn correct<P: PeriodicProblem + ?Sized>(
             Ok(d) => d,
             Err(_) => return Ok(None),
         };
+        // Newton with the exact Jacobian contracts quadratically on a smooth piece; an
+        // update that does not at least halve is a corrector working across a grazing
+        // event or towards another piece: refuse, the step will be halved
+        let update = dot(&d, &d).sqrt();
+        if update > MAX_CONTRACTION * previous_update
+            && update > 64.0 * f64::EPSILON * (1.0 + max_abs(&xs))
+        {
+            return Ok(None);
+        }
+        previous_update = update;
         xs.iter_mut().zip(&d).for_each(|(a, b)| *a += b);
     }
     Ok(None)
@@ -343,7 +377,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         let last = branch.points.last().expect("non-empty").clone();
         let start = sc.to_scaled(&last.x, last.omega);
         // end of the range ahead: land on it exactly
-        let predicted_omega = (start[n] + ds * last.tangent[n]) * sc.omega;
+        let predicted_omega = sc.omega * (start[n] + ds * last.tangent[n]).exp();
         if (predicted_omega - w1) * direction >= 0.0 && last.tangent[n] * direction > 0.0 {
             let frac = (w1 - last.omega) / (predicted_omega - last.omega);
             let guess: Vec<f64> = last

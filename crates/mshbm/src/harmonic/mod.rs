@@ -23,10 +23,47 @@ pub fn n_coefficients(harmonics: usize) -> usize {
 /// Basis row `b(τ) = [1, cos τ, sin τ, …, cos Hτ, sin Hτ]`, written into `out`.
 pub fn basis_into(harmonics: usize, tau: f64, out: &mut [f64]) {
     out[0] = 1.0;
+    let mut rotation = Rotation::new(tau);
     for k in 1..=harmonics {
-        let (s, c) = (k as f64 * tau).sin_cos();
+        let (c, s) = rotation.next();
         out[2 * k - 1] = c;
         out[2 * k] = s;
+    }
+}
+
+/// `(cos kτ, sin kτ)` for `k = 1, 2, …` by the angle-addition recurrence (one `sin_cos`
+/// per evaluation instead of one per harmonic; the trigonometric polynomials of the exact
+/// quadrature are evaluated millions of times per Newton step). Re-anchored every 16
+/// harmonics so that the rounding error stays at a few ulps.
+struct Rotation {
+    tau: f64,
+    k: usize,
+    step: (f64, f64),
+    current: (f64, f64),
+}
+
+impl Rotation {
+    fn new(tau: f64) -> Self {
+        let (s, c) = tau.sin_cos();
+        Rotation {
+            tau,
+            k: 0,
+            step: (c, s),
+            current: (1.0, 0.0),
+        }
+    }
+
+    fn next(&mut self) -> (f64, f64) {
+        self.k += 1;
+        self.current = if self.k % 16 == 0 {
+            let (s, c) = (self.k as f64 * self.tau).sin_cos();
+            (c, s)
+        } else {
+            let (c, s) = self.current;
+            let (c1, s1) = self.step;
+            (c * c1 - s * s1, s * c1 + c * s1)
+        };
+        self.current
     }
 }
 
@@ -40,8 +77,9 @@ pub fn basis(harmonics: usize, tau: f64) -> Vec<f64> {
 /// Derivative `db/dτ`.
 pub fn basis_derivative(harmonics: usize, tau: f64) -> Vec<f64> {
     let mut b = vec![0.0; n_coefficients(harmonics)];
+    let mut rotation = Rotation::new(tau);
     for k in 1..=harmonics {
-        let (s, c) = (k as f64 * tau).sin_cos();
+        let (c, s) = rotation.next();
         b[2 * k - 1] = -(k as f64) * s;
         b[2 * k] = k as f64 * c;
     }
@@ -52,8 +90,9 @@ pub fn basis_derivative(harmonics: usize, tau: f64) -> Vec<f64> {
 pub fn evaluate(coef: &[f64], tau: f64) -> f64 {
     let h = (coef.len() - 1) / 2;
     let mut v = coef[0];
+    let mut rotation = Rotation::new(tau);
     for k in 1..=h {
-        let (s, c) = (k as f64 * tau).sin_cos();
+        let (c, s) = rotation.next();
         v += coef[2 * k - 1] * c + coef[2 * k] * s;
     }
     v
