@@ -273,7 +273,10 @@ fn correct<P: PeriodicProblem + ?Sized>(
         // the arclength equation is linear: after one step it holds to round-off, which
         // is relative to |X|, not to the (possibly tiny) step
         let arc_tolerance = 1e-8 * ds + 64.0 * f64::EPSILON * max_abs(&xs);
-        if norm <= newton.tolerance && arc.abs() <= arc_tolerance {
+        // at least one correction: with a tiny step any predictor meets the residual
+        // tolerance, and uncorrected points let the path wander with the noise of the
+        // tangent (near grazing contacts the Jacobian is nearly singular)
+        if it >= 1 && norm <= newton.tolerance && arc.abs() <= arc_tolerance {
             // the point must lie near the predictor: a corrector that travels further than
             // half the step has left the piece of branch it started on (e.g. jumped across
             // an S of two close folds, or onto a nearby piece born at a grazing contact)
