@@ -46,6 +46,9 @@ pub struct ContinuationOptions {
     /// Corrector tolerance and iteration limit (the tolerance is relative to the problem's
     /// length scale, as in Newton).
     pub newton: NewtonOptions,
+    /// Largest advance in frequency per step, as `|Δ ln ω|` (a fiftieth of the range by
+    /// default, so that even a narrow sweep of a smooth response has points to plot).
+    pub max_frequency_step: f64,
     /// Safety limit on the number of points.
     pub max_points: usize,
 }
@@ -65,6 +68,7 @@ impl ContinuationOptions {
                 max_iterations: 12,
                 ..NewtonOptions::default()
             },
+            max_frequency_step: (omega_end / omega_start).ln().abs() / 50.0,
             max_points: 20_000,
         }
     }
@@ -504,6 +508,10 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         last_escaped = false;
         let ratio = options.optimal_iterations.max(1) as f64 / point.iterations.max(1) as f64;
         ds = (ds * ratio.clamp(0.5, 2.0)).clamp(options.min_step, options.max_step);
+        let advance = point.tangent[n].abs();
+        if advance * ds > options.max_frequency_step && options.max_frequency_step > 0.0 {
+            ds = (options.max_frequency_step / advance).max(options.min_step);
+        }
         let omega = point.omega;
         on_event(problem, Event::Point(&point))?;
         branch.points.push(point);
