@@ -157,3 +157,176 @@ fn stability_changes_at_the_folds_of_the_bilinear_oscillator() {
         }
     }
 }
+
+/// The fixed-interface modes of the reduced stability basis (subspace iteration,
+/// `modes::lowest_modes`) against the dense symmetric solver and the continuum: the L-part
+/// of the clamped bar with the contact DOF held is a fixed–fixed bar, `f_k = k c/(2L)`.
+#[test]
+fn subspace_iteration_finds_the_fixed_interface_modes() {
+    let model = load_model(
+        &common::examples().join("clamped_bar.toml"),
+        &["bar.elements=400".into()],
+    )
+    .unwrap();
+    let s = model.system(MassKind::Redistributed).unwrap();
+    let l = &s.linear_dofs;
+    let (m, k) = (s.mass.submatrix(l, l), s.stiffness.submatrix(l, l));
+    let dense = mshbm::modes::eigenfrequencies_hz(&m, &k, 80).unwrap();
+    let c = (2.1e5f64 / 9e-9).sqrt();
+    for count in [10, 80] {
+        let modes = mshbm::modes::lowest_modes(&m, &k, count).unwrap();
+        for (i, lam) in modes.eigenvalues.iter().enumerate() {
+            let f = lam.sqrt() / (2.0 * PI);
+            assert!(
+                (f / dense[i] - 1.0).abs() < 1e-9,
+                "mode {i}: {f} vs {}",
+                dense[i]
+            );
+        }
+        let continuum = c / 40.0;
+        assert!((modes.eigenvalues[0].sqrt() / (2.0 * PI) / continuum - 1.0).abs() < 1e-3);
+        // mass-normalised and K-orthogonal: ΦᵀMΦ = I, ΦᵀKΦ = Λ
+        let phi = &modes.shapes;
+        let mm = phi.transpose() * (m.to_faer() * phi);
+        let kk = phi.transpose() * (k.to_faer() * phi);
+        for i in 0..count {
+            for j in 0..count {
+                let (e_m, e_k) = if i == j {
+                    (1.0, modes.eigenvalues[i])
+                } else {
+                    (0.0, 0.0)
+                };
+                assert!((mm[(i, j)] - e_m).abs() < 1e-9, "M {i} {j}");
+                assert!(
+                    (kk[(i, j)] - e_k).abs() < 1e-9 * modes.eigenvalues[count - 1],
+                    "K {i} {j}"
+                );
+            }
+        }
+    }
+}
+
+/// The reduced basis (fixed-interface modes + statically condensed interface correction)
+/// against the full L-space on the refined bar (400 elements, 399 L-DOFs, H = 5, 1 % at the
+/// first mode with Rayleigh damping on L as in tests/time_integration.rs): the largest
+/// multiplier modulus approaches the full space's as the basis grows, and the verdict
+/// (stable) is the same from 20 modes on. The convergence is slow (the switching of the
+/// contact excites all modes, see `ReducedSystem`).
+#[test]
+fn reduced_basis_multipliers_converge_to_the_full_space() {
+    use mshbm::stability::StabilityOptions;
+    let model = rayleigh_damped_bar(400);
+    let f = 30e3;
+    let omega = 2.0 * PI * f;
+    let mut p = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            harmonics: 5,
+            samples: None,
+            quadrature: Quadrature::Exact,
+        },
+    )
+    .unwrap();
+    let (_, out) = solve_at_frequency(&mut p, omega, 20, &NewtonOptions::default()).unwrap();
+    assert!(out.converged);
+    p.set_stability_options(StabilityOptions {
+        modes: Some(usize::MAX),
+    })
+    .unwrap();
+    let full = p.floquet(&out.x, omega).unwrap().unwrap();
+    assert_eq!(full.multipliers.len(), 2 * 399);
+    let mut errors = Vec::new();
+    for m in [10, 20, 40, 80, 160] {
+        p.set_stability_options(StabilityOptions { modes: Some(m) })
+            .unwrap();
+        let reduced = p.floquet(&out.x, omega).unwrap().unwrap();
+        assert_eq!(reduced.multipliers.len(), 2 * m);
+        let e = reduced.max_multiplier - full.max_multiplier;
+        println!(
+            "m = {m:3}: max |μ| = {:.6} (full {:.6}), difference {e:+.4}",
+            reduced.max_multiplier, full.max_multiplier
+        );
+        if m >= 20 {
+            assert_eq!(reduced.stable, full.stable, "m = {m}");
+        }
+        errors.push(e.abs());
+    }
+    for w in errors.windows(2) {
+        assert!(w[1] < w[0], "errors {errors:?} do not decrease");
+    }
+    assert!(*errors.last().unwrap() < 0.12, "{errors:?}");
+}
+
+/// The paper's bar refined to `elements`, 1 % damping at the first mode and at ten times
+/// it (mass-proportional `alpha` plus `beta_linear` on the L-part's stiffness).
+fn rayleigh_damped_bar(elements: usize) -> mshbm::Model {
+    let path = common::examples().join("clamped_bar.toml");
+    let model = load_model(&path, &[format!("bar.elements={elements}")]).unwrap();
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let w1 = mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness).unwrap();
+    let (zeta, w2) = (0.01, 10.0 * w1);
+    load_model(
+        &path,
+        &[
+            format!("bar.elements={elements}"),
+            format!("damping.alpha={}", 2.0 * zeta * w1 * w2 / (w1 + w2)),
+            format!("damping.beta_linear={}", 2.0 * zeta / (w1 + w2)),
+        ],
+    )
+    .unwrap()
+}
+
+#[test]
+#[ignore]
+fn survey_reduced_basis() {
+    use mshbm::stability::StabilityOptions;
+    for (label, extra) in [
+        ("mass", vec!["damping.first_mode_ratio=0.01".to_string()]),
+        (
+            "rayleigh",
+            vec![
+                "damping.alpha=6895".to_string(),
+                "damping.beta_linear=2.4e-9".to_string(),
+            ],
+        ),
+    ] {
+        let mut o = vec!["bar.elements=400".to_string()];
+        o.extend(extra);
+        let model = load_model(&common::examples().join("clamped_bar.toml"), &o).unwrap();
+        for f in [30e3, 60e3, 90e3] {
+            let omega = 2.0 * PI * f;
+            let mut p = RedistributedMsHbm::new(
+                &model,
+                &RedistributedOptions {
+                    harmonics: 5,
+                    samples: None,
+                    quadrature: Quadrature::Exact,
+                },
+            )
+            .unwrap();
+            let (_, out) =
+                solve_at_frequency(&mut p, omega, 20, &NewtonOptions::default()).unwrap();
+            println!("{label} {f}: converged {}", out.converged);
+            let t = std::time::Instant::now();
+            p.set_stability_options(StabilityOptions {
+                modes: Some(100000),
+            })
+            .unwrap();
+            let full = p.floquet(&out.x, omega).unwrap().unwrap();
+            println!("full {:?} {:?}", t.elapsed(), &full.multipliers[..4]);
+            for m in [2, 5, 10, 20, 40, 80, 160, 398] {
+                let t = std::time::Instant::now();
+                p.set_stability_options(StabilityOptions { modes: Some(m) })
+                    .unwrap();
+                let r = p.floquet(&out.x, omega).unwrap().unwrap();
+                println!(
+                    "m={m} {:?} max {:.8} (full {:.8}) {:?}",
+                    t.elapsed(),
+                    r.max_multiplier,
+                    full.max_multiplier,
+                    &r.multipliers[..2]
+                );
+            }
+        }
+    }
+}
