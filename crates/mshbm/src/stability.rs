@@ -161,7 +161,7 @@ impl StabilityOptions {
 /// `reduced_basis_multipliers_converge_to_the_full_space`): largest modulus 0.70, 0.58,
 /// 0.40, 0.20, 0.057 for `m` = 10, 20, 40, 80, 160 against 0.017 in the full space. With
 /// mass-proportional damping alone (every mode decays at the same rate) the error at
-/// `m` = 80–160 was 0.02–0.07 and not monotone (survey in the same file). The stable/unstable
+/// `m` = 80–160 was 0.016–0.04 and not monotone (survey in the same file). The stable/unstable
 /// verdict agreed with the full space from `m = 20` on in all six cases of the survey
 /// (30, 60, 90 kHz, both dampings), but an instability of a discarded mode (a parametric
 /// resonance of a high, lightly damped mode) would be missed: use the full space when the

@@ -10,8 +10,8 @@ use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::problem::PeriodicProblem;
-use mshbm::stability::StabilityOptions;
 use mshbm::solution::PeriodicSolution;
+use mshbm::stability::StabilityOptions;
 use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
