@@ -115,3 +115,142 @@ pub fn first_angular_frequency(mass: &SparseMatrix, stiffness: &SparseMatrix) ->
     }
     Ok(lambda_old.sqrt())
 }
+
+/// The lowest eigenpairs of `K φ = ω² M φ` with `K` and `M` both symmetric positive
+/// definite (no massless DOFs), found iteratively for large sparse models.
+#[derive(Clone, Debug)]
+pub struct LowestModes {
+    /// `ω²` (rad²/s²), ascending.
+    pub eigenvalues: Vec<f64>,
+    /// The mode shapes as columns, mass-normalised (`Φᵀ M Φ = I`, `Φᵀ K Φ = diag(ω²)`).
+    pub shapes: Mat<f64>,
+}
+
+/// The `count` lowest modes of `K φ = ω² M φ` (`K`, `M` symmetric positive definite) by
+/// subspace iteration with a sparse Cholesky factor of `K` (Bathe's method): the block
+/// `Y = K⁻¹ M X` of `p = min(n, max(2·count, count + 8))` vectors is improved by a
+/// Rayleigh–Ritz step per iteration, and eigenvalue `i` converges with the ratio
+/// `λ_i/λ_{p+1}`. Iterates until the `count` lowest Ritz values change by less than
+/// `1e-11` (relative). With `p = n` one Rayleigh–Ritz step on the identity is the dense
+/// solution.
+pub fn lowest_modes(
+    mass: &SparseMatrix,
+    stiffness: &SparseMatrix,
+    count: usize,
+) -> Result<LowestModes> {
+    let n = stiffness.nrows();
+    if count == 0 || count > n {
+        return Err(Error::argument(
+            "count",
+            format!("asked for {count} modes of a system with {n} DOFs"),
+        ));
+    }
+    let p = n.min((2 * count).max(count + 8));
+    let mut x = if p == n {
+        Mat::<f64>::identity(n, n)
+    } else {
+        // deterministic start vectors with components along every DOF
+        Mat::<f64>::from_fn(n, p, |i, j| {
+            if j == 0 {
+                1.0
+            } else {
+                ((i + 1) as f64 * (j as f64 * 0.618_033_988_7 + 0.1)).sin()
+            }
+        })
+    };
+    let llt = (p < n)
+        .then(|| {
+            stiffness.to_faer().sp_cholesky(Side::Lower).map_err(|_| {
+                Error::Singular("the stiffness matrix is not positive definite".into())
+            })
+        })
+        .transpose()?;
+    let k = stiffness.to_faer();
+    let m = mass.to_faer();
+    let mut previous: Option<Vec<f64>> = None;
+    for _ in 0..500 {
+        let y = match &llt {
+            Some(llt) => {
+                let mut y = &m * &x;
+                llt.solve_in_place(y.as_mut());
+                // orthonormal columns: the Rayleigh–Ritz matrices stay well conditioned
+                y.qr().compute_thin_Q()
+            }
+            None => x.clone(),
+        };
+        let (values, shapes) = rayleigh_ritz(&(&k * &y), &(&m * &y), &y)?;
+        let converged = previous.as_ref().is_some_and(|old| {
+            (0..count).all(|i| (values[i] - old[i]).abs() <= 1e-11 * values[i].abs())
+        });
+        if converged || llt.is_none() {
+            return Ok(LowestModes {
+                eigenvalues: values[..count].to_vec(),
+                shapes: shapes.subcols(0, count).to_owned(),
+            });
+        }
+        previous = Some(values);
+        x = shapes;
+    }
+    Err(Error::Numerical(format!(
+        "subspace iteration for the {count} lowest modes did not converge in 500 iterations"
+    )))
+}
+
+/// Rayleigh–Ritz on the span of `y` given `K y` and `M y`: Ritz values (ascending) and
+/// mass-normalised Ritz vectors `y Q`.
+fn rayleigh_ritz(ky: &Mat<f64>, my: &Mat<f64>, y: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
+    let kr = y.transpose() * ky;
+    let mr = y.transpose() * my;
+    let sym = |a: &Mat<f64>| (a + a.transpose()) * 0.5;
+    let llt = sym(&mr).llt(Side::Lower).map_err(|_| {
+        Error::Numerical(
+            "subspace iteration: the block lost rank (M not positive definite?)".into(),
+        )
+    })?;
+    let l = llt.L();
+    let mut a = sym(&kr);
+    solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
+    let mut a = a.transpose().to_owned();
+    solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
+    let (values, mut q) = symmetric_eigen(&sym(&a))?;
+    // Q = L⁻ᵀ U
+    faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+        l.transpose(),
+        q.as_mut(),
+        Par::Seq,
+    );
+    Ok((values, y * q))
+}
+
+/// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix by the
+/// tridiagonal QR algorithm. faer's default switches to divide and conquer from dimension
+/// 128, whose eigenvectors lose accuracy on the wide spectra of stiffness matrices (on the
+/// 400-element bar, residuals of 1e-3·‖A‖ that put the lowest Ritz vectors far off); the QR
+/// algorithm keeps them at rounding level.
+pub fn symmetric_eigen(a: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{
+        self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors, SelfAdjointEvdParams,
+    };
+    let n = a.nrows();
+    let mut params: faer::Spec<SelfAdjointEvdParams, f64> = Default::default();
+    params.recursion_threshold = usize::MAX;
+    let mut s = faer::diag::Diag::<f64>::zeros(n);
+    let mut u = Mat::<f64>::zeros(n, n);
+    let mut mem = MemBuffer::new(self_adjoint_evd_scratch::<f64>(
+        n,
+        ComputeEigenvectors::Yes,
+        Par::Seq,
+        params,
+    ));
+    self_adjoint_evd(
+        a.as_ref(),
+        s.as_mut(),
+        Some(u.as_mut()),
+        Par::Seq,
+        MemStack::new(&mut mem),
+        params,
+    )
+    .map_err(|e| Error::Numerical(format!("symmetric eigenvalue solver: {e:?}")))?;
+    Ok(((0..n).map(|i| s[i]).collect(), u))
+}

@@ -71,9 +71,9 @@ pub struct FrfArgs {
     #[arg(long)]
     pub json: bool,
 
-    /// Compute the Floquet multipliers of every point (redistributed MS-HBM; dense, so
-    /// ~50 ms per point for the paper's bar): CSV columns stable,max_multiplier, and
-    /// unstable parts dashed in the plot.
+    /// Compute the Floquet multipliers of every point (redistributed MS-HBM; ~50 ms per
+    /// point for the paper's bar in the full space, see --stability-modes for large
+    /// models): CSV columns stable,max_multiplier, and unstable parts dashed in the plot.
     #[arg(long)]
     pub stability: bool,
 

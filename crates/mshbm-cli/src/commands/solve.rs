@@ -11,6 +11,7 @@ use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
+use mshbm::stability::StabilityOptions;
 use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
@@ -141,6 +142,14 @@ pub struct MethodArgs {
     /// Default: the first contact DOF.
     #[arg(long)]
     pub dof: Option<usize>,
+
+    /// Floquet multipliers (redistributed MS-HBM) in a reduced basis of N fixed-interface
+    /// modes of the linear part plus the statically condensed interface correction; N at
+    /// least the number of linear DOFs means the full space. Default: the full space up to
+    /// 200 linear DOFs, 100 modes above. The reduced multipliers converge slowly with N
+    /// (the contact switching excites all modes); see the README section on stability.
+    #[arg(long, value_name = "N")]
+    pub stability_modes: Option<usize>,
 }
 
 impl MethodArgs {
@@ -169,6 +178,13 @@ impl MethodArgs {
     /// Check the combination of options and list the configurations to run: one per
     /// `--penalty` value for hbm-aft, one otherwise.
     pub fn variants(&self) -> Result<Vec<Variant>> {
+        match self.stability_modes {
+            Some(0) => bail!("--stability-modes must be at least 1"),
+            Some(_) if self.method != Method::Redistributed => {
+                bail!("--stability-modes applies to --method redistributed only (the method with Floquet multipliers)")
+            }
+            _ => {}
+        }
         if self.method == Method::HbmAft {
             return Ok(self
                 .penalties()?
@@ -251,7 +267,11 @@ impl MethodArgs {
                     samples: self.samples,
                     quadrature,
                 };
-                Ok(Box::new(RedistributedMsHbm::new(model, &options)?))
+                let mut problem = RedistributedMsHbm::new(model, &options)?;
+                problem.set_stability_options(StabilityOptions {
+                    modes: self.stability_modes,
+                })?;
+                Ok(Box::new(problem))
             }
             Method::Mshbm => {
                 let options = mshbm::method::shooting::GeneralOptions {
@@ -303,7 +323,7 @@ pub struct SolveArgs {
     pub method: MethodArgs,
 
     /// Skip the Floquet multipliers (stability), computed by default for methods that
-    /// provide them (the redistributed MS-HBM; dense, up to 1500 linear DOFs).
+    /// provide them (the redistributed MS-HBM; see --stability-modes for large models).
     #[arg(long)]
     pub no_stability: bool,
 

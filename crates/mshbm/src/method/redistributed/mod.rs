@@ -33,6 +33,7 @@ use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 use crate::sparse::SparseMatrix;
+use crate::stability::{ReducedSystem, StabilityOptions};
 use quadrature::{integrate, load_at, Integration, Quadrature};
 use static_contact::StaticContact;
 
@@ -82,6 +83,9 @@ pub struct RedistributedMsHbm {
     contact: StaticContact,
     frequency: Option<FrequencyData>,
     length_scale: f64,
+    stability_options: StabilityOptions,
+    /// The L-system of the Floquet analysis (full or reduced), built on first use.
+    stability_system: Option<Rc<ReducedSystem>>,
     /// First-order matrix and its eigendecomposition per active set (stability).
     stability_cache: std::collections::HashMap<Vec<bool>, Rc<StabilityData>>,
 }
@@ -183,6 +187,8 @@ impl RedistributedMsHbm {
             contact,
             frequency: None,
             length_scale,
+            stability_options: StabilityOptions::default(),
+            stability_system: None,
             stability_cache: std::collections::HashMap::new(),
             system,
         })
@@ -429,37 +435,46 @@ impl RedistributedMsHbm {
         crate::continuation::newton::newton_direction(&jac, &r0)
     }
 
-    /// First-order matrix of the linearised L-system for the active set with compliance
-    /// `P_A`: state `z = (w q_L, q̇_L)` with `w` ~ the highest frequency, which balances
-    /// the blocks (a similarity: multipliers unchanged) and keeps exponentials accurate.
-    fn state_matrix(&self, compliance: &[f64]) -> Mat<f64> {
-        let n = self.n();
+    /// Settings of the Floquet analysis ([`PeriodicProblem::floquet`]); the default is
+    /// [`StabilityOptions::default`] (full space for small linear parts, a reduced basis for
+    /// large ones).
+    pub fn set_stability_options(&mut self, options: StabilityOptions) -> Result<()> {
+        if options.modes == Some(0) {
+            return Err(Error::argument(
+                "stability modes",
+                "the reduced basis needs at least one fixed-interface mode",
+            ));
+        }
+        if options != self.stability_options {
+            self.stability_options = options;
+            self.stability_system = None;
+            self.stability_cache.clear();
+        }
+        Ok(())
+    }
+
+    /// The linearised L-system in the coordinates of the Floquet analysis (built once).
+    fn stability_system(&mut self) -> Result<Rc<ReducedSystem>> {
+        if let Some(s) = &self.stability_system {
+            return Ok(s.clone());
+        }
         let nl = self.linear.n_dofs();
-        let m = self.linear.mass.to_dense();
-        let lu = m.partial_piv_lu();
-        let k = self.linear.stiffness.to_dense();
-        let minv_c = lu.solve(self.linear.damping.to_dense());
-        let minv_k_ll = lu.solve(&k);
-        let w_ref = (0..nl)
-            .map(|j| (0..nl).map(|i| minv_k_ll[(i, j)].abs()).sum::<f64>())
-            .fold(0.0f64, f64::max)
-            .sqrt()
-            .max(1.0);
-        let p = Mat::<f64>::from_fn(n, n, |i, j| compliance[i * n + j]);
-        let k_eff = &k - self.k_ln.to_dense() * (&p * self.k_nl.to_dense());
-        let minv_k = lu.solve(&k_eff);
-        Mat::<f64>::from_fn(2 * nl, 2 * nl, |i, j| match (i < nl, j < nl) {
-            (true, true) => 0.0,
-            (true, false) => {
-                if j - nl == i {
-                    w_ref
-                } else {
-                    0.0
-                }
+        let lin = &self.linear;
+        let system = match self.stability_options.modes_for(nl) {
+            None if nl > MAX_DENSE_STABILITY_DOFS => {
+                return Err(Error::argument(
+                    "stability modes",
+                    format!("the linear part has {nl} DOFs; the full-space monodromy is limited to {MAX_DENSE_STABILITY_DOFS}: use a reduced basis of fewer modes"),
+                ))
             }
-            (false, true) => -minv_k[(i - nl, j)] / w_ref,
-            (false, false) => -minv_c[(i - nl, j - nl)],
-        })
+            None => ReducedSystem::full(&lin.mass, &lin.damping, &lin.stiffness, &self.k_nl)?,
+            Some(m) => {
+                ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, &self.k_nl, m)?
+            }
+        };
+        let system = Rc::new(system);
+        self.stability_system = Some(system.clone());
+        Ok(system)
     }
 
     /// `q̂_L,k` for the model DOF at L-index `l` (coefficients `[a0, a1, b1, …]`).
@@ -653,22 +668,18 @@ impl PeriodicProblem for RedistributedMsHbm {
     /// subsystem leaves the linear time-periodic system `M̄ q̈_L + C q̇_L + K_eff(t) q_L = 0`
     /// with `K_eff = K_LL − K_LN P_A(t) K_NL`, piecewise constant between the switching
     /// times; its vector field is continuous, so no saltation terms. The monodromy is the
-    /// product of exact matrix exponentials over the intervals of constant active set
-    /// (dense: models with up to 1500 L-DOFs).
+    /// product of exact matrix exponentials over the intervals of constant active set, in
+    /// the full L-space (dense: up to 1500 L-DOFs) or in the reduced basis of
+    /// [`ReducedSystem`] (fixed-interface modes plus static interface correction, with its
+    /// truncation error), as [`RedistributedMsHbm::set_stability_options`] chooses.
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
-        let nl = self.linear.n_dofs();
-        if nl > MAX_DENSE_STABILITY_DOFS {
-            return Err(Error::argument(
-                "stability",
-                format!("the linear part has {nl} DOFs; the dense monodromy is limited to {MAX_DENSE_STABILITY_DOFS} (use --no-stability)"),
-            ));
-        }
+        let reduced = self.stability_system()?;
         let (_, integration, _) = self.evaluate(x, omega)?;
         // the first-order matrices depend only on the active set (not on ω): build them,
         // and their eigendecompositions, once per set
         for g in &integration.groups {
             if !self.stability_cache.contains_key(&g.set.closed) {
-                let a = self.state_matrix(&g.set.compliance);
+                let a = reduced.state_matrix(&g.set.compliance)?;
                 let modal = crate::stability::ModalExponential::new(&a);
                 self.stability_cache
                     .insert(g.set.closed.clone(), Rc::new((a, modal)));
