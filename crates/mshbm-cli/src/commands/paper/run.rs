@@ -1,0 +1,145 @@
+//! Running the parts of `mshbm paper` as jobs on a few threads, with progress lines on
+//! stderr.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Result};
+
+use super::fig11::Traced11;
+use super::fig9::{Integration, Traced9};
+use super::FigureReport;
+use crate::commands::frf::{BranchObserver, FrdPoint};
+
+/// What a job produces: a finished figure (its number and report), or a part of Fig. 9 or
+/// Fig. 11 that is assembled when all parts are done.
+pub(crate) enum Output {
+    Figure(u32, FigureReport),
+    Branch9(Traced9),
+    Branch11(Traced11),
+    TimeIntegration(Integration),
+}
+
+/// A named part; the name starts with "Fig. N" (see [`figure_of`]).
+pub(crate) struct Job<'a> {
+    pub name: String,
+    pub work: Box<dyn FnOnce() -> Result<Output> + Send + 'a>,
+}
+
+/// The figure number in a job name "Fig. N …".
+pub(crate) fn figure_of(name: &str) -> u32 {
+    name.strip_prefix("Fig. ")
+        .and_then(|r| r.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(0)
+}
+
+/// Progress lines on stderr, prefixed by the elapsed time.
+pub(crate) struct Progress {
+    start: Instant,
+}
+
+impl Progress {
+    pub fn new() -> Self {
+        Progress {
+            start: Instant::now(),
+        }
+    }
+
+    pub fn elapsed(&self) -> f64 {
+        self.start.elapsed().as_secs_f64()
+    }
+
+    pub fn line(&self, part: &str, message: &str) {
+        eprintln!("[{:7.1} s] {part}: {message}", self.elapsed());
+    }
+
+    /// An observer of one continuation branch that prints where it is every few seconds.
+    pub fn branch<'a>(&'a self, part: String) -> BranchLines<'a> {
+        BranchLines {
+            progress: self,
+            part,
+            last: Instant::now(),
+            every: Duration::from_secs(5),
+        }
+    }
+}
+
+/// Progress of one branch: frequency reached and points found, every few seconds.
+pub(crate) struct BranchLines<'a> {
+    progress: &'a Progress,
+    part: String,
+    last: Instant,
+    every: Duration,
+}
+
+impl BranchObserver for BranchLines<'_> {
+    fn point(&mut self, _label: &str, point: &FrdPoint, points: usize, _step: f64) {
+        if self.last.elapsed() >= self.every {
+            self.last = Instant::now();
+            self.progress.line(
+                &self.part,
+                &format!(
+                    "{:.3} kHz reached, {points} points",
+                    point.frequency_hz / 1e3
+                ),
+            );
+        }
+    }
+}
+
+/// Run `jobs` on `threads` threads in the given order (put the longest first); a job that
+/// fails or panics gives an error in its slot and the others go on. Results in job order,
+/// with the job names.
+pub(crate) fn run_jobs(
+    jobs: Vec<Job<'_>>,
+    threads: usize,
+    progress: &Progress,
+) -> Vec<(String, Result<Output>)> {
+    let names: Vec<String> = jobs.iter().map(|j| j.name.clone()).collect();
+    let queue: Vec<Mutex<Option<Job>>> = jobs.into_iter().map(|j| Mutex::new(Some(j))).collect();
+    let results: Vec<Mutex<Option<Result<Output>>>> =
+        (0..queue.len()).map(|_| Mutex::new(None)).collect();
+    let next = AtomicUsize::new(0);
+    std::thread::scope(|scope| {
+        for _ in 0..threads.max(1).min(queue.len().max(1)) {
+            scope.spawn(|| loop {
+                let i = next.fetch_add(1, Ordering::SeqCst);
+                if i >= queue.len() {
+                    break;
+                }
+                let Some(job) = queue[i].lock().map(|mut j| j.take()).ok().flatten() else {
+                    continue;
+                };
+                let t0 = Instant::now();
+                progress.line(&job.name, "started");
+                let result = catch_unwind(AssertUnwindSafe(job.work))
+                    .unwrap_or_else(|_| Err(anyhow!("internal error (panic)")));
+                match &result {
+                    Ok(_) => progress.line(
+                        &job.name,
+                        &format!("finished in {:.1} s", t0.elapsed().as_secs_f64()),
+                    ),
+                    Err(e) => progress.line(&job.name, &format!("FAILED: {e:#}")),
+                }
+                if let Ok(mut slot) = results[i].lock() {
+                    *slot = Some(result);
+                }
+            });
+        }
+    });
+    names
+        .into_iter()
+        .zip(results)
+        .map(|(name, slot)| {
+            let r = slot
+                .into_inner()
+                .ok()
+                .flatten()
+                .unwrap_or_else(|| Err(anyhow!("not run")));
+            (name, r)
+        })
+        .collect()
+}
