@@ -525,8 +525,17 @@ impl Plan {
             );
             for t in &traced {
                 match values_at(&t.report.points, sim.frequency_hz, sim.min) {
-                    Some((mx, mn)) => {
-                        let _ = write!(s, " {mx:.4}, {mn:.4} |");
+                    Some(v) => {
+                        let _ = write!(
+                            s,
+                            " {:.4}, {:.4}{} |",
+                            v.max,
+                            v.min,
+                            match v.stable {
+                                Some(false) => " u",
+                                _ => "",
+                            }
+                        );
                     }
                     None => s.push_str(" – |"),
                 }
@@ -534,18 +543,53 @@ impl Plan {
             s.push('\n');
         }
         let periodic_count = sims.iter().filter(|s| s.periodic).count();
+        // the MS-HBM solution of the largest H that reaches each frequency
+        let reference_at = |sim: &Integration| {
+            traced.iter().rev().find_map(|t| {
+                values_at(&t.report.points, sim.frequency_hz, sim.min).map(|v| (t.harmonics, v))
+            })
+        };
+        let unstable_where_wandering = sims
+            .iter()
+            .filter(|sim| !sim.periodic)
+            .filter(|sim| matches!(reference_at(sim), Some((_, v)) if v.stable == Some(false)))
+            .count();
         let _ = write!(
             s,
-            "\nThe simulation became periodic at {periodic_count} of {} frequencies. With \
-             mass-proportional damping every mode decays at the same rate α/2 = ζ₁ω₁, i.e. mode \
-             k has only the damping ratio ζ₁ω₁/ω_k; the high modes that each impact excites \
-             then still ring at the next impact, and the response wanders around the periodic \
-             orbit instead of settling (hollow markers: last period; bars: range over the last \
-             periods). That is the physics of this damping model, not a failure of the \
-             integrator; with damping that reaches the high modes (examples/clamped_bar_impact.toml: \
+            "\n(u: the MS-HBM solution there is unstable, a Floquet multiplier outside the unit \
+             circle.) The simulation became periodic at {periodic_count} of {} frequencies. \
+             Where it did not, it wanders around the MS-HBM orbit (hollow markers: its last \
+             period; bars: the range over its last periods), and at {unstable_where_wandering} \
+             of these {} frequencies the MS-HBM solution of the largest H there is unstable, so \
+             no simulation can settle onto it. Mass-proportional damping also damps mode k only \
+             by ζ₁ω₁/ω_k, so the high modes that each impact excites still ring at the next \
+             one. With damping that reaches the high modes (examples/clamped_bar_impact.toml: \
              Rayleigh 1 % at ω₁ and 10ω₁) the simulation becomes periodic.\n\n",
-            sims.len()
+            sims.len(),
+            sims.len() - periodic_count,
         );
+        for sim in sims.iter().filter(|s| s.periodic) {
+            if let Some((h, v)) = reference_at(sim) {
+                let _ = writeln!(
+                    s,
+                    "* {:.1} kHz (periodic): simulation max {:.5}, min {:.5}; MS-HBM H = {h}: max \
+                     {:.5}, min {:.5} (difference of the min {}{}).",
+                    sim.frequency_hz / 1e3,
+                    sim.max,
+                    sim.min,
+                    v.max,
+                    v.min,
+                    super::percent(sim.min / v.min - 1.0),
+                    if sim.max < 0.2 && v.max < 0.2 {
+                        "; no contact: the difference is that of the consistent and the \
+                         redistributed mass"
+                    } else {
+                        ""
+                    }
+                );
+            }
+        }
+        s.push('\n');
         s.push_str(
             "**Paper**: far from the resonance the contact node does not reach the support and \
              the response is linear, so the MS-HBM is exact there (here: below ~12.5 kHz, where \
@@ -562,12 +606,21 @@ impl Plan {
     }
 }
 
+/// A branch's values at one frequency.
+#[derive(Clone, Copy, Debug)]
+struct BranchValue {
+    max: f64,
+    min: f64,
+    /// Stability of the nearer neighbouring point, when computed.
+    stable: Option<bool>,
+}
+
 /// The (max, min) of a branch at `frequency_hz`, linearly interpolated between
 /// neighbouring points; where the branch passes the frequency several times, the crossing
 /// whose min is closest to `near_min`.
-fn values_at(points: &[FrdPoint], frequency_hz: f64, near_min: f64) -> Option<(f64, f64)> {
+fn values_at(points: &[FrdPoint], frequency_hz: f64, near_min: f64) -> Option<BranchValue> {
     let pts: Vec<&FrdPoint> = points.iter().filter(|p| !p.fold).collect();
-    let mut best: Option<(f64, f64)> = None;
+    let mut best: Option<BranchValue> = None;
     for w in pts.windows(2) {
         let (a, b) = (w[0], w[1]);
         let (fa, fb) = (a.frequency_hz, b.frequency_hz);
@@ -575,11 +628,12 @@ fn values_at(points: &[FrdPoint], frequency_hz: f64, near_min: f64) -> Option<(f
             continue;
         }
         let t = (frequency_hz - fa) / (fb - fa);
-        let v = (
-            a.max_qn + t * (b.max_qn - a.max_qn),
-            a.min_qn + t * (b.min_qn - a.min_qn),
-        );
-        if best.is_none_or(|(_, m)| (v.1 - near_min).abs() < (m - near_min).abs()) {
+        let v = BranchValue {
+            max: a.max_qn + t * (b.max_qn - a.max_qn),
+            min: a.min_qn + t * (b.min_qn - a.min_qn),
+            stable: if t < 0.5 { a.stable } else { b.stable },
+        };
+        if best.is_none_or(|m| (v.min - near_min).abs() < (m.min - near_min).abs()) {
             best = Some(v);
         }
     }

@@ -165,14 +165,21 @@ pub fn run(args: &PaperArgs) -> Result<()> {
     job_list.push(fig5::job(&setup));
     job_list.push(fig10::job(&setup));
     job_list.push(fig8::job(&setup));
+    let load_before = run::load_average();
     let outputs = run_jobs(job_list, jobs, &progress);
     let wall = progress.elapsed();
+    let timing = Timing {
+        wall,
+        jobs,
+        busy: outputs.iter().map(|o| o.2).sum(),
+        load: [load_before, run::load_average()],
+    };
 
     let mut reports: Vec<(u32, FigureReport)> = Vec::new();
     let mut branches9 = Vec::new();
     let mut branches11 = Vec::new();
     let mut integrations = Vec::new();
-    for (name, output) in outputs {
+    for (name, output, _) in outputs {
         match output {
             Ok(run::Output::Figure(number, report)) => reports.push((number, report)),
             Ok(run::Output::Branch9(b)) => branches9.push(Ok(b)),
@@ -206,7 +213,7 @@ pub fn run(args: &PaperArgs) -> Result<()> {
         .iter()
         .flat_map(|(_, r)| r.problems.iter().cloned())
         .collect();
-    let summary = summary_text(&setup, &reports, &problems, wall, jobs);
+    let summary = summary_text(&setup, &reports, &problems, &timing);
     crate::output::write_atomic(&setup.file("summary.md"), summary.as_bytes())?;
     progress.line(
         "paper",
@@ -226,12 +233,21 @@ pub fn run(args: &PaperArgs) -> Result<()> {
     Ok(())
 }
 
+/// How long the run took, and on how loaded a machine.
+struct Timing {
+    wall: f64,
+    jobs: usize,
+    /// Sum of the parts' run times (≈ CPU time).
+    busy: f64,
+    /// 1-minute load average before and after the parts ran.
+    load: [Option<f64>; 2],
+}
+
 fn summary_text(
     setup: &Setup,
     reports: &[(u32, FigureReport)],
     problems: &[String],
-    wall: f64,
-    jobs: usize,
+    timing: &Timing,
 ) -> String {
     let mut s = String::new();
     s.push_str("# The paper's figures reproduced by `mshbm paper`\n\n");
@@ -253,9 +269,18 @@ fn summary_text(
          eigenfrequency of the mass the method uses); mode k then has the damping ratio \
          0.01·ω₁/ω_k. The dropped bar (Fig. 5) is undamped, as in the paper.\n\n"
     ));
+    let load = match timing.load {
+        [Some(a), Some(b)] => {
+            format!("; 1-minute load average {a:.1} before and {b:.1} after (other processes share the cores when it exceeds the core count)")
+        }
+        _ => String::new(),
+    };
     s.push_str(&format!(
-        "**Run time**: {wall:.0} s wall clock on {jobs} threads ({} cores available).\n\n",
-        std::thread::available_parallelism().map_or(0, |n| n.get())
+        "**Run time**: {:.0} s wall clock on {} threads ({} cores available); the parts took {:.0} s together{load}.\n\n",
+        timing.wall,
+        timing.jobs,
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        timing.busy,
     ));
     if problems.is_empty() {
         s.push_str("**Status**: every part complete.\n\n");

@@ -36,6 +36,16 @@ pub(crate) fn figure_of(name: &str) -> u32 {
         .unwrap_or(0)
 }
 
+/// The 1-minute load average (Linux), to qualify the measured run time on a shared machine.
+pub(crate) fn load_average() -> Option<f64> {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
 /// Progress lines on stderr, prefixed by the elapsed time.
 pub(crate) struct Progress {
     start: Instant,
@@ -90,17 +100,15 @@ impl BranchObserver for BranchLines<'_> {
     }
 }
 
+/// The result of one job: its name, its output and how long it ran [s].
+pub(crate) type Done = (String, Result<Output>, f64);
+
 /// Run `jobs` on `threads` threads in the given order (put the longest first); a job that
-/// fails or panics gives an error in its slot and the others go on. Results in job order,
-/// with the job names.
-pub(crate) fn run_jobs(
-    jobs: Vec<Job<'_>>,
-    threads: usize,
-    progress: &Progress,
-) -> Vec<(String, Result<Output>)> {
+/// fails or panics gives an error in its slot and the others go on. Results in job order.
+pub(crate) fn run_jobs(jobs: Vec<Job<'_>>, threads: usize, progress: &Progress) -> Vec<Done> {
     let names: Vec<String> = jobs.iter().map(|j| j.name.clone()).collect();
     let queue: Vec<Mutex<Option<Job>>> = jobs.into_iter().map(|j| Mutex::new(Some(j))).collect();
-    let results: Vec<Mutex<Option<Result<Output>>>> =
+    let results: Vec<Mutex<Option<(Result<Output>, f64)>>> =
         (0..queue.len()).map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
     std::thread::scope(|scope| {
@@ -125,7 +133,7 @@ pub(crate) fn run_jobs(
                     Err(e) => progress.line(&job.name, &format!("FAILED: {e:#}")),
                 }
                 if let Ok(mut slot) = results[i].lock() {
-                    *slot = Some(result);
+                    *slot = Some((result, t0.elapsed().as_secs_f64()));
                 }
             });
         }
@@ -134,12 +142,12 @@ pub(crate) fn run_jobs(
         .into_iter()
         .zip(results)
         .map(|(name, slot)| {
-            let r = slot
+            let (r, seconds) = slot
                 .into_inner()
                 .ok()
                 .flatten()
-                .unwrap_or_else(|| Err(anyhow!("not run")));
-            (name, r)
+                .unwrap_or_else(|| (Err(anyhow!("not run")), 0.0));
+            (name, r, seconds)
         })
         .collect()
 }
