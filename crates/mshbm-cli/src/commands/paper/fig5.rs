@@ -102,8 +102,7 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
     // CSV: one row per recorded step, the three runs side by side
     let mut csv = String::from(CSV_HEADER);
     csv.push('\n');
-    for j in 0..n {
-        let t = time[j];
+    for (j, &t) in time.iter().enumerate() {
         let _ = write!(csv, "{t:.9e},{:.9e}", analytic.gap(t));
         for r in &recs {
             let _ = write!(csv, ",{:.9e}", r.plot_gaps[0][j]);

@@ -44,12 +44,8 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
     let continuum: Vec<f64> = (1..=report.original_hz.len()).map(continuum_hz).collect();
     let mut csv = String::from(CSV_HEADER);
     csv.push('\n');
-    for k in 0..report.original_hz.len() {
-        let (o, r, c) = (
-            report.original_hz[k],
-            report.redistributed_hz[k],
-            continuum[k],
-        );
+    for (k, &c) in continuum.iter().enumerate() {
+        let (o, r) = (report.original_hz[k], report.redistributed_hz[k]);
         let _ = writeln!(
             csv,
             "{},{o:.6},{r:.6},{c:.6},{:.9e},{:.9e},{:.9e}",

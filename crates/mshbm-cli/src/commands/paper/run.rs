@@ -108,8 +108,8 @@ pub(crate) type Done = (String, Result<Output>, f64);
 pub(crate) fn run_jobs(jobs: Vec<Job<'_>>, threads: usize, progress: &Progress) -> Vec<Done> {
     let names: Vec<String> = jobs.iter().map(|j| j.name.clone()).collect();
     let queue: Vec<Mutex<Option<Job>>> = jobs.into_iter().map(|j| Mutex::new(Some(j))).collect();
-    let results: Vec<Mutex<Option<(Result<Output>, f64)>>> =
-        (0..queue.len()).map(|_| Mutex::new(None)).collect();
+    type Slot = Mutex<Option<(Result<Output>, f64)>>;
+    let results: Vec<Slot> = (0..queue.len()).map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1).min(queue.len().max(1)) {
