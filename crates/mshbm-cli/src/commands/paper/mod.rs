@@ -172,6 +172,7 @@ pub fn run(args: &PaperArgs) -> Result<()> {
         wall,
         jobs,
         busy: outputs.iter().map(|o| o.2).sum(),
+        cpu: run::cpu_seconds(),
         load: [load_before, run::load_average()],
     };
 
@@ -237,8 +238,10 @@ pub fn run(args: &PaperArgs) -> Result<()> {
 struct Timing {
     wall: f64,
     jobs: usize,
-    /// Sum of the parts' run times (≈ CPU time).
+    /// Sum of the parts' wall-clock run times.
     busy: f64,
+    /// CPU time of the process.
+    cpu: Option<f64>,
     /// 1-minute load average before and after the parts ran.
     load: [Option<f64>; 2],
 }
@@ -275,8 +278,13 @@ fn summary_text(
         }
         _ => String::new(),
     };
+    let cpu = timing
+        .cpu
+        .map(|c| format!(", {c:.0} s of CPU time"))
+        .unwrap_or_default();
     s.push_str(&format!(
-        "**Run time**: {:.0} s wall clock on {} threads ({} cores available); the parts took {:.0} s together{load}.\n\n",
+        "**Run time**: {:.0} s wall clock on {} threads ({} cores available){cpu}; the parts \
+         took {:.0} s together{load}.\n\n",
         timing.wall,
         timing.jobs,
         std::thread::available_parallelism().map_or(0, |n| n.get()),

@@ -46,6 +46,27 @@ pub(crate) fn load_average() -> Option<f64> {
         .ok()
 }
 
+/// CPU time (user + system) of this process so far [s], all threads: unlike the wall
+/// clock, it does not depend on what else runs on the machine.
+#[cfg(unix)]
+pub(crate) fn cpu_seconds() -> Option<f64> {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: getrusage fills the struct it is given; RUSAGE_SELF is always valid.
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr()) };
+    if rc != 0 {
+        return None;
+    }
+    // SAFETY: initialised by the successful call above.
+    let usage = unsafe { usage.assume_init() };
+    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Some(seconds(usage.ru_utime) + seconds(usage.ru_stime))
+}
+
+#[cfg(not(unix))]
+pub(crate) fn cpu_seconds() -> Option<f64> {
+    None
+}
+
 /// Progress lines on stderr, prefixed by the elapsed time.
 pub(crate) struct Progress {
     start: Instant,
