@@ -267,3 +267,39 @@ fn paper_rejects_zero_jobs_and_unknown_formats() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("jpg"));
 }
+
+#[test]
+fn a_failing_figure_does_not_lose_the_others() {
+    // Fig. 8 cannot write its CSV (a directory is in the way); every other figure is
+    // written, summary.md says what failed, and the exit status says so at the end
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("fig8_eigenfrequencies.csv")).unwrap();
+    let out = Command::cargo_bin("mshbm")
+        .unwrap()
+        .args(["paper", "--quick", "--format", "svg", "--output"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let last = stderr.lines().last().unwrap();
+    assert!(
+        last.starts_with("error: ") && last.contains("Fig. 8"),
+        "{stderr}"
+    );
+    for file in [
+        "fig5_dropped_bar.svg",
+        "fig9_frd.svg",
+        "fig10_periodic_solution.svg",
+        "fig11_frd.svg",
+        "fig9_frd.csv",
+    ] {
+        let text = std::fs::read_to_string(dir.path().join(file)).unwrap();
+        assert!(file.ends_with(".csv") || text.contains("<svg"), "{file}");
+    }
+    let summary = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
+    assert!(summary.contains("Status: INCOMPLETE"), "{summary}");
+    assert!(summary.contains("## Fig. 8\n\n**FAILED**"), "{summary}");
+    assert!(summary.contains("## Fig. 11"), "{summary}");
+}
