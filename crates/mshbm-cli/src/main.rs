@@ -38,6 +38,9 @@ enum Command {
     Simulate(commands::simulate::SimulateArgs),
     /// Write the model as Matrix Market matrices and a `kind = "matrices"` model file.
     Export(commands::export::ExportArgs),
+    /// The paper's figures 5, 8, 9, 10, 11 by one command: images, their CSV data and a
+    /// summary.md comparing the key numbers with the paper (a few minutes on 2 cores).
+    Paper(commands::paper::PaperArgs),
 }
 
 fn main() -> ExitCode {
@@ -55,6 +58,7 @@ fn main() -> ExitCode {
         Command::Frf(args) => commands::frf::run(args),
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Export(args) => commands::export::run(args),
+        Command::Paper(args) => commands::paper::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

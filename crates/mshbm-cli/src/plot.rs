@@ -24,7 +24,12 @@ pub enum Style {
     Line,
     Dashed,
     Markers,
+    /// Unfilled circles (e.g. a value that is not a converged result).
+    HollowMarkers,
     LineAndMarkers,
+    /// Consecutive pairs of points joined by a thin line each (e.g. min–max bands drawn
+    /// as vertical bars).
+    Segments,
 }
 
 /// One curve.
@@ -222,6 +227,17 @@ impl Figure {
                         pts.iter()
                             .map(|&p| Circle::new(p, 4, ShapeStyle::from(&c).filled())),
                     )
+                    .map_err(err)?,
+                Style::HollowMarkers => chart
+                    .draw_series(
+                        pts.iter()
+                            .map(|&p| Circle::new(p, 5, ShapeStyle::from(&c).stroke_width(2))),
+                    )
+                    .map_err(err)?,
+                Style::Segments => chart
+                    .draw_series(pts.chunks_exact(2).map(|pair| {
+                        PathElement::new(pair.to_vec(), ShapeStyle::from(&c).stroke_width(3))
+                    }))
                     .map_err(err)?,
             };
             if !s.label.is_empty() {

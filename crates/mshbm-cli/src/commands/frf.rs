@@ -148,9 +148,9 @@ struct FrdReport {
 
 /// What the branches found besides their points.
 #[derive(Default)]
-struct Found {
-    folds: Vec<FoldReport>,
-    bifurcations: Vec<BifurcationReport>,
+pub struct Found {
+    pub folds: Vec<FoldReport>,
+    pub bifurcations: Vec<BifurcationReport>,
 }
 
 /// A multiplier crossing the unit circle between two neighbouring points of a branch.
@@ -187,9 +187,113 @@ fn stop_text(stop: &StopReason, to_hz: f64) -> String {
     }
 }
 
-/// Trace one branch, streaming rows to `csv` and reporting progress. `several`: more than
-/// one configuration runs (labels name the method; CSV rows carry the method columns).
-fn trace(
+/// Receives the points of a branch as they are found (progress display).
+pub trait BranchObserver {
+    /// A new point of the branch `label`; `points` found so far (including this one) and
+    /// the arclength step that led to it.
+    fn point(&mut self, label: &str, point: &FrdPoint, points: usize, step: f64);
+    /// The branch has ended.
+    fn finish(&mut self) {}
+}
+
+/// `mshbm frf`'s progress: a bar on a terminal, nothing otherwise.
+struct TerminalBar {
+    from_hz: f64,
+    to_hz: f64,
+    bar: Option<ProgressBar>,
+}
+
+impl TerminalBar {
+    fn new(from_hz: f64, to_hz: f64) -> Self {
+        TerminalBar {
+            from_hz,
+            to_hz,
+            bar: None,
+        }
+    }
+}
+
+impl BranchObserver for TerminalBar {
+    fn point(&mut self, label: &str, point: &FrdPoint, points: usize, step: f64) {
+        if self.bar.is_none() && std::io::stderr().is_terminal() {
+            let bar = ProgressBar::new(1000);
+            bar.set_style(
+                ProgressStyle::with_template("{prefix} [{bar:30}] {msg}")
+                    .expect("valid template")
+                    .progress_chars("=> "),
+            );
+            bar.set_prefix(label.to_string());
+            self.bar = Some(bar);
+        }
+        if let Some(bar) = &self.bar {
+            let done =
+                ((point.frequency_hz - self.from_hz) / (self.to_hz - self.from_hz)).clamp(0.0, 1.0);
+            bar.set_position((done * 1000.0) as u64);
+            bar.set_message(format!(
+                "{:.1} Hz, {points} points, step {step:.1e}",
+                point.frequency_hz
+            ));
+        }
+    }
+
+    fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// The CSV header of `mshbm frf` (and of the paper's diagrams); `method_columns` adds
+/// method,penalty,max_penetration (several methods or penalties share the file).
+pub fn frd_csv_header(method_columns: bool) -> String {
+    if method_columns {
+        format!("{CSV_HEADER}{CSV_METHOD_COLUMNS}")
+    } else {
+        CSV_HEADER.to_string()
+    }
+}
+
+/// One CSV row (no newline) of `point` on a branch with `harmonics`; `method`: the method
+/// columns (method name, penalty) when the file has them.
+pub fn frd_csv_row(
+    point: &FrdPoint,
+    harmonics: usize,
+    method: Option<(&str, Option<f64>)>,
+) -> String {
+    let extra = match method {
+        Some((name, penalty)) => format!(
+            ",{name},{},{}",
+            penalty.map(|k| format!("{k:.6e}")).unwrap_or_default(),
+            point
+                .max_penetration
+                .map(|p| format!("{p:.6e}"))
+                .unwrap_or_default()
+        ),
+        None => String::new(),
+    };
+    format!(
+        "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{},{},{}{extra}",
+        point.frequency_hz,
+        harmonics,
+        point.max_qn,
+        point.min_qn,
+        point.amplitude_h1,
+        point.residual_norm,
+        point.newton_iterations,
+        point.fold,
+        point.stable.map(|b| b.to_string()).unwrap_or_default(),
+        point
+            .max_multiplier
+            .map(|m| format!("{m:.9}"))
+            .unwrap_or_default()
+    )
+}
+
+/// Trace one branch, streaming rows to `csv` and reporting each point to `observer`.
+/// `several`: more than one configuration runs (labels name the method; CSV rows carry the
+/// method columns). Returns the branch with what it found (folds, stability changes).
+#[allow(clippy::too_many_arguments)]
+pub fn trace(
     model: &Model,
     args: &FrfArgs,
     harmonics: usize,
@@ -197,6 +301,7 @@ fn trace(
     several: bool,
     csv: &mut Option<BufWriter<File>>,
     found: &mut Found,
+    observer: &mut dyn BranchObserver,
 ) -> Result<(BranchReport, Branch)> {
     let Found {
         folds,
@@ -225,19 +330,6 @@ fn trace(
     options.max_turn_deg = args.max_turn;
     options.newton = args.method.newton()?;
 
-    let progress = if std::io::stderr().is_terminal() {
-        let bar = ProgressBar::new(1000);
-        bar.set_style(
-            ProgressStyle::with_template("{prefix} [{bar:30}] {msg}")
-                .expect("valid template")
-                .progress_chars("=> "),
-        );
-        bar.set_prefix(label.clone());
-        Some(bar)
-    } else {
-        None
-    };
-    let span = args.to_hz - args.from_hz;
     let mut points = Vec::new();
     let mut row_error: Option<anyhow::Error> = None;
     let branch = trace_branch(problem.as_mut(), &options, |p, event| {
@@ -305,59 +397,18 @@ fn trace(
             });
         }
         if let Some(w) = csv.as_mut() {
-            let extra = if method_columns {
-                format!(
-                    ",{method_name},{},{}",
-                    built
-                        .penalty
-                        .map(|k| format!("{k:.6e}"))
-                        .unwrap_or_default(),
-                    point
-                        .max_penetration
-                        .map(|p| format!("{p:.6e}"))
-                        .unwrap_or_default()
-                )
-            } else {
-                String::new()
-            };
-            let r = writeln!(
-                w,
-                "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{},{},{}{extra}",
-                point.frequency_hz,
-                harmonics,
-                point.max_qn,
-                point.min_qn,
-                point.amplitude_h1,
-                point.residual_norm,
-                point.newton_iterations,
-                point.fold,
-                point.stable.map(|b| b.to_string()).unwrap_or_default(),
-                point
-                    .max_multiplier
-                    .map(|m| format!("{m:.9}"))
-                    .unwrap_or_default()
-            )
-            .and_then(|_| w.flush());
+            let method = method_columns.then_some((method_name, built.penalty));
+            let r =
+                writeln!(w, "{}", frd_csv_row(&point, harmonics, method)).and_then(|_| w.flush());
             if let Err(e) = r {
                 row_error.get_or_insert(anyhow::anyhow!("cannot write the CSV: {e}"));
             }
         }
-        if let Some(bar) = &progress {
-            let done = ((point.frequency_hz - args.from_hz) / span).clamp(0.0, 1.0);
-            bar.set_position((done * 1000.0) as u64);
-            bar.set_message(format!(
-                "{:.1} Hz, {} points, step {:.1e}",
-                point.frequency_hz,
-                points.len() + 1,
-                step
-            ));
-        }
+        observer.point(&label, &point, points.len() + 1, step);
         points.push(point);
         Ok(())
     })?;
-    if let Some(bar) = progress {
-        bar.finish_and_clear();
-    }
+    observer.finish();
     if let Some(e) = row_error {
         return Err(e);
     }
@@ -494,11 +545,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
             let f =
                 File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
             let mut w = BufWriter::new(f);
-            if method_columns {
-                writeln!(w, "{CSV_HEADER}{CSV_METHOD_COLUMNS}")?;
-            } else {
-                writeln!(w, "{CSV_HEADER}")?;
-            }
+            writeln!(w, "{}", frd_csv_header(method_columns))?;
             w.flush()?;
             Some(w)
         }
@@ -510,7 +557,10 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     for variant in &variants {
         for &h in &args.harmonics {
             let before = found.folds.len();
-            let (report, _) = trace(&model, args, h, variant, several, &mut csv, &mut found)?;
+            let mut bar = TerminalBar::new(args.from_hz, args.to_hz);
+            let (report, _) = trace(
+                &model, args, h, variant, several, &mut csv, &mut found, &mut bar,
+            )?;
             if !report.completed && failure.is_none() {
                 failure = Some(format!("{}: {}", report.label, report.stop));
             }

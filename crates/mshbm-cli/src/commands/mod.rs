@@ -3,6 +3,7 @@
 pub mod export;
 pub mod frf;
 pub mod modes;
+pub mod paper;
 pub mod simulate;
 pub mod solve;
 

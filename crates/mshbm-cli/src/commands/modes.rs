@@ -34,49 +34,60 @@ pub struct ModesArgs {
     pub plot: Option<PathBuf>,
 }
 
+/// Eigenfrequencies of the consistent and the redistributed model.
 #[derive(Serialize)]
-struct ModesReport {
-    original_hz: Vec<f64>,
-    redistributed_hz: Vec<f64>,
-    relative_error: Vec<f64>,
+pub struct ModesReport {
+    pub original_hz: Vec<f64>,
+    pub redistributed_hz: Vec<f64>,
+    /// `f_redistributed / f_original − 1` per mode.
+    pub relative_error: Vec<f64>,
 }
 
-pub fn run(args: &ModesArgs) -> Result<()> {
-    let model = args.model.load()?;
+/// The `count` lowest eigenfrequencies of both masses (contacts open, Dirichlet DOFs fixed).
+pub fn compute(model: &mshbm::Model, count: usize) -> Result<ModesReport> {
     let consistent = model.system(MassKind::Consistent)?;
     let redistributed = model.system(MassKind::Redistributed)?;
-    let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, args.count)?;
+    let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, count)?;
     let redistributed_hz =
-        eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, args.count)?;
+        eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, count)?;
     let relative_error: Vec<f64> = original_hz
         .iter()
         .zip(&redistributed_hz)
         .map(|(o, r)| r / o - 1.0)
         .collect();
-    let report = ModesReport {
+    Ok(ModesReport {
         original_hz,
         redistributed_hz,
         relative_error,
-    };
+    })
+}
+
+/// Fig. 8: relative error of the redistributed eigenfrequencies vs mode number.
+pub fn relative_error_figure(report: &ModesReport) -> Figure {
+    Figure {
+        title: "Eigenfrequency shift by mass redistribution (Fig. 8)".into(),
+        x_label: "mode number".into(),
+        y_label: "f_redistributed / f_original − 1".into(),
+        series: vec![Series {
+            label: "redistributed vs consistent mass".into(),
+            points: report
+                .relative_error
+                .iter()
+                .enumerate()
+                .map(|(k, &e)| ((k + 1) as f64, e))
+                .collect(),
+            style: Style::LineAndMarkers,
+            color: 0,
+        }],
+        hlines: vec![],
+    }
+}
+
+pub fn run(args: &ModesArgs) -> Result<()> {
+    let model = args.model.load()?;
+    let report = compute(&model, args.count)?;
     if let Some(path) = &args.plot {
-        let fig = Figure {
-            title: "Eigenfrequency shift by mass redistribution (Fig. 8)".into(),
-            x_label: "mode number".into(),
-            y_label: "f_redistributed / f_original − 1".into(),
-            series: vec![Series {
-                label: "redistributed vs consistent mass".into(),
-                points: report
-                    .relative_error
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &e)| ((k + 1) as f64, e))
-                    .collect(),
-                style: Style::LineAndMarkers,
-                color: 0,
-            }],
-            hlines: vec![],
-        };
-        fig.save(path)?;
+        relative_error_figure(&report).save(path)?;
     }
     if args.json {
         println!("{}", serde_json::to_string(&report)?);

@@ -180,24 +180,52 @@ impl CsvStream {
 }
 
 /// Everything recorded per step.
-struct Recorder {
+pub(crate) struct Recorder {
     csv: Option<CsvStream>,
     /// Normalise the energy by this (free problems).
-    energy_norm: Option<f64>,
+    pub energy_norm: Option<f64>,
     plot_every: u64,
-    plot_time: Vec<f64>,
-    plot_gaps: Vec<Vec<f64>>,
-    plot_energy: Vec<f64>,
-    min_gap: Vec<f64>,
+    /// Every `plot_every`-th step: time, gap per contact, (normalised) energy.
+    pub plot_time: Vec<f64>,
+    pub plot_gaps: Vec<Vec<f64>>,
+    pub plot_energy: Vec<f64>,
+    pub min_gap: Vec<f64>,
     max_force: Vec<f64>,
-    closed_steps: Vec<u64>,
-    steps: u64,
+    /// Steps with a positive contact force, per contact.
+    pub closed_steps: Vec<u64>,
+    pub steps: u64,
     energy_range: (f64, f64),
     energy_last: f64,
     progress: ProgressBar,
 }
 
 impl Recorder {
+    /// A recorder for `contacts` contacts, keeping every `plot_every`-th step in memory,
+    /// optionally streaming every step to `csv`.
+    fn new(
+        contacts: usize,
+        energy_norm: Option<f64>,
+        plot_every: u64,
+        csv: Option<CsvStream>,
+        progress: ProgressBar,
+    ) -> Self {
+        Recorder {
+            csv,
+            energy_norm,
+            plot_every: plot_every.max(1),
+            plot_time: Vec::new(),
+            plot_gaps: vec![Vec::new(); contacts],
+            plot_energy: Vec::new(),
+            min_gap: vec![f64::INFINITY; contacts],
+            max_force: vec![0.0; contacts],
+            closed_steps: vec![0; contacts],
+            steps: 0,
+            energy_range: (f64::INFINITY, f64::NEG_INFINITY),
+            energy_last: 0.0,
+            progress,
+        }
+    }
+
     fn record(&mut self, it: &Integrator) {
         let e = it.energy();
         let en = self.energy_norm.map(|e0| e / e0);
@@ -292,6 +320,69 @@ fn initial_state(
         .with_context(|| format!("{}: cannot start from this solution", path.display()))
 }
 
+/// The scheme and the mass it integrates: Moreau–Jean (default θ = ½, e_N = 0) on the
+/// consistent mass, or position-level Newmark on the redistributed mass.
+pub(crate) fn scheme_and_mass(
+    arg: SchemeArg,
+    restitution: Option<f64>,
+    theta: Option<f64>,
+) -> (Scheme, MassKind) {
+    match arg {
+        SchemeArg::Moreau => (
+            Scheme::MoreauJean {
+                theta: theta.unwrap_or(0.5),
+                restitution: restitution.unwrap_or(0.0),
+            },
+            MassKind::Consistent,
+        ),
+        SchemeArg::Redistributed => (Scheme::PositionNewmark, MassKind::Redistributed),
+    }
+}
+
+/// How a scheme is named in reports.
+pub(crate) fn scheme_description(scheme: Scheme) -> String {
+    match scheme {
+        Scheme::MoreauJean { theta, restitution } => {
+            format!("Moreau-Jean (theta = {theta}, e_N = {restitution}), consistent mass")
+        }
+        Scheme::PositionNewmark => "position-level Newmark, redistributed mass".to_string(),
+    }
+}
+
+/// Integrate a free (unforced) problem for `steps` steps of `dt` from rest, recording every
+/// step in memory (`mshbm simulate` without --steady-state, for one scheme): the runs of
+/// the paper's Fig. 5.
+pub(crate) fn transient_run(
+    model: &Model,
+    scheme_arg: SchemeArg,
+    restitution: Option<f64>,
+    dt: f64,
+    steps: u64,
+) -> Result<Recorder> {
+    let (scheme, kind) = scheme_and_mass(scheme_arg, restitution, None);
+    let system = model.system(kind)?;
+    let mut integrator = Integrator::new(
+        &system,
+        &Settings {
+            dt,
+            scheme,
+            omega: None,
+            energy_offset: fall_energy(model, &system),
+        },
+    )?;
+    let e0 = integrator.energy();
+    let mut rec = Recorder::new(
+        system.contacts.len(),
+        (e0 > 0.0).then_some(e0),
+        steps / 20_000,
+        None,
+        ProgressBar::hidden(),
+    );
+    rec.record(&integrator);
+    integrator.run(steps as usize, |it| rec.record(it))?;
+    Ok(rec)
+}
+
 pub fn run(args: &SimulateArgs) -> Result<()> {
     // --- arguments that need no model ---
     if let Some(f) = args.frequency {
@@ -380,16 +471,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     {
         bail!("--restitution and --theta belong to --scheme moreau; the redistributed scheme has no impact law");
     }
-    let (scheme, kind) = match scheme_arg {
-        SchemeArg::Moreau => (
-            Scheme::MoreauJean {
-                theta: args.theta.unwrap_or(0.5),
-                restitution: args.restitution.unwrap_or(0.0),
-            },
-            MassKind::Consistent,
-        ),
-        SchemeArg::Redistributed => (Scheme::PositionNewmark, MassKind::Redistributed),
-    };
+    let (scheme, kind) = scheme_and_mass(scheme_arg, args.restitution, args.theta);
     let system = model.system(kind)?;
 
     // --- time grid ---
@@ -498,21 +580,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     } else {
         ProgressBar::hidden()
     };
-    let mut rec = Recorder {
-        csv,
-        energy_norm,
-        plot_every: (total_steps / 20_000).max(1),
-        plot_time: Vec::new(),
-        plot_gaps: vec![Vec::new(); nc],
-        plot_energy: Vec::new(),
-        min_gap: vec![f64::INFINITY; nc],
-        max_force: vec![0.0; nc],
-        closed_steps: vec![0; nc],
-        steps: 0,
-        energy_range: (f64::INFINITY, f64::NEG_INFINITY),
-        energy_last: e0,
-        progress: progress.clone(),
-    };
+    let mut rec = Recorder::new(nc, energy_norm, total_steps / 20_000, csv, progress.clone());
     rec.record(&integrator);
 
     // --- run ---
@@ -547,12 +615,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     }
 
     // --- report ---
-    let scheme_name = match scheme {
-        Scheme::MoreauJean { theta, restitution } => {
-            format!("Moreau-Jean (theta = {theta}, e_N = {restitution}), consistent mass")
-        }
-        Scheme::PositionNewmark => "position-level Newmark, redistributed mass".to_string(),
-    };
+    let scheme_name = scheme_description(scheme);
     match &steady {
         Some(s) => report_steady(args, &model, &scheme_name, s)?,
         None => report_transient(args, &model, &scheme_name, &rec, dt, e0, analytic.as_ref())?,
@@ -698,36 +761,47 @@ fn report_transient(
     Ok(())
 }
 
-fn plot(
-    path: &Path,
+/// The gap and the (normalised) energy over time of one or more runs (labelled; the
+/// closed form is overlaid when known): the paper's Fig. 5.
+pub(crate) fn transient_figures(
     model: &Model,
-    rec: &Recorder,
+    runs: &[(&str, &Recorder)],
     analytic: Option<&DroppedBarSolution>,
-    steady: Option<&SteadyState>,
-) -> Result<()> {
+) -> [Figure; 2] {
     let mut gap = Figure {
         title: format!("{}: contact gap", model.name),
         x_label: "time [s]".into(),
         y_label: "gap".into(),
         ..Figure::default()
     };
-    for (c, g) in rec.plot_gaps.iter().enumerate().take(8) {
-        gap.series.push(Series {
-            label: format!("gap, contact {c} (DOF {})", model.contacts[c].dofs[0]),
-            points: rec
-                .plot_time
-                .iter()
-                .copied()
-                .zip(g.iter().copied())
-                .collect(),
-            style: Style::Line,
-            color: c,
-        });
+    let several = runs.len() > 1;
+    let mut color = 0;
+    for (name, rec) in runs {
+        for (c, g) in rec.plot_gaps.iter().enumerate().take(8) {
+            let contact = format!("gap, contact {c} (DOF {})", model.contacts[c].dofs[0]);
+            gap.series.push(Series {
+                label: if several {
+                    format!("{name}: {contact}")
+                } else {
+                    contact
+                },
+                points: rec
+                    .plot_time
+                    .iter()
+                    .copied()
+                    .zip(g.iter().copied())
+                    .collect(),
+                style: Style::Line,
+                color,
+            });
+            color += 1;
+        }
     }
+    let first = runs[0].1;
     if let Some(a) = analytic {
         gap.series.push(Series {
             label: "closed form (METHODS §2.3)".into(),
-            points: rec.plot_time.iter().map(|&t| (t, a.gap(t))).collect(),
+            points: first.plot_time.iter().map(|&t| (t, a.gap(t))).collect(),
             style: Style::Dashed,
             color: 7,
         });
@@ -736,20 +810,29 @@ fn plot(
         label: "support (gap = 0)".into(),
         y: 0.0,
     });
-    let energy = Figure {
-        title: if rec.energy_norm.is_some() {
+    let normalised = first.energy_norm.is_some();
+    let mut energy = Figure {
+        title: if normalised {
             "Total energy, normalised by its initial value".into()
         } else {
             "Total energy".into()
         },
         x_label: "time [s]".into(),
-        y_label: if rec.energy_norm.is_some() {
+        y_label: if normalised {
             "E / E(0)".into()
         } else {
             "energy".into()
         },
-        series: vec![Series {
-            label: String::new(),
+        series: Vec::new(),
+        hlines: Vec::new(),
+    };
+    for (k, (name, rec)) in runs.iter().enumerate() {
+        energy.series.push(Series {
+            label: if several {
+                (*name).to_string()
+            } else {
+                String::new()
+            },
             points: rec
                 .plot_time
                 .iter()
@@ -757,10 +840,20 @@ fn plot(
                 .zip(rec.plot_energy.iter().copied())
                 .collect(),
             style: Style::Line,
-            color: 1,
-        }],
-        hlines: Vec::new(),
-    };
+            color: if several { k } else { 1 },
+        });
+    }
+    [gap, energy]
+}
+
+fn plot(
+    path: &Path,
+    model: &Model,
+    rec: &Recorder,
+    analytic: Option<&DroppedBarSolution>,
+    steady: Option<&SteadyState>,
+) -> Result<()> {
+    let [gap, energy] = transient_figures(model, &[("", rec)], analytic);
     let mut figures = vec![gap, energy];
     if let Some(s) = steady {
         let sol = &s.solution;

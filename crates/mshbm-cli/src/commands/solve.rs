@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
+use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions, NewtonOutcome};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
@@ -342,7 +342,9 @@ pub struct SolveArgs {
     pub plot: Option<PathBuf>,
 }
 
-fn time_series_csv(s: &PeriodicSolution) -> String {
+/// The time series over one period as CSV: time_s, then q_dof{d},gap_c{k},force_c{k} per
+/// contact.
+pub fn time_series_csv(s: &PeriodicSolution) -> String {
     let mut out = String::from("time_s");
     for (k, c) in s.contacts.iter().enumerate() {
         let _ = write!(out, ",q_dof{},gap_c{k},force_c{k}", c.dof);
@@ -399,6 +401,31 @@ pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
     fig
 }
 
+/// Solve `variant` at `args.frequency` from the contact-free linear response by Newton,
+/// with the Floquet multipliers unless `--no-stability`: the computation of `mshbm solve`.
+/// Returns the solution, the method's label and Newton's outcome (not converged is not an
+/// error here).
+pub fn solve_periodic(
+    model: &Model,
+    args: &SolveArgs,
+    variant: &Variant,
+) -> Result<(PeriodicSolution, String, NewtonOutcome)> {
+    let dof = args.method.response_dof(model)?;
+    let newton = args.method.newton()?;
+    let Built {
+        mut problem, label, ..
+    } = args.method.problem_for(model, args.harmonics, variant)?;
+    let omega = 2.0 * std::f64::consts::PI * args.frequency;
+    let (mut solution, outcome) = solve_at_frequency(problem.as_mut(), omega, dof, &newton)?;
+    if outcome.converged && !args.no_stability {
+        match problem.floquet(&outcome.x, omega) {
+            Ok(st) => solution.stability = st,
+            Err(e) => eprintln!("note: stability not computed: {e}"),
+        }
+    }
+    Ok((solution, label, outcome))
+}
+
 pub fn run(args: &SolveArgs) -> Result<()> {
     if !(args.frequency.is_finite() && args.frequency > 0.0) {
         bail!(
@@ -423,21 +450,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         bail!("solve takes one --penalty value (frf traces one branch per value)");
     }
     let model = args.model.load()?;
-    let dof = args.method.response_dof(&model)?;
-    let newton = args.method.newton()?;
-    let Built {
-        mut problem, label, ..
-    } = args
-        .method
-        .problem_for(&model, args.harmonics, &variants[0])?;
-    let omega = 2.0 * std::f64::consts::PI * args.frequency;
-    let (mut solution, outcome) = solve_at_frequency(problem.as_mut(), omega, dof, &newton)?;
-    if outcome.converged && !args.no_stability {
-        match problem.floquet(&outcome.x, omega) {
-            Ok(st) => solution.stability = st,
-            Err(e) => eprintln!("note: stability not computed: {e}"),
-        }
-    }
+    let (solution, label, outcome) = solve_periodic(&model, args, &variants[0])?;
     if let Some(path) = &args.output {
         write_atomic(path, time_series_csv(&solution).as_bytes())?;
     }
