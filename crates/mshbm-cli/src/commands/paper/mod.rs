@@ -21,8 +21,7 @@
 //! stated in `summary.md` and in the figure's title.
 //!
 //! **Exit status**: non-zero when any part failed or any continuation branch did not reach
-//! the end of its range (e.g. the H = 10 branch of Fig. 9 stopping near 30.4 kHz, a known
-//! limitation of the continuation at grazing corners) — after all outputs have been
+//! the end of its range — after all outputs have been
 //! written; the error message names the incomplete parts. This is the policy of
 //! `mshbm frf`, which also fails on an incomplete branch after writing every point.
 //!
