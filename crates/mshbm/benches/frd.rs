@@ -178,9 +178,7 @@ fn simulated_sweep(id: &str, model: &Model) {
             points: count,
             iterations: periods,
             folds: 0,
-            ended: format!(
-                "{count} frequencies, {periods} periods simulated, {not_periodic} not periodic in 400 periods"
-            ),
+            ended: format!("{not_periodic} of {count} frequencies not periodic in 400 periods"),
         },
     );
 }
@@ -270,14 +268,18 @@ fn report() {
         };
         let ratio = median(&format!("frd/{reference}"))
             .map_or(String::new(), |r| format!(", {:.2}x {reference}", t / r));
+        let per_point = if count.points > 0 {
+            format!("{} per point", show(t / count.points as f64))
+        } else {
+            "no point".to_string()
+        };
         println!(
-            "  {name:<26} {:>5} points, {:>6} {unit}, {:>2} folds, {}: {} ({} per point{ratio})",
+            "  {name:<26} {:>5} points, {:>6} {unit}, {:>2} folds, {}: {} ({per_point}{ratio})",
             count.points,
             count.iterations,
             count.folds,
             count.ended,
             show(t),
-            show(t / count.points.max(1) as f64)
         );
     }
 }

@@ -129,8 +129,8 @@ pub fn fit_exponent(points: &[(f64, f64)]) -> Option<f64> {
     Some(sxy / sxx)
 }
 
-/// Print `label: x → time` for the recorded ids and the fitted exponent; ids that did not
-/// run are left out.
+/// Print `label: x → time` for the recorded ids, the fitted exponent over all of them and
+/// between the two largest (the asymptotic rate); ids that did not run are left out.
 pub fn report_growth(title: &str, variable: &str, ids: &[(f64, String)]) {
     let points: Vec<(f64, f64)> = ids
         .iter()
@@ -144,7 +144,11 @@ pub fn report_growth(title: &str, variable: &str, ids: &[(f64, String)]) {
         println!("  {variable} = {x:>8}: {}", show(*t));
     }
     if let Some(p) = fit_exponent(&points) {
-        println!("  fitted growth: time ~ {variable}^{p:.2}");
+        print!("  fitted growth: time ~ {variable}^{p:.2}");
+        match fit_exponent(&points[points.len().saturating_sub(2)..]) {
+            Some(q) if points.len() > 2 => println!(" (between the two largest: ^{q:.2})"),
+            _ => println!(),
+        }
     }
 }
 
