@@ -1,30 +1,42 @@
-//! The cost of a stiff penalty (the paper's Fig. 11 remark): one frequency response diagram
-//! of the gap-0 bar (1 % modal damping, H = 5, 55–75 kHz, consistent mass) by the HBM-AFT
-//! per penalty stiffness kp, against the redistributed MS-HBM.
+//! The cost of a stiff penalty (issue 6; the paper's Fig. 11 remark): one frequency response
+//! diagram of the gap-0 bar (1 % modal damping of the first mode, H = 5, 55–75 kHz) by the
+//! HBM-AFT (consistent mass) per penalty stiffness kp, against the redistributed MS-HBM
+//! (exact quadrature), which has no penalty.
 //!
-//! `cargo bench -p mshbm --bench hbm_aft_penalty` first prints, per kp, the continuation
-//! points, Newton (corrector) iterations, folds and how the branch ended, and the Newton
-//! iterations of one solve at 60 kHz; then divan times one FRD per kp.
+//! `cargo bench -p mshbm --bench hbm_aft_penalty` times one FRD per method and kp (group
+//! `penalty`) and then prints, per run, the continuation points, Newton (corrector)
+//! iterations, folds and how the branch ended, the time relative to the MS-HBM, and the
+//! Newton iterations of one solve at 60 kHz (homotopy in kp + final Newton, and plain Newton
+//! from the linear response). The classical sampled AFT is timed for kp = 1e5 and 1e6 only:
+//! from kp = 1e7 on its branch stops at a fold on a kink after many tiny steps; its counts
+//! are printed from one untimed run (`PENALTY_SAMPLED_ALL=1`, slow).
 
+mod common;
+
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
-use std::path::Path;
+use std::sync::Mutex;
+use std::time::Duration;
 
-use mshbm::continuation::arclength::{trace_branch, ContinuationOptions, Event};
+use common::{hz, median, show, timed};
+use criterion::Criterion;
+use mshbm::continuation::arclength::{trace_branch, ContinuationOptions, Event, StopReason};
 use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty, Quadrature};
 use mshbm::method::redistributed::quadrature::Quadrature as MsQuadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::model::file::load_model;
 use mshbm::problem::PeriodicProblem;
 use mshbm::{MassKind, Model};
 
 const FROM_HZ: f64 = 55e3;
 const TO_HZ: f64 = 75e3;
 const HARMONICS: usize = 5;
+const PENALTIES: [f64; 5] = [1e5, 1e6, 1e7, 1e8, 1e9];
+/// Penalties for which the sampled AFT's FRD is timed (it stalls above).
+const SAMPLED_TIMED: [f64; 2] = [1e5, 1e6];
 
 fn model() -> Model {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/clamped_bar_gap0.toml");
-    load_model(&path, &["damping.first_mode_ratio=0.01".to_string()]).expect("example model")
+    common::example("clamped_bar_gap0.toml", &["damping.first_mode_ratio=0.01"])
 }
 
 fn hbm_aft(model: &Model, kp: f64, quadrature: Quadrature) -> HbmAft {
@@ -53,9 +65,20 @@ fn ms_hbm(model: &Model) -> RedistributedMsHbm {
     .expect("MS-HBM")
 }
 
-/// (points, corrector iterations, folds, how it ended)
-fn frd(problem: &mut dyn PeriodicProblem) -> (usize, usize, usize, String) {
-    let options = ContinuationOptions::new(2.0 * PI * FROM_HZ, 2.0 * PI * TO_HZ);
+/// What one FRD cost.
+#[derive(Clone, Debug)]
+struct FrdCount {
+    points: usize,
+    iterations: usize,
+    folds: usize,
+    stop: String,
+}
+
+/// Counts of the FRDs run, by benchmark id (the last run; all runs of one id are identical).
+static COUNTS: Mutex<BTreeMap<String, FrdCount>> = Mutex::new(BTreeMap::new());
+
+fn frd(problem: &mut dyn PeriodicProblem) -> FrdCount {
+    let options = ContinuationOptions::new(hz(FROM_HZ), hz(TO_HZ));
     let mut folds = 0;
     let branch = trace_branch(problem, &options, |_, e| {
         if let Event::Fold(_) = e {
@@ -64,71 +87,130 @@ fn frd(problem: &mut dyn PeriodicProblem) -> (usize, usize, usize, String) {
         Ok(())
     })
     .expect("continuation");
-    let iterations = branch.points.iter().map(|p| p.iterations).sum();
     let stop = match &branch.stop {
-        mshbm::continuation::arclength::StopReason::StepTooSmall { omega, .. } => {
+        StopReason::ReachedEnd => "reached 75 kHz".to_string(),
+        StopReason::StepTooSmall { omega, .. } => {
             format!("stopped at {:.1} Hz (step too small)", omega / (2.0 * PI))
         }
         other => format!("{other:?}"),
     };
-    (branch.points.len(), iterations, folds, stop)
+    FrdCount {
+        points: branch.points.len(),
+        iterations: branch.points.iter().map(|p| p.iterations).sum(),
+        folds,
+        stop,
+    }
 }
 
-fn report() {
+fn counted_frd(id: &str, problem: &mut dyn PeriodicProblem) {
+    let count = frd(problem);
+    COUNTS.lock().expect("counts").insert(id.to_string(), count);
+}
+
+/// Newton iterations at 60 kHz: (homotopy, final Newton, plain Newton from the linear
+/// response or `None` when it does not converge in 50).
+fn solve_at_60_khz(p: &mut HbmAft) -> (usize, usize, Option<usize>) {
+    let omega = hz(60e3);
+    let (_, out) =
+        solve_at_frequency(p, omega, 100, &NewtonOptions::default()).expect("solve at 60 kHz");
+    let homotopy = p.guess_iterations();
+    let x0 = p.linear_response(omega).expect("linear response");
+    let raw = solve(p, &x0, omega, &NewtonOptions::default()).expect("solve");
+    (
+        homotopy,
+        out.iterations,
+        raw.converged.then_some(raw.iterations),
+    )
+}
+
+fn id(quadrature: Quadrature, kp: f64) -> String {
+    format!("penalty/hbm_aft_{}/{kp:.0e}", quadrature.name())
+}
+
+fn bench_penalty(c: &mut Criterion) {
     let m = model();
-    let omega = 2.0 * PI * 60e3;
+    let mut group = c.benchmark_group("penalty");
+    group.sample_size(10);
+    group.warm_up_time(Duration::from_millis(100));
+    group.measurement_time(Duration::from_secs(5));
+    group.bench_function("ms_hbm", |b| {
+        timed(b, "penalty/ms_hbm", || {
+            counted_frd("penalty/ms_hbm", &mut ms_hbm(&m))
+        })
+    });
+    for kp in PENALTIES {
+        let name = id(Quadrature::Exact, kp);
+        group.bench_function(name.trim_start_matches("penalty/"), |b| {
+            timed(b, &name, || {
+                counted_frd(&name, &mut hbm_aft(&m, kp, Quadrature::Exact))
+            })
+        });
+    }
+    for kp in SAMPLED_TIMED {
+        let name = id(Quadrature::Sampled, kp);
+        group.bench_function(name.trim_start_matches("penalty/"), |b| {
+            timed(b, &name, || {
+                counted_frd(&name, &mut hbm_aft(&m, kp, Quadrature::Sampled))
+            })
+        });
+    }
+    group.finish();
+    report(&m);
+}
+
+fn report(m: &Model) {
+    let Some(reference) = median("penalty/ms_hbm") else {
+        return;
+    };
+    if std::env::var_os("PENALTY_SAMPLED_ALL").is_some() {
+        for kp in PENALTIES.iter().filter(|kp| !SAMPLED_TIMED.contains(kp)) {
+            counted_frd(
+                &id(Quadrature::Sampled, *kp),
+                &mut hbm_aft(m, *kp, Quadrature::Sampled),
+            );
+        }
+    }
+    let counts = COUNTS.lock().expect("counts").clone();
     println!(
-        "FRD of the gap-0 bar, H = {HARMONICS}, {:.0}–{:.0} kHz, consistent mass:",
+        "FRD of the gap-0 bar, H = {HARMONICS}, {:.0}–{:.0} kHz, 1 % modal damping (HBM-AFT: consistent mass):",
         FROM_HZ / 1e3,
         TO_HZ / 1e3
     );
-    let (points, iterations, folds, stop) = frd(&mut ms_hbm(&m));
-    println!("  MS-HBM (redistributed, exact): {points} points, {iterations} Newton iterations, {folds} folds, {stop}");
-    for quadrature in [Quadrature::Sampled, Quadrature::Exact] {
-        for kp in [1e5, 1e6, 1e7, 1e8, 1e9] {
-            let mut p = hbm_aft(&m, kp, quadrature);
-            let (points, iterations, folds, stop) = frd(&mut p);
-            // one solve at 60 kHz: homotopy + final Newton, and Newton from the linear response
-            let (_, out) =
-                solve_at_frequency(&mut p, omega, 100, &NewtonOptions::default()).expect("solve");
-            let homotopy = p.guess_iterations();
-            let x0 = p.linear_response(omega).expect("linear response");
-            let raw = solve(&mut p, &x0, omega, &NewtonOptions::default()).expect("solve");
+    let ms = &counts["penalty/ms_hbm"];
+    println!(
+        "  MS-HBM (redistributed, exact)         : {:>5} points, {:>5} Newton iterations, {:>2} folds, {}; {}",
+        ms.points,
+        ms.iterations,
+        ms.folds,
+        ms.stop,
+        show(reference)
+    );
+    for quadrature in [Quadrature::Exact, Quadrature::Sampled] {
+        for kp in PENALTIES {
+            let name = id(quadrature, kp);
+            let Some(count) = counts.get(&name) else {
+                continue;
+            };
+            let time = median(&name).map_or("untimed".to_string(), |t| {
+                format!("{} = {:.1}x the MS-HBM", show(t), t / reference)
+            });
+            let (homotopy, last, raw) = solve_at_60_khz(&mut hbm_aft(m, kp, quadrature));
             println!(
-                "  HBM-AFT {:<7} kp = {kp:.0e} N/mm: {points:>5} points, {iterations:>5} Newton iterations, {folds:>2} folds, {stop}; \
-                 at 60 kHz: {homotopy} + {} iterations (homotopy + final), from the linear response: {}",
+                "  HBM-AFT {:<7} kp = {kp:.0e} N/mm: {:>5} points, {:>5} Newton iterations, {:>2} folds, {}; {time}; \
+                 at 60 kHz: {homotopy} + {last} iterations (homotopy + final), from the linear response: {}",
                 quadrature.name(),
-                out.iterations,
-                if raw.converged {
-                    format!("{}", raw.iterations)
-                } else {
-                    "no convergence in 50".to_string()
-                }
+                count.points,
+                count.iterations,
+                count.folds,
+                count.stop,
+                raw.map_or("no convergence in 50".to_string(), |n| n.to_string())
             );
         }
     }
 }
 
 fn main() {
-    report();
-    divan::main();
-}
-
-#[divan::bench(sample_count = 3, sample_size = 1)]
-fn ms_hbm_frd(bencher: divan::Bencher) {
-    let m = model();
-    bencher.bench_local(|| frd(&mut ms_hbm(&m)));
-}
-
-#[divan::bench(args = [1e6, 1e7, 1e8, 1e9], sample_count = 3, sample_size = 1)]
-fn hbm_aft_exact_frd(bencher: divan::Bencher, kp: f64) {
-    let m = model();
-    bencher.bench_local(|| frd(&mut hbm_aft(&m, kp, Quadrature::Exact)));
-}
-
-/// The classical AFT; from kp = 1e7 on its branch stops at a fold at a kink (see the report).
-#[divan::bench(args = [1e5, 1e6], sample_count = 3, sample_size = 1)]
-fn hbm_aft_sampled_frd(bencher: divan::Bencher, kp: f64) {
-    let m = model();
-    bencher.bench_local(|| frd(&mut hbm_aft(&m, kp, Quadrature::Sampled)));
+    let mut c = Criterion::default().configure_from_args();
+    bench_penalty(&mut c);
+    c.final_summary();
 }

@@ -13,6 +13,7 @@ pub mod bar;
 pub mod dropped_bar;
 pub mod export;
 pub mod file;
+pub mod lattice;
 pub mod matrix_market;
 mod system;
 
