@@ -66,10 +66,15 @@ use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::integrate::{Integrator, Scheme, Settings};
 use crate::linear::{HarmonicFactors, LinearPart};
-use crate::model::{MassKind, Model, System, SystemContact, SystemFriction};
+use crate::model::{FrictionNormal, MassKind, Model, System, SystemContact, SystemFriction};
 use crate::problem::{Linearization, PeriodicProblem};
-use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
+use crate::stability::Floquet;
 use crate::sparse::SparseMatrix;
+
+/// Largest system (DOFs) for which [`GeneralMsHbm`] computes Floquet multipliers: the
+/// monodromy is dense, `2n × 2n`, and costs `2n + 1` full-system period integrations.
+pub const MAX_FLOQUET_DOFS: usize = 1500;
 
 /// Default steps per period for `H` harmonics: `max(512, 32 (2H + 1))`.
 pub fn default_steps(harmonics: usize) -> usize {
@@ -196,6 +201,8 @@ pub struct GeneralMsHbm {
     constant_load_n: Vec<f64>,
     frequency: Option<FrequencyData>,
     length_scale: f64,
+    /// Diagonal of `K_NN` (N numbering).
+    stiffness_nn_diagonal: Vec<f64>,
 }
 
 impl GeneralMsHbm {
@@ -331,9 +338,14 @@ impl GeneralMsHbm {
             linear,
             nl,
             ln,
-            nn,
+            nn: nn.clone(),
             frequency: None,
             length_scale,
+            stiffness_nn_diagonal: {
+                let mut d = vec![0.0; n];
+                nn[0].iter().filter(|(i, j, _)| i == j).for_each(|(i, _, v)| d[i] += v);
+                d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect()
+            },
             system,
         })
     }
@@ -521,7 +533,112 @@ impl GeneralMsHbm {
             r[nc * n + i] = tr.end_q[i] - x[nc * n + i];
             r[(nc + 1) * n + i] = (tr.end_v[i] - x[(nc + 1) * n + i]) / fd.omega;
         }
+        for (f, i) in self.stuck_frictions(&tr) {
+            // a continuum of periodic solutions (any stuck position): select the one with
+            // zero mean friction force instead of the (dependent) position periodicity
+            let fr = &self.subsystem.frictions[f];
+            let w_i: f64 = fr.w.iter().filter(|(d, _)| *d == i).map(|(_, w)| w).sum();
+            let mean = tr.friction_forces.iter().map(|p| p[f]).sum::<f64>() / self.steps as f64;
+            r[nc * n + i] = w_i * mean / self.stiffness_nn_diagonal[i];
+        }
         Ok((r, tr))
+    }
+
+    /// Limit `μ F_N` or `μ λ_N` of friction element `f` in step row `j` of `tr`.
+    fn friction_limit(&self, tr: &Trajectory, f: usize, j: usize) -> f64 {
+        let fr = &self.subsystem.frictions[f];
+        match fr.normal {
+            FrictionNormal::Force(p) => fr.mu * p,
+            FrictionNormal::Contact(c) => fr.mu * tr.contact_forces[j][c].max(0.0),
+        }
+    }
+
+    /// Friction elements that stick in every step of `tr` (force strictly inside its
+    /// limit), each with the N-DOF of its largest direction entry. For such an element the
+    /// stuck position is undetermined: every constant position in the stick range is a
+    /// periodic solution, `q(T) − q(0)` is identically zero along that family and the
+    /// Jacobian is singular. [`Self::residual_with`] replaces that DOF's position
+    /// periodicity row by the mean friction force over the period (divided by `K_ii`, a
+    /// length): the selected member is the one whose stuck position the linear part alone
+    /// determines (the friction force then only balances the oscillating part, and the
+    /// mean position is that of the friction-free static response).
+    fn stuck_frictions(&self, tr: &Trajectory) -> Vec<(usize, usize)> {
+        let mut out: Vec<(usize, usize)> = Vec::new();
+        for (f, fr) in self.subsystem.frictions.iter().enumerate() {
+            let stuck = (0..self.steps).all(|j| {
+                let limit = self.friction_limit(tr, f, j);
+                limit > 0.0 && tr.friction_forces[j][f].abs() < limit * (1.0 - 1e-9)
+            });
+            let dof = fr
+                .w
+                .iter()
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                .map(|&(d, _)| d);
+            if let (true, Some(d)) = (stuck, dof) {
+                if !out.iter().any(|&(_, e)| e == d) {
+                    out.push((f, d));
+                }
+            }
+        }
+        out
+    }
+
+    /// Complex amplitudes `z_k` (`q_L(t) = Re Σ_k z_k e^{ikωt}`) of all L DOFs, `k = 0..=H`
+    /// (eq. 6).
+    fn linear_part_amplitudes(&self, fd: &FrequencyData, x: &[f64]) -> Result<Vec<Mat<c64>>> {
+        let factors = fd.factors.as_ref().expect("L is not empty");
+        let n = self.n();
+        let nlin = self.linear.as_ref().expect("L is not empty").n_dofs();
+        let mut out = Vec::with_capacity(self.harmonics + 1);
+        for k in 0..=self.harmonics {
+            let kw = k as f64 * fd.omega;
+            let z: Vec<c64> = (0..n)
+                .map(|j| {
+                    if k == 0 {
+                        c64::new(x[j], 0.0)
+                    } else {
+                        c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
+                    }
+                })
+                .collect();
+            let mut hz = vec![zero(); nlin];
+            dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &z, &mut hz);
+            let f = self.load_l(k).unwrap_or_else(|| vec![zero(); nlin]);
+            let mut q = Mat::<c64>::from_fn(nlin, 1, |i, _| f[i] - hz[i]);
+            factors.solve_in_place(k, &mut q)?;
+            out.push(q);
+        }
+        Ok(out)
+    }
+
+    /// State `(q, q̇)` of the whole system (system numbering) at `t = 0` of the solution
+    /// `x`: the N part from `x`, the L part from its harmonics (eq. 6).
+    pub fn initial_state(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Vec<f64>)> {
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let fd = self.frequency.as_ref().expect("prepared");
+        self.full_initial_state(fd, x)
+    }
+
+    fn full_initial_state(&self, fd: &FrequencyData, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let mut q = vec![0.0; self.system.n_dofs()];
+        let mut v = vec![0.0; self.system.n_dofs()];
+        for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
+            q[d] = x[nc * n + i];
+            v[d] = x[(nc + 1) * n + i];
+        }
+        if self.linear.is_some() {
+            let z = self.linear_part_amplitudes(fd, x)?;
+            for (l, &d) in self.system.linear_dofs.iter().enumerate() {
+                for (k, zk) in z.iter().enumerate() {
+                    q[d] += zk[(l, 0)].re;
+                    v[d] -= k as f64 * fd.omega * zk[(l, 0)].im;
+                }
+            }
+        }
+        Ok((q, v))
     }
 
     /// The trajectory of the nonlinear subsystem over one period for `x` at `ω`
@@ -604,34 +721,100 @@ impl GeneralMsHbm {
     /// `q̂_L` of L-index `l` (coefficients `[a0, a1, b1, …]`).
     fn linear_dof_coefficients(&self, x: &[f64], l: usize) -> Result<Vec<f64>> {
         let fd = self.frequency.as_ref().expect("prepared");
-        let factors = fd.factors.as_ref().expect("L is not empty");
-        let n = self.n();
-        let nlin = self.linear.as_ref().expect("L is not empty").n_dofs();
+        let z = self.linear_part_amplitudes(fd, x)?;
         let mut out = vec![0.0; n_coefficients(self.harmonics)];
-        for k in 0..=self.harmonics {
-            let kw = k as f64 * fd.omega;
-            let z: Vec<c64> = (0..n)
-                .map(|j| {
-                    if k == 0 {
-                        c64::new(x[j], 0.0)
-                    } else {
-                        c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
-                    }
-                })
-                .collect();
-            let mut hz = vec![zero(); nlin];
-            dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &z, &mut hz);
-            let f = self.load_l(k).unwrap_or_else(|| vec![zero(); nlin]);
-            let mut q = Mat::<c64>::from_fn(nlin, 1, |i, _| f[i] - hz[i]);
-            factors.solve_in_place(k, &mut q)?;
+        for (k, zk) in z.iter().enumerate() {
             if k == 0 {
-                out[0] = q[(l, 0)].re;
+                out[0] = zk[(l, 0)].re;
             } else {
-                out[2 * k - 1] = q[(l, 0)].re;
-                out[2 * k] = -q[(l, 0)].im;
+                out[2 * k - 1] = zk[(l, 0)].re;
+                out[2 * k] = -zk[(l, 0)].im;
             }
         }
         Ok(out)
+    }
+
+    /// The monodromy matrix used by [`PeriodicProblem::floquet`] (see there): forward
+    /// differences of the whole system's Moreau–Jean period map at the solution's initial
+    /// state, in the scaled state `(q, q̇/ω)` of the DOFs with mass (system numbering),
+    /// `2n × 2n`.
+    pub fn monodromy(&mut self, x: &[f64], omega: f64) -> Result<Mat<f64>> {
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let n_dofs = self.system.n_dofs();
+        if n_dofs > MAX_FLOQUET_DOFS {
+            return Err(Error::argument(
+                "stability",
+                format!("the model has {n_dofs} DOFs; the dense monodromy of the general MS-HBM is limited to {MAX_FLOQUET_DOFS} (use --no-stability)"),
+            ));
+        }
+        let this = &*self;
+        let fd = this.frequency.as_ref().expect("prepared");
+        let (q0, v0) = this.full_initial_state(fd, x)?;
+        let steps = this.steps;
+        let settings = Settings {
+            dt: 2.0 * std::f64::consts::PI / omega / steps as f64,
+            scheme: Scheme::MoreauJean {
+                theta: this.theta,
+                restitution: this.restitution,
+            },
+            omega: Some(omega),
+            energy_offset: 0.0,
+        };
+        let new_integrator = || -> Result<Integrator> {
+            let mut it = Integrator::new(&this.system, &settings)?;
+            it.set_contact_anticipation(this.anticipate);
+            it.set_contact_projection(this.project);
+            Ok(it)
+        };
+        let mut first = new_integrator()?;
+        let massive = first.massive_dofs().to_vec();
+        let m = massive.len();
+        let period_map = |it: &mut Integrator, q: &[f64], v: &[f64]| -> Result<Vec<f64>> {
+            it.set_state(0.0, q, v)?;
+            for _ in 0..steps {
+                it.step()?;
+            }
+            Ok(massive
+                .iter()
+                .map(|&i| it.q()[i])
+                .chain(massive.iter().map(|&i| it.v()[i]))
+                .collect())
+        };
+        let base = period_map(&mut first, &q0, &v0)?;
+        let columns: Vec<Result<Vec<f64>>> = (0..2 * m)
+            .into_par_iter()
+            .map_init(
+                || None,
+                |slot: &mut Option<Integrator>, j| {
+                    if slot.is_none() {
+                        *slot = Some(new_integrator()?);
+                    }
+                    let it = slot.as_mut().expect("created");
+                    let (mut q, mut v) = (q0.clone(), v0.clone());
+                    let (target, scale) = if j < m {
+                        (&mut q[massive[j]], this.length_scale)
+                    } else {
+                        (&mut v[massive[j - m]], this.length_scale * omega)
+                    };
+                    let before = *target;
+                    *target += this.fd_step * before.abs().max(scale);
+                    let h = *target - before;
+                    let end = period_map(it, &q, &v)?;
+                    Ok(end.iter().zip(&base).map(|(a, b)| (a - b) / h).collect())
+                },
+            )
+            .collect();
+        // in the scaled state (q, q̇/ω): a similarity (same eigenvalues) that balances the
+        // blocks, so that the eigenvalues are computed accurately
+        let d = |i: usize| if i < m { 1.0 } else { omega };
+        let mut phi = Mat::<f64>::zeros(2 * m, 2 * m);
+        for (j, col) in columns.into_iter().enumerate() {
+            for (i, v) in col?.into_iter().enumerate() {
+                phi[(i, j)] = v * d(j) / d(i);
+            }
+        }
+        Ok(phi)
     }
 }
 
@@ -702,6 +885,36 @@ impl PeriodicProblem for GeneralMsHbm {
         })
     }
 
+    /// Floquet multipliers (METHODS §7.2) as the eigenvalues of the monodromy matrix of
+    /// the **whole system's** period map — the state `(q, q̇)` of all DOFs at `t = 0` mapped
+    /// to the state at `t = T` by the same Moreau–Jean integrator (same steps, θ, `e_N`,
+    /// anticipation and projection) — by forward finite differences around the solution's
+    /// initial state ([`Self::initial_state`]), columns in parallel (rayon).
+    ///
+    /// Why the whole system and not the N-subsystem: the N-subsystem sees the linear part
+    /// only through the harmonics `q̂_N` (eq. 6), a non-causal frequency-domain coupling
+    /// with no state of its own; a perturbation `e^{st} p(t)` of the orbit needs the L
+    /// states anyway. The full-system map is the physical one, and for a linear system it is
+    /// linear, so its finite-difference monodromy is exact up to rounding and equals the
+    /// discrete (trapezoidal, θ = ½) transition matrix, whose eigenvalues approximate
+    /// `exp(s_k T)` to the integrator's accuracy. With contacts the map is piecewise
+    /// affine (`e_N = 0`, anticipation, projection): the finite difference gives the slope
+    /// of the piece the solution lies in, including the effect of impacts (a persistent
+    /// contact with `e_N = 0` contributes zero multipliers). Caveats: the MS-HBM orbit is a
+    /// fixed point of the *harmonically truncated* problem, not exactly of the full
+    /// discrete map (the multipliers are those of the full map linearised at the orbit's
+    /// initial state); near grazing the piece can be smaller than the step and the
+    /// multipliers unreliable (METHODS §7.2). Cost: `2n + 1` period integrations of the
+    /// whole model and a dense `2n × 2n` eigenproblem (`n ≤` [`MAX_FLOQUET_DOFS`]) —
+    /// one reason the general method is expensive for FE models.
+    fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
+        let phi = self.monodromy(x, omega)?;
+        let values = phi
+            .eigenvalues()
+            .map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
+        Ok(Some(Floquet::from_eigenvalues(values)))
+    }
+
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
         if response_dof >= self.system.n_model_dofs {
             return Err(Error::argument(
@@ -749,6 +962,23 @@ impl PeriodicProblem for GeneralMsHbm {
                 min,
             });
         }
+        let frictions: Vec<FrictionSeries> = self
+            .subsystem
+            .frictions
+            .iter()
+            .enumerate()
+            .map(|(f, fr)| {
+                let force: Vec<f64> = tr.friction_forces.iter().map(|p| p[f]).collect();
+                let (max, min) = extremes(&force);
+                FrictionSeries {
+                    dof: self.subsystem.model_dof[fr.w[0].0],
+                    limit: (0..ns).map(|j| self.friction_limit(&tr, f, j)).collect(),
+                    force,
+                    max,
+                    min,
+                }
+            })
+            .collect();
         let response = match self.system.system_dof(response_dof) {
             None => DofResponse {
                 dof: response_dof,
@@ -810,6 +1040,7 @@ impl PeriodicProblem for GeneralMsHbm {
                 .map(|c| self.system.model_dof[c.w[0].0])
                 .collect(),
             contacts,
+            frictions,
             response,
             stability: None,
         })
