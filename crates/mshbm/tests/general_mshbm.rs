@@ -311,6 +311,9 @@ fn without_active_nonlinearity_equals_the_linear_response() {
 /// Newton impact law (e_N = 0), gap 0.2 mm and 1 % damping (Rayleigh, at ω₁ and 10 ω₁): the
 /// general MS-HBM agrees with full-system Moreau–Jean integration within 3 % on the
 /// contact DOF's max and min at 30 and 90 kHz, where the simulation becomes periodic.
+/// Newton converges to 1e-10 at 90 kHz; at 30 kHz the contact DOF chatters after each
+/// release (the N-subsystem's local mode, see the module docs of `method::shooting`) and
+/// 1e-4 is what is attainable.
 ///
 /// The simulation uses θ = 0.6: with θ = ½ (trapezoidal rule) the stiff, overdamped high
 /// modes of the consistent-mass bar have amplification → −1 and keep alternating, so the
@@ -319,11 +322,11 @@ fn without_active_nonlinearity_equals_the_linear_response() {
 fn bar_with_impacts_agrees_with_time_integration() {
     let model = rayleigh_bar();
     let steps = 1024;
-    for f in [30e3, 90e3] {
-        let mut run = general(&model, f, 10, steps, 1e-4);
+    for (f, tolerance) in [(30e3, 1e-4), (90e3, 1e-10)] {
+        let mut run = general(&model, f, 10, steps, tolerance);
         let (connectivity, periodicity) = run.problem.residual_parts(&run.x, run.omega).unwrap();
         assert!(
-            connectivity < 1e-4 && periodicity < 1e-4,
+            connectivity < tolerance && periodicity < tolerance,
             "{connectivity} {periodicity}"
         );
         let st = steady(&model, f, steps, 0.6, 100, 0.0);
@@ -346,11 +349,51 @@ fn bar_with_impacts_agrees_with_time_integration() {
             b.max,
             b.min
         );
-        // the contact is hit: the DOF reaches the support, and the force is never negative
-        assert!(a.max > 0.19 && a.force.iter().all(|&l| l >= 0.0));
+        // the contact is hit, without penetration (position projection), and the force is
+        // never negative
+        assert!((a.max - 0.2).abs() < 1e-12, "{}", a.max);
+        assert!(a.gap.iter().all(|&g| g >= 0.0));
+        assert!(a.force.iter().all(|&l| l >= 0.0));
         assert!(a.force.iter().any(|&l| l > 0.0));
-        let _ = run.problem.trajectory(&run.x, run.omega).unwrap();
     }
+}
+
+/// The position projection of the Moreau–Jean scheme is what lets Newton converge on the
+/// bar with impacts near the resonance: from the linear response at 60 kHz it reaches
+/// 1e-10 (measured: 28 iterations), while without it (the penetration of a persistent
+/// contact is a saw-tooth of the impact time) Newton stalls above 1e-6 (measured: 5.8e-3).
+/// At 90 kHz both converge, with the projection in a few iterations (measured 6 against 20).
+#[test]
+fn position_projection_lets_newton_converge_on_the_bar() {
+    let model = rayleigh_bar();
+    let newton = |f: f64, project: bool| {
+        let mut problem = GeneralMsHbm::new(
+            &model,
+            &GeneralOptions {
+                steps: Some(1024),
+                project_contacts: project,
+                ..GeneralOptions::new(10)
+            },
+        )
+        .unwrap();
+        let options = NewtonOptions {
+            tolerance: 1e-10,
+            max_iterations: 30,
+            ..NewtonOptions::default()
+        };
+        let (_, out) = solve_at_frequency(&mut problem, 2.0 * PI * f, 100, &options).unwrap();
+        eprintln!(
+            "{f} Hz, projection {project}: converged {} in {} iterations, residual {:.1e}",
+            out.converged, out.iterations, out.residual_norm
+        );
+        out
+    };
+    let with = newton(60e3, true);
+    assert!(with.converged, "{:?}", with.history);
+    let without = newton(60e3, false);
+    assert!(!without.converged && without.residual_norm > 1e-6);
+    let fast = newton(90e3, true);
+    assert!(fast.converged && fast.iterations <= 10, "{:?}", fast.history);
 }
 
 /// examples/friction_oscillator is the chain of these tests (μ F_N = 0.3 N), read through

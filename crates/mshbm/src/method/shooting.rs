@@ -8,8 +8,11 @@
 //! The *consistent* mass is used ([`MassKind::Consistent`]); damping may act on `N`
 //! (`C_NN ≠ 0` is fine here, unlike the redistributed method).
 //!
-//! **Unknowns** (eq. 11): `x = (q̂_N, q_N(0), q̇_N(0))`, harmonic-major `q̂_N` (coefficient
-//! `c` of N-DOF `i` at `c·n_N + i`), then `n_N` displacements and `n_N` velocities.
+//! **Unknowns** (eq. 11): `x = (q̂_N, q_N(0), q̇_N(0)/ω)`, harmonic-major `q̂_N` (coefficient
+//! `c` of N-DOF `i` at `c·n_N + i`), then `n_N` displacements and `n_N` velocities divided
+//! by ω, so that every unknown is a length. (With the velocities themselves, `|q̇| ≈ ω |q|`
+//! ≈ 1e5 |q| on the bar, the velocity components dominated the scaled arclength of the
+//! continuation, whose steps then advanced the frequency by hundredths of a hertz.)
 //!
 //! **Residual** (eq. 12), per evaluation:
 //! 1. eq. (6): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex per-harmonic dynamic
@@ -29,9 +32,8 @@
 //!
 //! **Jacobian**: forward differences, columns in parallel (rayon); the per-column work
 //! takes `&self` (the frequency data is shared read-only, each column builds its own small
-//! N-subsystem integrator). Step `h_j = ε · max(|x_j|, s_j)` (`ε` = [`GeneralOptions::fd_step`],
-//! default 1e-6) with `s_j` the length scale
-//! (or length scale × ω for the velocities). `∂R/∂ω` also by a forward difference. The map
+//! N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)` (`ε` = [`GeneralOptions::fd_step`],
+//! default 1e-6) with `s` the length scale. `∂R/∂ω` also by a forward difference. The map
 //! is nonsmooth (piecewise affine with friction, discontinuous at the grid level when a
 //! contact enters the index set), so Newton may stall at a small residual near grazing.
 //!
@@ -493,8 +495,11 @@ impl GeneralMsHbm {
         it.set_contact_projection(self.project);
         it.set_periodic_load(self.harmonics, self.load_coefficients(fd, x))?;
         let q0 = &x[n * nc..n * nc + n];
-        let v0 = &x[n * nc + n..n * nc + 2 * n];
-        it.set_state(0.0, q0, v0)?;
+        let v0: Vec<f64> = x[n * nc + n..n * nc + 2 * n]
+            .iter()
+            .map(|v| v * omega)
+            .collect();
+        it.set_state(0.0, q0, &v0)?;
         let mut tr = Trajectory {
             displacement: Vec::with_capacity(ns),
             velocity: Vec::with_capacity(ns),
@@ -531,7 +536,7 @@ impl GeneralMsHbm {
                 r[c * n + i] = x[c * n + i] - dft[c];
             }
             r[nc * n + i] = tr.end_q[i] - x[nc * n + i];
-            r[(nc + 1) * n + i] = (tr.end_v[i] - x[(nc + 1) * n + i]) / fd.omega;
+            r[(nc + 1) * n + i] = tr.end_v[i] / fd.omega - x[(nc + 1) * n + i];
         }
         for (f, i) in self.stuck_frictions(&tr) {
             // a continuum of periodic solutions (any stuck position): select the one with
@@ -627,7 +632,7 @@ impl GeneralMsHbm {
         let mut v = vec![0.0; self.system.n_dofs()];
         for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
             q[d] = x[nc * n + i];
-            v[d] = x[(nc + 1) * n + i];
+            v[d] = x[(nc + 1) * n + i] * fd.omega;
         }
         if self.linear.is_some() {
             let z = self.linear_part_amplitudes(fd, x)?;
@@ -713,7 +718,7 @@ impl GeneralMsHbm {
                 v += k as f64 * omega * x[2 * k * n + i];
             }
             x[nc * n + i] = q;
-            x[(nc + 1) * n + i] = v;
+            x[(nc + 1) * n + i] = v / omega;
         }
         Ok(x)
     }
@@ -845,17 +850,10 @@ impl PeriodicProblem for GeneralMsHbm {
         let fd = this.frequency.as_ref().expect("prepared");
         let residual = this.residual_with(fd, x)?.0;
         let dim = this.dimension();
-        let n = this.n();
-        let nc = n_coefficients(this.harmonics);
         let columns: Vec<Result<Vec<f64>>> = (0..dim)
             .into_par_iter()
             .map(|j| {
-                let scale = if j >= (nc + 1) * n {
-                    this.length_scale * omega
-                } else {
-                    this.length_scale
-                };
-                let h = this.fd_step * x[j].abs().max(scale);
+                let h = this.fd_step * x[j].abs().max(this.length_scale);
                 let mut xp = x.to_vec();
                 xp[j] += h;
                 let h = xp[j] - x[j];
