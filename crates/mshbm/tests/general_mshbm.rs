@@ -13,8 +13,8 @@ use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, Stea
 use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
 use mshbm::model::file::load_model;
-use mshbm::problem::PeriodicProblem;
 use mshbm::model::{Damping, Friction, FrictionNormal};
+use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
 use mshbm::sparse::SparseMatrix;
 use mshbm::{MassKind, Model};
@@ -393,7 +393,11 @@ fn position_projection_lets_newton_converge_on_the_bar() {
     let without = newton(60e3, false);
     assert!(!without.converged && without.residual_norm > 1e-6);
     let fast = newton(90e3, true);
-    assert!(fast.converged && fast.iterations <= 10, "{:?}", fast.history);
+    assert!(
+        fast.converged && fast.iterations <= 10,
+        "{:?}",
+        fast.history
+    );
 }
 
 /// examples/friction_oscillator is the chain of these tests (μ F_N = 0.3 N), read through
@@ -519,7 +523,9 @@ fn stuck_friction_equals_the_linear_response_of_the_clamped_chain() {
                 s0.response.coefficients
             );
         }
-        assert!(s0.response.coefficients[3..].iter().all(|v| v.abs() < 1e-12 * amplitude));
+        assert!(s0.response.coefficients[3..]
+            .iter()
+            .all(|v| v.abs() < 1e-12 * amplitude));
         let fr = &s0.frictions[0];
         assert!(fr
             .force
@@ -585,7 +591,8 @@ fn floquet_linear_limit_is_the_exponential_of_the_damped_eigenvalues() {
     let mut resolved = 0;
     for mu in &floquet.multipliers {
         let mu = c64::new(mu[0], mu[1]);
-        let trapezoid = |sk: c64| ((one + sk * (h / 2.0)) / (one - sk * (h / 2.0))).powi(steps as i32);
+        let trapezoid =
+            |sk: c64| ((one + sk * (h / 2.0)) / (one - sk * (h / 2.0))).powi(steps as i32);
         let (sk, d) = s
             .iter()
             .map(|&sk| (sk, (trapezoid(sk) - mu).norm()))
@@ -652,14 +659,22 @@ fn floquet_linear_limit_is_the_exponential_of_the_damped_eigenvalues() {
             size = size.max(transition[(i, j)].abs() * w);
         }
     }
-    eprintln!("max |Φ − Φ_trapezoid| = {:.1e} of max |Φ| = {size:.2}", worst);
+    eprintln!(
+        "max |Φ − Φ_trapezoid| = {:.1e} of max |Φ| = {size:.2}",
+        worst
+    );
     assert!(worst < 1e-8 * size, "{worst} vs {size}");
 }
 
 /// Deviation between successive period ends of a full-system Moreau–Jean simulation
 /// started on the general MS-HBM orbit (same steps and settings as the method), for
 /// `periods` periods: `‖z_{k+1} − z_k‖_∞` (positions only, relative to the first).
-fn period_to_period_changes(run: &mut Run, model: &Model, steps: usize, periods: usize) -> Vec<f64> {
+fn period_to_period_changes(
+    run: &mut Run,
+    model: &Model,
+    steps: usize,
+    periods: usize,
+) -> Vec<f64> {
     let (q0, v0) = run.problem.initial_state(&run.x, run.omega).unwrap();
     let system = model.system(MassKind::Consistent).unwrap();
     let mut it = Integrator::new(
@@ -685,7 +700,11 @@ fn period_to_period_changes(run: &mut Run, model: &Model, steps: usize, periods:
             it.step().unwrap();
         }
         let q = it.q().to_vec();
-        changes.push(q.iter().zip(&last).fold(0.0f64, |m, (a, b)| m.max((a - b).abs())));
+        changes.push(
+            q.iter()
+                .zip(&last)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs())),
+        );
         last = q;
     }
     changes

@@ -266,9 +266,10 @@ impl MoreauJean {
     fn project_positions(&mut self, d: &Data, s: &mut State, t: f64) -> Result<()> {
         let nc = d.contacts.len();
         let key = vec![true; nc];
-        let solver = self.solvers.entry(key).or_insert_with(|| {
-            LcpSolver::new(LcpMatrix::new(nc, self.delassus.clone()))
-        });
+        let solver = self
+            .solvers
+            .entry(key)
+            .or_insert_with(|| LcpSolver::new(LcpMatrix::new(nc, self.delassus.clone())));
         let sol = solver
             .solve(&s.gaps)
             .map_err(|e| Error::Numerical(format!("position projection at t = {t}: {e}")))?;

@@ -34,31 +34,43 @@
 //! takes `&self` (the frequency data is shared read-only, each column builds its own small
 //! N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)` (`ε` = [`GeneralOptions::fd_step`],
 //! default 1e-6) with `s` the length scale. `∂R/∂ω` also by a forward difference. The map
-//! is nonsmooth (piecewise affine with friction, discontinuous at the grid level when a
-//! contact enters the index set), so Newton may stall at a small residual near grazing.
+//! is piecewise affine (impacts with `e_N = 0` and the anticipating index set, Coulomb
+//! friction) and continuous (up to the row switch of the stuck-friction selection below).
 //!
-//! **Known limitations** (measured on examples/clamped_bar_impact.toml, H = 10, 1024 steps,
-//! Newton from the linear response):
+//! **Stuck friction**: when a friction element sticks at every step, every constant
+//! position in its stick range is a periodic solution and the Jacobian is singular; the
+//! residual then selects the member with zero mean friction force (`stuck_frictions`).
+//!
+//! **Floquet multipliers**: finite differences of the whole model's period map
+//! ([`PeriodicProblem::floquet`] below).
+//!
+//! **Newton on the bar with impacts** (examples/clamped_bar_impact.toml, H = 10, 1024
+//! steps, from the linear response; measured, see tests/general_mshbm.rs):
 //! * Without the position projection ([`GeneralOptions::project_contacts`]) a persistent
-//!   contact keeps the penetration `h(1−θ)U` of its impact step, a saw-tooth of the impact
-//!   time with slope jumps of order one at every step boundary: Newton stalls at ≈ 6e-4
-//!   (30 kHz), 7e-5 (90 kHz), 8e-3 (60 kHz) relative to the gap. With the projection the
-//!   map is piecewise affine without that saw-tooth, and Newton ends in the solution's
-//!   piece (finite termination): 90 kHz converges to 5e-13 in 6 iterations, 60 kHz to 2e-13
-//!   in 25.
+//!   contact keeps the penetration `h(1−θ)U` of its impact step — a saw-tooth of the
+//!   impact time, with slope jumps of order one at every step boundary, that enters every
+//!   position of the contact phase. Newton stalled at ≈ 6e-4 (30 kHz) and 6e-3 (60 kHz)
+//!   relative to the gap. With the projection the map has no such saw-tooth in the
+//!   positions and Newton ends in the solution's affine piece (finite termination): 60 kHz
+//!   converges to 3e-13 in 28 iterations, 90 kHz to 1e-13 in 6.
+//! * With the velocity unknowns in m/s instead of `q̇/ω`, the continuation's scaled
+//!   arclength was dominated by them: 5000 points advanced 85 → 85.2 kHz. Now 85–95 kHz
+//!   (H = 5) takes 234 points.
 //! * What remains: after a release the contact DOF rings at the local frequency of the
-//!   N-subsystem, `√(K_NN/M_NN)/2π` = 6.7 MHz for the bar (the L DOFs are harmonically
-//!   truncated, so above `Hω` they act as clamped), i.e. 4.6 steps per local period at
-//!   30 kHz; the ringing re-touches the support (micro-impacts), and the release step's
-//!   position in the grid sets the ringing phase: again a saw-tooth at step level. At
-//!   30 kHz Newton stalls at ≈ 1e-4 (1024 steps) or 5e-6 (512 steps); at 45 kHz it stalls
-//!   at 4e-2. Continuation from a converged neighbour is the fallback.
-//! * When an iterate makes a friction element stick for the whole period the stuck
-//!   position is undetermined (a continuum of periodic solutions) and the Jacobian is
-//!   singular; Newton then stops with "the Jacobian is singular".
-//! * Each residual evaluation builds its own small N-subsystem integrator (a sparse
-//!   Cholesky of the `n_N × n_N` iteration matrix): negligible for the few nonlinear DOFs
-//!   this method is meant for.
+//!   N-subsystem, `√(K_NN/M_NN)/2π` ≈ 6.7 MHz for the bar (above `Hω` the harmonically
+//!   truncated L DOFs act as clamped), i.e. 4.6 steps per local period at 30 kHz. The
+//!   ringing is started by the drop of the contact force to zero within one step at the
+//!   release (amplitude ≈ `λ_last/K_NN` ≈ 1e-5 mm), so its amplitude is again a saw-tooth
+//!   of the release time, and it re-touches the support (micro-impacts near grazing). At
+//!   30 kHz Newton stalls at ≈ 1e-4 (1024 steps) or 5e-6 (512 steps) and the FRD branch
+//!   stops at such corners near 22.8 and 29.5 kHz; at 45 and 75 kHz Newton from the
+//!   linear response stalls at 4e-2 and 2e-2 (continuation from a converged neighbour is
+//!   the fallback). A finer step does not cure it (4096 steps: 1e-4 at 30 kHz); resolving
+//!   the local mode would need ≈ 20 steps per local period.
+//! * Cost: every Newton iteration integrates the N-subsystem `dim + 2` times; each
+//!   residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
+//!   the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
+//!   is meant for.
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -71,8 +83,8 @@ use crate::linear::{HarmonicFactors, LinearPart};
 use crate::model::{FrictionNormal, MassKind, Model, System, SystemContact, SystemFriction};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
-use crate::stability::Floquet;
 use crate::sparse::SparseMatrix;
+use crate::stability::Floquet;
 
 /// Largest system (DOFs) for which [`GeneralMsHbm`] computes Floquet multipliers: the
 /// monodromy is dense, `2n × 2n`, and costs `2n + 1` full-system period integrations.
@@ -345,7 +357,10 @@ impl GeneralMsHbm {
             length_scale,
             stiffness_nn_diagonal: {
                 let mut d = vec![0.0; n];
-                nn[0].iter().filter(|(i, j, _)| i == j).for_each(|(i, _, v)| d[i] += v);
+                nn[0]
+                    .iter()
+                    .filter(|(i, j, _)| i == j)
+                    .for_each(|(i, _, v)| d[i] += v);
                 d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect()
             },
             system,
@@ -574,11 +589,10 @@ impl GeneralMsHbm {
                 let limit = self.friction_limit(tr, f, j);
                 limit > 0.0 && tr.friction_forces[j][f].abs() < limit * (1.0 - 1e-9)
             });
-            let dof = fr
-                .w
-                .iter()
-                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-                .map(|&(d, _)| d);
+            let dof =
+                fr.w.iter()
+                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                    .map(|&(d, _)| d);
             if let (true, Some(d)) = (stuck, dof) {
                 if !out.iter().any(|&(_, e)| e == d) {
                     out.push((f, d));
