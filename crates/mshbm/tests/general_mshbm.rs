@@ -288,9 +288,16 @@ fn without_active_nonlinearity_equals_the_linear_response() {
         let reference = direct_linear_response(model, run.omega, dof);
         let amplitude = reference[1].hypot(reference[2]);
         let x = &run.x;
+        let worst = reference
+            .iter()
+            .enumerate()
+            .fold(0.0f64, |m, (c, r)| m.max((x[c] - r).abs() / amplitude));
+        eprintln!("{f} Hz: largest relative deviation from the linear response {worst:.1e}");
+        // the trapezoidal rule's error over 512 steps per period, (2π/512)²/12 ≈ 1.3e-5 per
+        // radian of phase (measured: at most 4e-5)
         for (c, r) in reference.iter().enumerate() {
             assert!(
-                (x[c] - r).abs() < 1e-3 * amplitude,
+                (x[c] - r).abs() < 1e-4 * amplitude,
                 "{f} Hz coefficient {c}: {} vs {r}",
                 x[c]
             );
