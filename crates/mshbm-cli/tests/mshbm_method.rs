@@ -80,3 +80,112 @@ fn bar_with_impacts() {
         .iter()
         .all(|f| f.as_f64().unwrap() >= 0.0));
 }
+
+/// `solve --json` of the general MS-HBM reports the friction force of every step with its
+/// limit (never exceeded: issue 7), and the Floquet multipliers (issue 8).
+#[test]
+fn friction_forces_and_multipliers_in_the_json() {
+    let v = solve_json(&[
+        &example("friction_oscillator/model.toml"),
+        "--method",
+        "mshbm",
+        "--frequency",
+        "4.25",
+        "--harmonics",
+        "10",
+        "--samples",
+        "512",
+    ]);
+    let f = &v["frictions"][0];
+    assert_eq!(f["dof"], 2);
+    let force: Vec<f64> = f["force"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let limit: Vec<f64> = f["limit"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(force.len(), 512);
+    // μ F_N = 0.3 N (examples/friction_oscillator/model.toml) at every step
+    assert!(limit.iter().all(|&l| l == 0.3));
+    assert!(force.iter().zip(&limit).all(|(p, l)| p.abs() <= *l));
+    // stick-slip: some steps at the limit, some strictly inside
+    assert!(force.iter().any(|p| p.abs() == 0.3));
+    assert!(force.iter().any(|p| p.abs() < 0.29));
+    assert_eq!(f["max"].as_f64().unwrap(), 0.3);
+    // multipliers: 2 per DOF of the whole model, stable (the simulation started on this
+    // orbit settles: tests/general_mshbm.rs, floquet_verdict_agrees_with_time_integration)
+    let st = &v["stability"];
+    assert_eq!(st["multipliers"].as_array().unwrap().len(), 6);
+    assert_eq!(st["stable"], true);
+    let largest = st["max_multiplier"].as_f64().unwrap();
+    assert!((largest - 0.81).abs() < 0.02, "{largest}");
+}
+
+/// `frf --method mshbm` traces the bar with impacts over 89–91 kHz (H = 3): every point
+/// converged to 1e-10, the contact DOF reaches the support without penetrating, and the
+/// minimum near 90 kHz is that of full-system time integration (−0.23205 mm at H = 10,
+/// tests/general_mshbm.rs) within 3 %.
+#[test]
+fn frf_traces_the_bar_with_impacts() {
+    let dir = std::env::temp_dir().join(format!("mshbm_general_frf_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("frd.csv");
+    let out = Command::cargo_bin("mshbm")
+        .unwrap()
+        .args([
+            "frf",
+            &example("clamped_bar_impact.toml"),
+            "--method",
+            "mshbm",
+            "--from",
+            "89000",
+            "--to",
+            "91000",
+            "--harmonics",
+            "3",
+            "--samples",
+            "512",
+            "--output",
+        ])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
+        .collect();
+    assert!(rows.len() >= 5, "{text}");
+    let f: Vec<f64> = rows.iter().map(|r| r[col("frequency_hz")]).collect();
+    assert_eq!(f[0], 89000.0);
+    assert_eq!(*f.last().unwrap(), 91000.0);
+    assert!(f.windows(2).all(|w| w[1] > w[0]));
+    for r in &rows {
+        assert!(r[col("residual_norm")] <= 1e-10);
+        assert!((r[col("max_qn")] - 0.2).abs() < 1e-12);
+    }
+    let near = rows
+        .iter()
+        .min_by(|a, b| (a[0] - 90000.0).abs().total_cmp(&(b[0] - 90000.0).abs()))
+        .unwrap();
+    let min = near[col("min_qn")];
+    assert!((min / -0.23205 - 1.0).abs() < 0.03, "{min}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -21,6 +21,22 @@ pub struct ContactSeries {
     pub min: f64,
 }
 
+/// Force of one Coulomb friction element over the period (general MS-HBM).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct FrictionSeries {
+    /// The element's (first) DOF, model numbering.
+    pub dof: usize,
+    /// Friction force `P_T/h` of the time step ending at each of `time_s` (the first entry
+    /// belongs to the last step of the period).
+    pub force: Vec<f64>,
+    /// Its limit in that step: `μ F_N` (prescribed normal force) or `μ λ_N` (the force of
+    /// the coupled contact); `|force| ≤ limit` at every step.
+    pub limit: Vec<f64>,
+    /// Largest and smallest force over the period.
+    pub max: f64,
+    pub min: f64,
+}
+
 /// Harmonics and extremes of the response DOF.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct DofResponse {
@@ -48,6 +64,9 @@ pub struct PeriodicSolution {
     /// Model DOFs of the contacts (first DOF of each).
     pub contact_dofs: Vec<usize>,
     pub contacts: Vec<ContactSeries>,
+    /// Friction elements (general MS-HBM; empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub frictions: Vec<FrictionSeries>,
     pub response: DofResponse,
     /// Floquet multipliers and stability, when computed.
     #[serde(default, skip_serializing_if = "Option::is_none")]

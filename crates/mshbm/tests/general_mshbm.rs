@@ -14,6 +14,7 @@ use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
 use mshbm::model::file::load_model;
 use mshbm::model::{Damping, Friction, FrictionNormal};
+use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
 use mshbm::sparse::SparseMatrix;
 use mshbm::{MassKind, Model};
@@ -287,9 +288,16 @@ fn without_active_nonlinearity_equals_the_linear_response() {
         let reference = direct_linear_response(model, run.omega, dof);
         let amplitude = reference[1].hypot(reference[2]);
         let x = &run.x;
+        let worst = reference
+            .iter()
+            .enumerate()
+            .fold(0.0f64, |m, (c, r)| m.max((x[c] - r).abs() / amplitude));
+        eprintln!("{f} Hz: largest relative deviation from the linear response {worst:.1e}");
+        // the trapezoidal rule's error over 512 steps per period, (2π/512)²/12 ≈ 1.3e-5 per
+        // radian of phase (measured: at most 4e-5)
         for (c, r) in reference.iter().enumerate() {
             assert!(
-                (x[c] - r).abs() < 1e-3 * amplitude,
+                (x[c] - r).abs() < 1e-4 * amplitude,
                 "{f} Hz coefficient {c}: {} vs {r}",
                 x[c]
             );
@@ -310,6 +318,9 @@ fn without_active_nonlinearity_equals_the_linear_response() {
 /// Newton impact law (e_N = 0), gap 0.2 mm and 1 % damping (Rayleigh, at ω₁ and 10 ω₁): the
 /// general MS-HBM agrees with full-system Moreau–Jean integration within 3 % on the
 /// contact DOF's max and min at 30 and 90 kHz, where the simulation becomes periodic.
+/// Newton converges to 1e-10 at 90 kHz; at 30 kHz the contact DOF chatters after each
+/// release (the N-subsystem's local mode, see the module docs of `method::shooting`) and
+/// 1e-4 is what is attainable.
 ///
 /// The simulation uses θ = 0.6: with θ = ½ (trapezoidal rule) the stiff, overdamped high
 /// modes of the consistent-mass bar have amplification → −1 and keep alternating, so the
@@ -318,11 +329,11 @@ fn without_active_nonlinearity_equals_the_linear_response() {
 fn bar_with_impacts_agrees_with_time_integration() {
     let model = rayleigh_bar();
     let steps = 1024;
-    for f in [30e3, 90e3] {
-        let mut run = general(&model, f, 10, steps, 1e-4);
+    for (f, tolerance) in [(30e3, 1e-4), (90e3, 1e-10)] {
+        let mut run = general(&model, f, 10, steps, tolerance);
         let (connectivity, periodicity) = run.problem.residual_parts(&run.x, run.omega).unwrap();
         assert!(
-            connectivity < 1e-4 && periodicity < 1e-4,
+            connectivity < tolerance && periodicity < tolerance,
             "{connectivity} {periodicity}"
         );
         let st = steady(&model, f, steps, 0.6, 100, 0.0);
@@ -345,11 +356,55 @@ fn bar_with_impacts_agrees_with_time_integration() {
             b.max,
             b.min
         );
-        // the contact is hit: the DOF reaches the support, and the force is never negative
-        assert!(a.max > 0.19 && a.force.iter().all(|&l| l >= 0.0));
+        // the contact is hit, without penetration (position projection), and the force is
+        // never negative
+        assert!((a.max - 0.2).abs() < 1e-12, "{}", a.max);
+        assert!(a.gap.iter().all(|&g| g >= 0.0));
+        assert!(a.force.iter().all(|&l| l >= 0.0));
         assert!(a.force.iter().any(|&l| l > 0.0));
-        let _ = run.problem.trajectory(&run.x, run.omega).unwrap();
     }
+}
+
+/// The position projection of the Moreau–Jean scheme is what lets Newton converge on the
+/// bar with impacts near the resonance: from the linear response at 60 kHz it reaches
+/// 1e-10 (measured: 28 iterations), while without it (the penetration of a persistent
+/// contact is a saw-tooth of the impact time) Newton stalls above 1e-6 (measured: 5.8e-3).
+/// At 90 kHz both converge, with the projection in a few iterations (measured 6 against 20).
+#[test]
+fn position_projection_lets_newton_converge_on_the_bar() {
+    let model = rayleigh_bar();
+    let newton = |f: f64, project: bool| {
+        let mut problem = GeneralMsHbm::new(
+            &model,
+            &GeneralOptions {
+                steps: Some(1024),
+                project_contacts: project,
+                ..GeneralOptions::new(10)
+            },
+        )
+        .unwrap();
+        let options = NewtonOptions {
+            tolerance: 1e-10,
+            max_iterations: 30,
+            ..NewtonOptions::default()
+        };
+        let (_, out) = solve_at_frequency(&mut problem, 2.0 * PI * f, 100, &options).unwrap();
+        eprintln!(
+            "{f} Hz, projection {project}: converged {} in {} iterations, residual {:.1e}",
+            out.converged, out.iterations, out.residual_norm
+        );
+        out
+    };
+    let with = newton(60e3, true);
+    assert!(with.converged, "{:?}", with.history);
+    let without = newton(60e3, false);
+    assert!(!without.converged && without.residual_norm > 1e-6);
+    let fast = newton(90e3, true);
+    assert!(
+        fast.converged && fast.iterations <= 10,
+        "{:?}",
+        fast.history
+    );
 }
 
 /// examples/friction_oscillator is the chain of these tests (μ F_N = 0.3 N), read through
@@ -432,4 +487,266 @@ fn friction_elements_survive_export() {
     assert_eq!(back.frictions, model.frictions);
     assert_eq!(back.contacts, model.contacts);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Acceptance (no nonlinearity active, the stuck case): a friction limit large enough that
+/// the element sticks throughout. Every constant position of the stuck DOF is then a
+/// periodic solution (the Jacobian of the plain residual is singular); the method selects
+/// the one with zero mean friction force, so the result must equal the linear response of
+/// the chain with the friction DOF clamped (direct dense complex solve, the independent
+/// reference), and the friction force stays strictly inside its limit at every step.
+#[test]
+fn stuck_friction_equals_the_linear_response_of_the_clamped_chain() {
+    let limit = 100.0;
+    let model = friction_chain(3, limit);
+    let system = model.system(MassKind::Consistent).unwrap();
+    let free = [0usize, 1];
+    let (m, c, k) = (
+        system.mass.submatrix(&free, &free).to_dense(),
+        system.damping.submatrix(&free, &free).to_dense(),
+        system.stiffness.submatrix(&free, &free).to_dense(),
+    );
+    // 5 and 12 Hz below and between the clamped chain's resonances (15.9, 27.6 Hz), 24 Hz
+    // between them (away from the free chain's 7.1, 19.9 Hz, where the linear start is poor)
+    for f in [5.0, 12.0, 24.0] {
+        let run = general(&model, f, 5, 512, 1e-10);
+        let w = run.omega;
+        let a = Mat::<c64>::from_fn(2, 2, |i, j| {
+            c64::new(k[(i, j)] - w * w * m[(i, j)], w * c[(i, j)])
+        });
+        let rhs = Mat::<c64>::from_fn(2, 1, |i, _| c64::new(system.harmonic_load[i], 0.0));
+        let z = a.partial_piv_lu().solve(&rhs);
+        // the friction DOF does not move
+        let x = &run.x;
+        assert!(x.iter().take(11).all(|v| v.abs() < 1e-12), "{x:?}");
+        let mut problem = run.problem;
+        let s0 = problem.solution(x, w, 0).unwrap();
+        let reference = [0.0, z[(0, 0)].re, -z[(0, 0)].im];
+        let amplitude = reference[1].hypot(reference[2]);
+        for (cf, r) in s0.response.coefficients.iter().zip(&reference) {
+            assert!(
+                (cf - r).abs() < 1e-9 * amplitude,
+                "{f} Hz: {:?} vs {reference:?}",
+                s0.response.coefficients
+            );
+        }
+        assert!(s0.response.coefficients[3..]
+            .iter()
+            .all(|v| v.abs() < 1e-12 * amplitude));
+        let fr = &s0.frictions[0];
+        assert!(fr
+            .force
+            .iter()
+            .zip(&fr.limit)
+            .all(|(p, l)| p.abs() < *l && *l == limit));
+        // the friction force is the clamped DOF's reaction: amplitude |K_21 z_1| (K_21 = −k)
+        let reaction = 1.0e4 * z[(1, 0)].norm();
+        assert!(rel(fr.max, reaction) < 1e-2, "{} vs {reaction}", fr.max);
+    }
+}
+
+/// Eigenvalues `s_k` of `M q̈ + C q̇ + K q = 0` for Rayleigh damping `C = αM + βK`: the
+/// modes are classical, `s = −c/2 ± √(c²/4 − ω²)` with `c = α + βω²` and `ω²` the
+/// eigenvalues of `M⁻¹K` (similar to a symmetric matrix, so accurate for the low modes).
+fn damped_eigenvalues(system: &mshbm::model::System) -> Vec<c64> {
+    let (m, k) = (system.mass.to_dense(), system.stiffness.to_dense());
+    let mk = m.partial_piv_lu().solve(&k);
+    let mut out = Vec::new();
+    for w2 in mk.eigenvalues().unwrap() {
+        let w2 = w2.re;
+        let c = system.alpha + system.beta * w2;
+        let disc = c * c / 4.0 - w2;
+        let (re, im) = if disc < 0.0 {
+            (-c / 2.0, (-disc).sqrt())
+        } else {
+            (-c / 2.0 + disc.sqrt(), 0.0)
+        };
+        out.push(c64::new(re, im));
+        out.push(if disc < 0.0 {
+            c64::new(re, -im)
+        } else {
+            c64::new(-c / 2.0 - disc.sqrt(), 0.0)
+        });
+    }
+    out
+}
+
+/// Acceptance (issue 8, general MS-HBM): in the linear limit (the bar's gap never closes)
+/// the Floquet multipliers of the general MS-HBM — finite differences of the full-system
+/// Moreau–Jean period map — are the discrete transition multipliers of the trapezoidal
+/// rule, `((1 + s_k h/2)/(1 − s_k h/2))^{N_s}`, to 1e-8, and `exp(s_k T)` to the
+/// integrator's accuracy (`s_k` the damped eigenvalues of the linear system, an independent
+/// dense eigenproblem).
+#[test]
+fn floquet_linear_limit_is_the_exponential_of_the_damped_eigenvalues() {
+    let model = load_model(
+        &common::examples().join("clamped_bar_impact.toml"),
+        &["bar.elements=20".into(), "contact.gap=100".into()],
+    )
+    .unwrap();
+    let steps = 512;
+    let f = 30e3;
+    let mut run = general(&model, f, 3, steps, 1e-10);
+    let floquet = run.problem.floquet(&run.x, run.omega).unwrap().unwrap();
+    let system = model.system(MassKind::Consistent).unwrap();
+    let s = damped_eigenvalues(&system);
+    assert_eq!(floquet.multipliers.len(), s.len());
+    let (period, h) = (1.0 / f, 1.0 / (f * steps as f64));
+    let one = c64::new(1.0, 0.0);
+    let mut worst_discrete = 0.0f64;
+    let mut worst_exact = 0.0f64;
+    let mut resolved = 0;
+    for mu in &floquet.multipliers {
+        let mu = c64::new(mu[0], mu[1]);
+        let trapezoid =
+            |sk: c64| ((one + sk * (h / 2.0)) / (one - sk * (h / 2.0))).powi(steps as i32);
+        let (sk, d) = s
+            .iter()
+            .map(|&sk| (sk, (trapezoid(sk) - mu).norm()))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        if mu.norm() > 1e-3 {
+            // (the cluster of tiny multipliers of the overdamped high modes is
+            // ill-conditioned; the matrix comparison below covers it)
+            worst_discrete = worst_discrete.max(d);
+        }
+        let exact = (sk * period).exp();
+        let accuracy = (trapezoid(sk) - exact).norm();
+        if accuracy < 1e-3 && mu.norm() > 1e-3 {
+            // resolved modes: exp(s_k T) to the integrator's error for that mode
+            worst_exact = worst_exact.max((mu - exact).norm());
+            assert!(
+                (mu - exact).norm() <= accuracy + 1e-8,
+                "{mu} vs exp(sT) = {exact} (integrator error {accuracy:.1e}, discrete {d:.1e})"
+            );
+            resolved += 1;
+        }
+    }
+    eprintln!(
+        "max |μ − trapezoid| = {worst_discrete:.1e}, max |μ − exp(sT)| = {worst_exact:.1e} ({resolved} resolved modes), largest |μ| = {}",
+        floquet.max_multiplier
+    );
+    assert!(resolved >= 2);
+    assert!(worst_discrete < 1e-8, "{worst_discrete}");
+    assert!(floquet.stable && floquet.max_multiplier > 0.5);
+    // the monodromy itself is the trapezoidal transition matrix ((I − hA/2)⁻¹(I + hA/2))^N
+    // of the first-order form, built densely (independent of the integrator's code)
+    let phi = run.problem.monodromy(&run.x, run.omega).unwrap();
+    let (m, c, k) = (
+        system.mass.to_dense(),
+        system.damping.to_dense(),
+        system.stiffness.to_dense(),
+    );
+    let n = m.nrows();
+    let (mk, mc) = (m.partial_piv_lu().solve(&k), m.partial_piv_lu().solve(&c));
+    let a = Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| match (i < n, j < n) {
+        (true, true) => 0.0,
+        (true, false) => f64::from(u8::from(j - n == i)),
+        (false, true) => -mk[(i - n, j)],
+        (false, false) => -mc[(i - n, j - n)],
+    });
+    let eye = Mat::<f64>::identity(2 * n, 2 * n);
+    let minus = &eye - &a * (h / 2.0);
+    let plus = &eye + &a * (h / 2.0);
+    let mut transition = minus.partial_piv_lu().solve(&plus);
+    let mut steps_left = steps;
+    assert!(steps.is_power_of_two());
+    while steps_left > 1 {
+        transition = &transition * &transition;
+        steps_left /= 2;
+    }
+    // the monodromy is reported in the scaled state (q, q̇/ω)
+    let scale = |j: usize| if j < n { 1.0 } else { run.omega };
+    let mut worst = 0.0f64;
+    let mut size = 0.0f64;
+    for i in 0..2 * n {
+        for j in 0..2 * n {
+            let w = scale(j) / scale(i);
+            worst = worst.max((phi[(i, j)] - transition[(i, j)] * w).abs());
+            size = size.max(transition[(i, j)].abs() * w);
+        }
+    }
+    eprintln!(
+        "max |Φ − Φ_trapezoid| = {:.1e} of max |Φ| = {size:.2}",
+        worst
+    );
+    assert!(worst < 1e-8 * size, "{worst} vs {size}");
+}
+
+/// Deviation between successive period ends of a full-system Moreau–Jean simulation
+/// started on the general MS-HBM orbit (same steps and settings as the method), for
+/// `periods` periods: `‖z_{k+1} − z_k‖_∞` (positions only, relative to the first).
+fn period_to_period_changes(
+    run: &mut Run,
+    model: &Model,
+    steps: usize,
+    periods: usize,
+) -> Vec<f64> {
+    let (q0, v0) = run.problem.initial_state(&run.x, run.omega).unwrap();
+    let system = model.system(MassKind::Consistent).unwrap();
+    let mut it = Integrator::new(
+        &system,
+        &Settings {
+            dt: 2.0 * PI / run.omega / steps as f64,
+            scheme: Scheme::MoreauJean {
+                theta: 0.5,
+                restitution: 0.0,
+            },
+            omega: Some(run.omega),
+            energy_offset: 0.0,
+        },
+    )
+    .unwrap();
+    it.set_contact_anticipation(true);
+    it.set_contact_projection(true);
+    it.set_state(0.0, &q0, &v0).unwrap();
+    let mut last = q0;
+    let mut changes = Vec::new();
+    for _ in 0..periods {
+        for _ in 0..steps {
+            it.step().unwrap();
+        }
+        let q = it.q().to_vec();
+        changes.push(
+            q.iter()
+                .zip(&last)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs())),
+        );
+        last = q;
+    }
+    changes
+}
+
+/// Acceptance (issue 8, general MS-HBM, orbits with impacts and with stick–slip): the
+/// stability verdict of the multipliers agrees with time integration started on the
+/// orbit, and the largest multiplier predicts the rate at which the simulation's
+/// period-to-period change decays (an independent measurement: a nonlinear simulation over
+/// many periods, not a linearisation).
+#[test]
+fn floquet_verdict_agrees_with_time_integration_on_the_orbit() {
+    let chain = friction_chain(3, 0.3);
+    let f1 = first_frequency_hz(&chain);
+    let bar = rayleigh_bar();
+    for (model, f, steps, periods) in [(&chain, 0.6 * f1, 512, 60), (&bar, 90e3, 1024, 60)] {
+        let mut run = general(model, f, 10, steps, 1e-10);
+        let floquet = run.problem.floquet(&run.x, run.omega).unwrap().unwrap();
+        let changes = period_to_period_changes(&mut run, model, steps, periods);
+        // decay rate per period over the periods where the change is above rounding
+        let floor = 1e-13 * run.problem.length_scale();
+        let used: Vec<f64> = changes.iter().copied().take_while(|&c| c > floor).collect();
+        let k = used.len().min(periods);
+        assert!(k >= 10, "{f} Hz: change {changes:?}");
+        let rate = (used[k - 1] / used[k / 2]).powf(1.0 / (k - 1 - k / 2) as f64);
+        eprintln!(
+            "{f:.1} Hz: largest |μ| = {:.4}, simulated decay per period {rate:.4} ({} periods; change {:.1e} -> {:.1e})",
+            floquet.max_multiplier, k, used[0], used[k - 1]
+        );
+        assert!(floquet.stable);
+        assert!(rate < 1.0 && used[k - 1] < 1e-2 * used[0]);
+        assert!(
+            (rate - floquet.max_multiplier).abs() < 0.05,
+            "{f} Hz: rate {rate} vs |μ| {}",
+            floquet.max_multiplier
+        );
+    }
 }

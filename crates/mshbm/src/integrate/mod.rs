@@ -707,6 +707,16 @@ impl Integrator {
         }
     }
 
+    /// Moreau–Jean only: after each step project the positions back onto `g ≥ 0` in the
+    /// metric of the iteration matrix (velocities unchanged; see the `moreau` module docs),
+    /// so that a persistent contact has no penetration. Off by default; ignored by the
+    /// position-level scheme (which never penetrates).
+    pub fn set_contact_projection(&mut self, on: bool) {
+        if let Kernel::Moreau(k) = &mut self.kernel {
+            k.project = on;
+        }
+    }
+
     /// Friction forces `P_T/h` of the last step, one per friction element (`|·| ≤ μ F_N`).
     pub fn friction_forces(&self) -> &[f64] {
         &self.state.friction_forces

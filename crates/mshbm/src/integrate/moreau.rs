@@ -18,6 +18,17 @@
 //! simulation settle to an exactly periodic state. It converges to the same solutions as
 //! `h → 0`.
 //!
+//! **Position projection** (optional, `project`): after the step, when a gap is negative,
+//! the positions are projected back onto the admissible set in the metric of `M̂`,
+//! `q_{k+1} ← q_{k+1} + M̂⁻¹ W μ` with `0 ≤ g_{k+1} + D μ ⊥ μ ≥ 0` (velocities unchanged;
+//! the "projected Moreau–Jean scheme" of Acary 2013, Comput. Methods Appl. Mech. Engrg.
+//! 263). Without it a persistent contact keeps the penetration `h(1−θ)U` of the impact
+//! step, which depends on where in the step the impact falls: a saw-tooth of the step size
+//! in every position of the contact phase, with slope jumps of order one at each step
+//! boundary (measured: it stalls Newton of the general MS-HBM at ≈ `h |U| / g₀`). With the
+//! projection the gap of a persistent contact is exactly zero at every step, and the map
+//! stays continuous (the projection is Lipschitz in `q`).
+//!
 //! With friction elements (METHODS §3.3) the impulses of the closed contacts and the
 //! active friction elements are found together by exact-row Gauss–Seidel prox sweeps,
 //! polished by an exact solve of the stick/slip/contact status found ([`super`] docs).
@@ -59,6 +70,8 @@ pub(crate) struct MoreauJean {
     offset: Vec<f64>,
     /// Position-anticipating index set (see [`super::Integrator::set_contact_anticipation`]).
     pub(crate) anticipate: bool,
+    /// Project the positions onto `g ≥ 0` after each step (see the module docs).
+    pub(crate) project: bool,
 }
 
 impl MoreauJean {
@@ -144,6 +157,7 @@ impl MoreauJean {
             closed: vec![false; nc],
             offset: vec![0.0; nc],
             anticipate: false,
+            project: false,
         })
     }
 
@@ -242,6 +256,33 @@ impl MoreauJean {
         }
         s.v = v_new;
         d.contacts.gaps_into(&s.q, &mut s.gaps);
+        if self.project && s.gaps.iter().any(|&g| g < 0.0) {
+            self.project_positions(d, s, t)?;
+        }
+        Ok(())
+    }
+
+    /// `q ← q + M̂⁻¹ W μ` with `0 ≤ g + D μ ⊥ μ ≥ 0` over all contacts (module docs).
+    fn project_positions(&mut self, d: &Data, s: &mut State, t: f64) -> Result<()> {
+        let nc = d.contacts.len();
+        let key = vec![true; nc];
+        let solver = self
+            .solvers
+            .entry(key)
+            .or_insert_with(|| LcpSolver::new(LcpMatrix::new(nc, self.delassus.clone())));
+        let sol = solver
+            .solve(&s.gaps)
+            .map_err(|e| Error::Numerical(format!("position projection at t = {t}: {e}")))?;
+        for (i, &mu) in sol.lambda.iter().enumerate() {
+            if mu != 0.0 {
+                for (qj, mwj) in s.q.iter_mut().zip(&self.mw[i]) {
+                    *qj += mwj * mu;
+                }
+            }
+        }
+        d.contacts.gaps_into(&s.q, &mut s.gaps);
+        // exact admissibility despite rounding: a closed gap is zero, not −1e-19
+        s.gaps.iter_mut().for_each(|g| *g = g.max(0.0));
         Ok(())
     }
 

@@ -274,6 +274,7 @@ pub fn simulate_to_steady_state(
             time_s,
             contact_dofs: system_contacts.iter().map(|c| c.0).collect(),
             contacts,
+            frictions: vec![],
             response: DofResponse {
                 dof: options.response_dof,
                 coefficients: sampling.dft(&response),

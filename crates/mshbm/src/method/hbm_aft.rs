@@ -1069,6 +1069,7 @@ impl PeriodicProblem for HbmAft {
                 .map(|c| self.system.model_dof[c.w[0].0])
                 .collect(),
             contacts,
+            frictions: vec![],
             response: DofResponse {
                 dof: response_dof,
                 coefficients,

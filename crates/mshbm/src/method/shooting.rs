@@ -8,8 +8,11 @@
 //! The *consistent* mass is used ([`MassKind::Consistent`]); damping may act on `N`
 //! (`C_NN ≠ 0` is fine here, unlike the redistributed method).
 //!
-//! **Unknowns** (eq. 11): `x = (q̂_N, q_N(0), q̇_N(0))`, harmonic-major `q̂_N` (coefficient
-//! `c` of N-DOF `i` at `c·n_N + i`), then `n_N` displacements and `n_N` velocities.
+//! **Unknowns** (eq. 11): `x = (q̂_N, q_N(0), q̇_N(0)/ω)`, harmonic-major `q̂_N` (coefficient
+//! `c` of N-DOF `i` at `c·n_N + i`), then `n_N` displacements and `n_N` velocities divided
+//! by ω, so that every unknown is a length. (With the velocities themselves, `|q̇| ≈ ω |q|`
+//! ≈ 1e5 |q| on the bar, the velocity components dominated the scaled arclength of the
+//! continuation, whose steps then advanced the frequency by hundredths of a hertz.)
 //!
 //! **Residual** (eq. 12), per evaluation:
 //! 1. eq. (6): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex per-harmonic dynamic
@@ -29,26 +32,45 @@
 //!
 //! **Jacobian**: forward differences, columns in parallel (rayon); the per-column work
 //! takes `&self` (the frequency data is shared read-only, each column builds its own small
-//! N-subsystem integrator). Step `h_j = ε · max(|x_j|, s_j)` (`ε` = [`GeneralOptions::fd_step`],
-//! default 1e-6) with `s_j` the length scale
-//! (or length scale × ω for the velocities). `∂R/∂ω` also by a forward difference. The map
-//! is nonsmooth (piecewise affine with friction, discontinuous at the grid level when a
-//! contact enters the index set), so Newton may stall at a small residual near grazing.
+//! N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)` (`ε` = [`GeneralOptions::fd_step`],
+//! default 1e-6) with `s` the length scale. `∂R/∂ω` also by a forward difference. The map
+//! is piecewise affine (impacts with `e_N = 0` and the anticipating index set, Coulomb
+//! friction) and continuous (up to the row switch of the stuck-friction selection below).
 //!
-//! **Known limitations** (measured on examples/clamped_bar_impact.toml and
-//! examples/friction_oscillator):
-//! * With impacts the period map is continuous (anticipating index set, `e_N = 0`) but
-//!   piecewise affine with a piece boundary wherever a step changes its contact status;
-//!   Newton from the linear response converges to ~1e-5 (relative to the gap) at 30 and
-//!   90 kHz but not near resonance (45–75 kHz on the bar), where a better start (e.g.
-//!   continuation from a converged point) is needed. A tighter tolerance than ~1e-5 is
-//!   usually unreachable with impacts.
-//! * When an iterate makes a friction element stick for the whole period the stuck
-//!   position is undetermined (a continuum of periodic solutions) and the Jacobian is
-//!   singular; Newton then stops with "the Jacobian is singular".
-//! * Each residual evaluation builds its own small N-subsystem integrator (a sparse
-//!   Cholesky of the `n_N × n_N` iteration matrix): negligible for the few nonlinear DOFs
-//!   this method is meant for.
+//! **Stuck friction**: when a friction element sticks at every step, every constant
+//! position in its stick range is a periodic solution and the Jacobian is singular; the
+//! residual then selects the member with zero mean friction force (`stuck_frictions`).
+//!
+//! **Floquet multipliers**: finite differences of the whole model's period map
+//! ([`PeriodicProblem::floquet`] below).
+//!
+//! **Newton on the bar with impacts** (examples/clamped_bar_impact.toml, H = 10, 1024
+//! steps, from the linear response; measured, see tests/general_mshbm.rs):
+//! * Without the position projection ([`GeneralOptions::project_contacts`]) a persistent
+//!   contact keeps the penetration `h(1−θ)U` of its impact step — a saw-tooth of the
+//!   impact time, with slope jumps of order one at every step boundary, that enters every
+//!   position of the contact phase. Newton stalled at ≈ 6e-4 (30 kHz) and 6e-3 (60 kHz)
+//!   relative to the gap. With the projection the map has no such saw-tooth in the
+//!   positions and Newton ends in the solution's affine piece (finite termination): 60 kHz
+//!   converges to 3e-13 in 28 iterations, 90 kHz to 1e-13 in 6.
+//! * With the velocity unknowns in m/s instead of `q̇/ω`, the continuation's scaled
+//!   arclength was dominated by them: 5000 points advanced 85 → 85.2 kHz. Now 85–95 kHz
+//!   (H = 5) takes 234 points.
+//! * What remains: after a release the contact DOF rings at the local frequency of the
+//!   N-subsystem, `√(K_NN/M_NN)/2π` ≈ 6.7 MHz for the bar (above `Hω` the harmonically
+//!   truncated L DOFs act as clamped), i.e. 4.6 steps per local period at 30 kHz. The
+//!   ringing is started by the drop of the contact force to zero within one step at the
+//!   release (amplitude ≈ `λ_last/K_NN` ≈ 1e-5 mm), so its amplitude is again a saw-tooth
+//!   of the release time, and it re-touches the support (micro-impacts near grazing). At
+//!   30 kHz Newton stalls at ≈ 1e-4 (1024 steps) or 5e-6 (512 steps) and the FRD branch
+//!   stops at such corners near 22.8 and 29.5 kHz; at 45 and 75 kHz Newton from the
+//!   linear response stalls at 4e-2 and 2e-2 (continuation from a converged neighbour is
+//!   the fallback). A finer step does not cure it (4096 steps: 1e-4 at 30 kHz); resolving
+//!   the local mode would need ≈ 20 steps per local period.
+//! * Cost: every Newton iteration integrates the N-subsystem `dim + 2` times; each
+//!   residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
+//!   the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
+//!   is meant for.
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -58,10 +80,15 @@ use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::integrate::{Integrator, Scheme, Settings};
 use crate::linear::{HarmonicFactors, LinearPart};
-use crate::model::{MassKind, Model, System, SystemContact, SystemFriction};
+use crate::model::{FrictionNormal, MassKind, Model, System, SystemContact, SystemFriction};
 use crate::problem::{Linearization, PeriodicProblem};
-use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
 use crate::sparse::SparseMatrix;
+use crate::stability::Floquet;
+
+/// Largest system (DOFs) for which [`GeneralMsHbm`] computes Floquet multipliers: the
+/// monodromy is dense, `2n × 2n`, and costs `2n + 1` full-system period integrations.
+pub const MAX_FLOQUET_DOFS: usize = 1500;
 
 /// Default steps per period for `H` harmonics: `max(512, 32 (2H + 1))`.
 pub fn default_steps(harmonics: usize) -> usize {
@@ -85,6 +112,11 @@ pub struct GeneralOptions {
     /// period map is then continuous and Newton converges; with the plain index set it jumps
     /// on the step grid and Newton stalls at a small residual.
     pub anticipate_contacts: bool,
+    /// Project the positions back onto `g ≥ 0` after each step
+    /// ([`Integrator::set_contact_projection`], default `true`): removes the penetration of
+    /// persistent contacts, whose saw-tooth dependence on the impact time within a step
+    /// otherwise stalls Newton at `≈ h |U| / g₀` (module docs).
+    pub project_contacts: bool,
     /// Relative finite-difference step `ε`: `h_j = ε · max(|x_j|, s_j)` (default 1e-6).
     /// Larger steps (1e-5…1e-4) average over the grid-level discontinuities of impacts.
     pub fd_step: f64,
@@ -100,6 +132,7 @@ impl GeneralOptions {
             restitution: 0.0,
             fd_step: 1e-6,
             anticipate_contacts: true,
+            project_contacts: true,
         }
     }
 }
@@ -167,6 +200,7 @@ pub struct GeneralMsHbm {
     restitution: f64,
     fd_step: f64,
     anticipate: bool,
+    project: bool,
     /// The N-subsystem as a system of its own (N numbering, no loads).
     subsystem: System,
     linear: Option<LinearPart>,
@@ -181,6 +215,8 @@ pub struct GeneralMsHbm {
     constant_load_n: Vec<f64>,
     frequency: Option<FrequencyData>,
     length_scale: f64,
+    /// Diagonal of `K_NN` (N numbering).
+    stiffness_nn_diagonal: Vec<f64>,
 }
 
 impl GeneralMsHbm {
@@ -311,13 +347,22 @@ impl GeneralMsHbm {
             restitution: options.restitution,
             fd_step: options.fd_step,
             anticipate: options.anticipate_contacts,
+            project: options.project_contacts,
             subsystem,
             linear,
             nl,
             ln,
-            nn,
+            nn: nn.clone(),
             frequency: None,
             length_scale,
+            stiffness_nn_diagonal: {
+                let mut d = vec![0.0; n];
+                nn[0]
+                    .iter()
+                    .filter(|(i, j, _)| i == j)
+                    .for_each(|(i, _, v)| d[i] += v);
+                d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect()
+            },
             system,
         })
     }
@@ -462,10 +507,14 @@ impl GeneralMsHbm {
             },
         )?;
         it.set_contact_anticipation(self.anticipate);
+        it.set_contact_projection(self.project);
         it.set_periodic_load(self.harmonics, self.load_coefficients(fd, x))?;
         let q0 = &x[n * nc..n * nc + n];
-        let v0 = &x[n * nc + n..n * nc + 2 * n];
-        it.set_state(0.0, q0, v0)?;
+        let v0: Vec<f64> = x[n * nc + n..n * nc + 2 * n]
+            .iter()
+            .map(|v| v * omega)
+            .collect();
+        it.set_state(0.0, q0, &v0)?;
         let mut tr = Trajectory {
             displacement: Vec::with_capacity(ns),
             velocity: Vec::with_capacity(ns),
@@ -502,9 +551,113 @@ impl GeneralMsHbm {
                 r[c * n + i] = x[c * n + i] - dft[c];
             }
             r[nc * n + i] = tr.end_q[i] - x[nc * n + i];
-            r[(nc + 1) * n + i] = (tr.end_v[i] - x[(nc + 1) * n + i]) / fd.omega;
+            r[(nc + 1) * n + i] = tr.end_v[i] / fd.omega - x[(nc + 1) * n + i];
+        }
+        for (f, i) in self.stuck_frictions(&tr) {
+            // a continuum of periodic solutions (any stuck position): select the one with
+            // zero mean friction force instead of the (dependent) position periodicity
+            let fr = &self.subsystem.frictions[f];
+            let w_i: f64 = fr.w.iter().filter(|(d, _)| *d == i).map(|(_, w)| w).sum();
+            let mean = tr.friction_forces.iter().map(|p| p[f]).sum::<f64>() / self.steps as f64;
+            r[nc * n + i] = w_i * mean / self.stiffness_nn_diagonal[i];
         }
         Ok((r, tr))
+    }
+
+    /// Limit `μ F_N` or `μ λ_N` of friction element `f` in step row `j` of `tr`.
+    fn friction_limit(&self, tr: &Trajectory, f: usize, j: usize) -> f64 {
+        let fr = &self.subsystem.frictions[f];
+        match fr.normal {
+            FrictionNormal::Force(p) => fr.mu * p,
+            FrictionNormal::Contact(c) => fr.mu * tr.contact_forces[j][c].max(0.0),
+        }
+    }
+
+    /// Friction elements that stick in every step of `tr` (force strictly inside its
+    /// limit), each with the N-DOF of its largest direction entry. For such an element the
+    /// stuck position is undetermined: every constant position in the stick range is a
+    /// periodic solution, `q(T) − q(0)` is identically zero along that family and the
+    /// Jacobian is singular. [`Self::residual_with`] replaces that DOF's position
+    /// periodicity row by the mean friction force over the period (divided by `K_ii`, a
+    /// length): the selected member is the one whose stuck position the linear part alone
+    /// determines (the friction force then only balances the oscillating part, and the
+    /// mean position is that of the friction-free static response).
+    fn stuck_frictions(&self, tr: &Trajectory) -> Vec<(usize, usize)> {
+        let mut out: Vec<(usize, usize)> = Vec::new();
+        for (f, fr) in self.subsystem.frictions.iter().enumerate() {
+            let stuck = (0..self.steps).all(|j| {
+                let limit = self.friction_limit(tr, f, j);
+                limit > 0.0 && tr.friction_forces[j][f].abs() < limit * (1.0 - 1e-9)
+            });
+            let dof =
+                fr.w.iter()
+                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                    .map(|&(d, _)| d);
+            if let (true, Some(d)) = (stuck, dof) {
+                if !out.iter().any(|&(_, e)| e == d) {
+                    out.push((f, d));
+                }
+            }
+        }
+        out
+    }
+
+    /// Complex amplitudes `z_k` (`q_L(t) = Re Σ_k z_k e^{ikωt}`) of all L DOFs, `k = 0..=H`
+    /// (eq. 6).
+    fn linear_part_amplitudes(&self, fd: &FrequencyData, x: &[f64]) -> Result<Vec<Mat<c64>>> {
+        let factors = fd.factors.as_ref().expect("L is not empty");
+        let n = self.n();
+        let nlin = self.linear.as_ref().expect("L is not empty").n_dofs();
+        let mut out = Vec::with_capacity(self.harmonics + 1);
+        for k in 0..=self.harmonics {
+            let kw = k as f64 * fd.omega;
+            let z: Vec<c64> = (0..n)
+                .map(|j| {
+                    if k == 0 {
+                        c64::new(x[j], 0.0)
+                    } else {
+                        c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
+                    }
+                })
+                .collect();
+            let mut hz = vec![zero(); nlin];
+            dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &z, &mut hz);
+            let f = self.load_l(k).unwrap_or_else(|| vec![zero(); nlin]);
+            let mut q = Mat::<c64>::from_fn(nlin, 1, |i, _| f[i] - hz[i]);
+            factors.solve_in_place(k, &mut q)?;
+            out.push(q);
+        }
+        Ok(out)
+    }
+
+    /// State `(q, q̇)` of the whole system (system numbering) at `t = 0` of the solution
+    /// `x`: the N part from `x`, the L part from its harmonics (eq. 6).
+    pub fn initial_state(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Vec<f64>)> {
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let fd = self.frequency.as_ref().expect("prepared");
+        self.full_initial_state(fd, x)
+    }
+
+    fn full_initial_state(&self, fd: &FrequencyData, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let mut q = vec![0.0; self.system.n_dofs()];
+        let mut v = vec![0.0; self.system.n_dofs()];
+        for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
+            q[d] = x[nc * n + i];
+            v[d] = x[(nc + 1) * n + i] * fd.omega;
+        }
+        if self.linear.is_some() {
+            let z = self.linear_part_amplitudes(fd, x)?;
+            for (l, &d) in self.system.linear_dofs.iter().enumerate() {
+                for (k, zk) in z.iter().enumerate() {
+                    q[d] += zk[(l, 0)].re;
+                    v[d] -= k as f64 * fd.omega * zk[(l, 0)].im;
+                }
+            }
+        }
+        Ok((q, v))
     }
 
     /// The trajectory of the nonlinear subsystem over one period for `x` at `ω`
@@ -579,7 +732,7 @@ impl GeneralMsHbm {
                 v += k as f64 * omega * x[2 * k * n + i];
             }
             x[nc * n + i] = q;
-            x[(nc + 1) * n + i] = v;
+            x[(nc + 1) * n + i] = v / omega;
         }
         Ok(x)
     }
@@ -587,34 +740,100 @@ impl GeneralMsHbm {
     /// `q̂_L` of L-index `l` (coefficients `[a0, a1, b1, …]`).
     fn linear_dof_coefficients(&self, x: &[f64], l: usize) -> Result<Vec<f64>> {
         let fd = self.frequency.as_ref().expect("prepared");
-        let factors = fd.factors.as_ref().expect("L is not empty");
-        let n = self.n();
-        let nlin = self.linear.as_ref().expect("L is not empty").n_dofs();
+        let z = self.linear_part_amplitudes(fd, x)?;
         let mut out = vec![0.0; n_coefficients(self.harmonics)];
-        for k in 0..=self.harmonics {
-            let kw = k as f64 * fd.omega;
-            let z: Vec<c64> = (0..n)
-                .map(|j| {
-                    if k == 0 {
-                        c64::new(x[j], 0.0)
-                    } else {
-                        c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
-                    }
-                })
-                .collect();
-            let mut hz = vec![zero(); nlin];
-            dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &z, &mut hz);
-            let f = self.load_l(k).unwrap_or_else(|| vec![zero(); nlin]);
-            let mut q = Mat::<c64>::from_fn(nlin, 1, |i, _| f[i] - hz[i]);
-            factors.solve_in_place(k, &mut q)?;
+        for (k, zk) in z.iter().enumerate() {
             if k == 0 {
-                out[0] = q[(l, 0)].re;
+                out[0] = zk[(l, 0)].re;
             } else {
-                out[2 * k - 1] = q[(l, 0)].re;
-                out[2 * k] = -q[(l, 0)].im;
+                out[2 * k - 1] = zk[(l, 0)].re;
+                out[2 * k] = -zk[(l, 0)].im;
             }
         }
         Ok(out)
+    }
+
+    /// The monodromy matrix used by [`PeriodicProblem::floquet`] (see there): forward
+    /// differences of the whole system's Moreau–Jean period map at the solution's initial
+    /// state, in the scaled state `(q, q̇/ω)` of the DOFs with mass (system numbering),
+    /// `2n × 2n`.
+    pub fn monodromy(&mut self, x: &[f64], omega: f64) -> Result<Mat<f64>> {
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let n_dofs = self.system.n_dofs();
+        if n_dofs > MAX_FLOQUET_DOFS {
+            return Err(Error::argument(
+                "stability",
+                format!("the model has {n_dofs} DOFs; the dense monodromy of the general MS-HBM is limited to {MAX_FLOQUET_DOFS} (use --no-stability)"),
+            ));
+        }
+        let this = &*self;
+        let fd = this.frequency.as_ref().expect("prepared");
+        let (q0, v0) = this.full_initial_state(fd, x)?;
+        let steps = this.steps;
+        let settings = Settings {
+            dt: 2.0 * std::f64::consts::PI / omega / steps as f64,
+            scheme: Scheme::MoreauJean {
+                theta: this.theta,
+                restitution: this.restitution,
+            },
+            omega: Some(omega),
+            energy_offset: 0.0,
+        };
+        let new_integrator = || -> Result<Integrator> {
+            let mut it = Integrator::new(&this.system, &settings)?;
+            it.set_contact_anticipation(this.anticipate);
+            it.set_contact_projection(this.project);
+            Ok(it)
+        };
+        let mut first = new_integrator()?;
+        let massive = first.massive_dofs().to_vec();
+        let m = massive.len();
+        let period_map = |it: &mut Integrator, q: &[f64], v: &[f64]| -> Result<Vec<f64>> {
+            it.set_state(0.0, q, v)?;
+            for _ in 0..steps {
+                it.step()?;
+            }
+            Ok(massive
+                .iter()
+                .map(|&i| it.q()[i])
+                .chain(massive.iter().map(|&i| it.v()[i]))
+                .collect())
+        };
+        let base = period_map(&mut first, &q0, &v0)?;
+        let columns: Vec<Result<Vec<f64>>> = (0..2 * m)
+            .into_par_iter()
+            .map_init(
+                || None,
+                |slot: &mut Option<Integrator>, j| {
+                    if slot.is_none() {
+                        *slot = Some(new_integrator()?);
+                    }
+                    let it = slot.as_mut().expect("created");
+                    let (mut q, mut v) = (q0.clone(), v0.clone());
+                    let (target, scale) = if j < m {
+                        (&mut q[massive[j]], this.length_scale)
+                    } else {
+                        (&mut v[massive[j - m]], this.length_scale * omega)
+                    };
+                    let before = *target;
+                    *target += this.fd_step * before.abs().max(scale);
+                    let h = *target - before;
+                    let end = period_map(it, &q, &v)?;
+                    Ok(end.iter().zip(&base).map(|(a, b)| (a - b) / h).collect())
+                },
+            )
+            .collect();
+        // in the scaled state (q, q̇/ω): a similarity (same eigenvalues) that balances the
+        // blocks, so that the eigenvalues are computed accurately
+        let d = |i: usize| if i < m { 1.0 } else { omega };
+        let mut phi = Mat::<f64>::zeros(2 * m, 2 * m);
+        for (j, col) in columns.into_iter().enumerate() {
+            for (i, v) in col?.into_iter().enumerate() {
+                phi[(i, j)] = v * d(j) / d(i);
+            }
+        }
+        Ok(phi)
     }
 }
 
@@ -645,17 +864,10 @@ impl PeriodicProblem for GeneralMsHbm {
         let fd = this.frequency.as_ref().expect("prepared");
         let residual = this.residual_with(fd, x)?.0;
         let dim = this.dimension();
-        let n = this.n();
-        let nc = n_coefficients(this.harmonics);
         let columns: Vec<Result<Vec<f64>>> = (0..dim)
             .into_par_iter()
             .map(|j| {
-                let scale = if j >= (nc + 1) * n {
-                    this.length_scale * omega
-                } else {
-                    this.length_scale
-                };
-                let h = this.fd_step * x[j].abs().max(scale);
+                let h = this.fd_step * x[j].abs().max(this.length_scale);
                 let mut xp = x.to_vec();
                 xp[j] += h;
                 let h = xp[j] - x[j];
@@ -683,6 +895,42 @@ impl PeriodicProblem for GeneralMsHbm {
             jacobian,
             d_omega,
         })
+    }
+
+    /// Floquet multipliers (METHODS §7.2) as the eigenvalues of the monodromy matrix of
+    /// the **whole system's** period map — the state `(q, q̇)` of all DOFs at `t = 0` mapped
+    /// to the state at `t = T` by the same Moreau–Jean integrator (same steps, θ, `e_N`,
+    /// anticipation and projection) — by forward finite differences around the solution's
+    /// initial state ([`Self::initial_state`]), columns in parallel (rayon).
+    ///
+    /// Why the whole system and not the N-subsystem: the N-subsystem sees the linear part
+    /// only through the harmonics `q̂_N` (eq. 6), a non-causal frequency-domain coupling
+    /// with no state of its own; a perturbation `e^{st} p(t)` of the orbit needs the L
+    /// states anyway. The full-system map is the physical one, and for a linear system it is
+    /// linear, so its finite-difference monodromy is exact up to rounding and equals the
+    /// discrete (trapezoidal, θ = ½) transition matrix, whose eigenvalues approximate
+    /// `exp(s_k T)` to the integrator's accuracy. With contacts the map is piecewise
+    /// affine (`e_N = 0`, anticipation, projection): the finite difference gives the slope
+    /// of the piece the solution lies in, including the effect of impacts (a persistent
+    /// contact with `e_N = 0` contributes zero multipliers). Caveats: the MS-HBM orbit is a
+    /// fixed point of the *harmonically truncated* problem, not exactly of the full
+    /// discrete map (the multipliers are those of the full map linearised at the orbit's
+    /// initial state); near grazing the piece can be smaller than the step and the
+    /// multipliers unreliable (METHODS §7.2). So they describe the full model near the
+    /// orbit, not the H-truncated branch: on the bar with impacts at H = 5 the branch has a
+    /// fold pair at 86.17 / 86.27 kHz, yet no multiplier approaches +1 there (largest
+    /// |μ| ≈ 0.94 on all three parts), and full-system simulations started on the lower,
+    /// middle and upper orbits all settle to one and the same periodic state (contact-DOF
+    /// minimum −0.342 mm against −0.334 / −0.369 / −0.373 mm of the H = 5 orbits): the
+    /// full model has a single attractor there and the fold pair is a truncation effect. Cost: `2n + 1` period integrations of the
+    /// whole model and a dense `2n × 2n` eigenproblem (`n ≤` [`MAX_FLOQUET_DOFS`]) —
+    /// one reason the general method is expensive for FE models.
+    fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
+        let phi = self.monodromy(x, omega)?;
+        let values = phi
+            .eigenvalues()
+            .map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
+        Ok(Some(Floquet::from_eigenvalues(values)))
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
@@ -732,6 +980,23 @@ impl PeriodicProblem for GeneralMsHbm {
                 min,
             });
         }
+        let frictions: Vec<FrictionSeries> = self
+            .subsystem
+            .frictions
+            .iter()
+            .enumerate()
+            .map(|(f, fr)| {
+                let force: Vec<f64> = tr.friction_forces.iter().map(|p| p[f]).collect();
+                let (max, min) = extremes(&force);
+                FrictionSeries {
+                    dof: self.subsystem.model_dof[fr.w[0].0],
+                    limit: (0..ns).map(|j| self.friction_limit(&tr, f, j)).collect(),
+                    force,
+                    max,
+                    min,
+                }
+            })
+            .collect();
         let response = match self.system.system_dof(response_dof) {
             None => DofResponse {
                 dof: response_dof,
@@ -793,6 +1058,7 @@ impl PeriodicProblem for GeneralMsHbm {
                 .map(|c| self.system.model_dof[c.w[0].0])
                 .collect(),
             contacts,
+            frictions,
             response,
             stability: None,
         })

@@ -659,6 +659,7 @@ impl PeriodicProblem for RedistributedMsHbm {
                 .map(|c| self.system.model_dof[c.w[0].0])
                 .collect(),
             contacts,
+            frictions: vec![],
             response,
             stability: None,
         })
