@@ -49,6 +49,12 @@ pub struct ContinuationOptions {
     /// Largest advance in frequency per step, as `|Δ ln ω|` (a fiftieth of the range by
     /// default, so that even a narrow sweep of a smooth response has points to plot).
     pub max_frequency_step: f64,
+    /// Largest ratio of two successive corrector updates (0.5 by default: Newton with an
+    /// exact Jacobian on a smooth piece contracts quadratically, and an update that does not
+    /// halve is a corrector working across a grazing event or towards another piece of the
+    /// branch). Methods whose Newton is not quadratic (finite-difference Jacobians, stiff
+    /// penalties) need `f64::INFINITY` (no check).
+    pub max_contraction: f64,
     /// Safety limit on the number of points.
     pub max_points: usize,
 }
@@ -69,6 +75,7 @@ impl ContinuationOptions {
                 ..NewtonOptions::default()
             },
             max_frequency_step: (omega_end / omega_start).ln().abs() / 50.0,
+            max_contraction: 0.5,
             max_points: 20_000,
         }
     }
@@ -243,8 +250,6 @@ fn tangent<P: PeriodicProblem + ?Sized>(
 
 /// Largest distance of a corrected point from its predictor, relative to the step.
 const MAX_CORRECTOR_TRAVEL: f64 = 0.5;
-/// Largest ratio of two successive corrector updates.
-const MAX_CONTRACTION: f64 = 0.5;
 
 /// Keller corrector from the predictor `X_0 + Δs t`. Returns the scaled point and the
 /// iterations, or `None` when it does not converge.
@@ -255,6 +260,7 @@ fn correct<P: PeriodicProblem + ?Sized>(
     t: &[f64],
     ds: f64,
     newton: &NewtonOptions,
+    max_contraction: f64,
 ) -> Result<Option<(Vec<f64>, usize, f64)>> {
     let predictor: Vec<f64> = start.iter().zip(t).map(|(a, b)| a + ds * b).collect();
     let mut xs = predictor.clone();
@@ -304,11 +310,9 @@ fn correct<P: PeriodicProblem + ?Sized>(
             Ok(d) => d,
             Err(_) => return Ok(None),
         };
-        // Newton with the exact Jacobian contracts quadratically on a smooth piece; an
-        // update that does not at least halve is a corrector working across a grazing
-        // event or towards another piece: refuse, the step will be halved
+        // poor contraction: refuse, the step will be halved (see `max_contraction`)
         let update = dot(&d, &d).sqrt();
-        if update > MAX_CONTRACTION * previous_update
+        if update > max_contraction * previous_update
             && update > 64.0 * f64::EPSILON * (1.0 + max_abs(&xs))
         {
             return Ok(None);
@@ -410,7 +414,15 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                 return Ok(branch);
             }
         }
-        let corrected = correct(problem, &sc, &start, &last.tangent, ds, &options.newton)?;
+        let corrected = correct(
+            problem,
+            &sc,
+            &start,
+            &last.tangent,
+            ds,
+            &options.newton,
+            options.max_contraction,
+        )?;
         let accepted = match corrected {
             Some((xs, iterations, norm)) => {
                 let (x, omega) = sc.unscale(&xs);
@@ -538,7 +550,15 @@ fn locate_fold<P: PeriodicProblem + ?Sized>(
 ) -> Result<Option<Fold>> {
     let n = last.x.len();
     let eval = |problem: &mut P, s: f64| -> Result<Option<(f64, Vec<f64>, f64)>> {
-        match correct(problem, sc, start, &last.tangent, s, &options.newton)? {
+        match correct(
+            problem,
+            sc,
+            start,
+            &last.tangent,
+            s,
+            &options.newton,
+            options.max_contraction,
+        )? {
             Some((xs, _, _)) => {
                 let (x, omega) = sc.unscale(&xs);
                 let secant: Vec<f64> = xs.iter().zip(start).map(|(a, b)| a - b).collect();
