@@ -83,6 +83,8 @@ use std::collections::HashMap;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
+use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
+use super::{n_dof_coefficients, periodic_solution, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{
     add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Sampling,
@@ -252,16 +254,14 @@ pub struct HbmAft {
     ln: Block,
     nl: Block,
     nn: Block,
-    /// Constant (`[0]`) and cosine (`[1]`) load amplitudes on L and on N.
-    load_l: [Vec<f64>; 2],
-    load_n: [Vec<f64>; 2],
+    /// `L | N` partition, split loads and length scale.
+    partition: Partition,
     /// `W` (`n × n_c`, row-major).
     w: Vec<f64>,
     gap: Vec<f64>,
     penalty: Vec<f64>,
     contact_stiffness: Vec<f64>,
     reference_stiffness: f64,
-    length_scale: f64,
     frequency: Option<FrequencyData>,
     /// Newton iterations spent by the last [`PeriodicProblem::initial_guess`].
     guess_iterations: usize,
@@ -331,16 +331,7 @@ impl HbmAft {
         let (nl_dofs, ll_dofs) = (&system.nonlinear_dofs, &system.linear_dofs);
         let n = nl_dofs.len();
         let nc = system.contacts.len();
-        let mut w = vec![0.0; n * nc];
-        for (c, contact) in system.contacts.iter().enumerate() {
-            for &(dof, coeff) in &contact.w {
-                let i = nl_dofs
-                    .iter()
-                    .position(|&d| d == dof)
-                    .expect("contact DOFs are in N");
-                w[i * nc + c] += coeff;
-            }
-        }
+        let w = contact_directions(&system);
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
         let k_nn = system.stiffness.submatrix(nl_dofs, nl_dofs);
         let mut contact_stiffness = Vec::with_capacity(nc);
@@ -369,49 +360,13 @@ impl HbmAft {
             system.damping.submatrix(ll_dofs, ll_dofs),
             system.stiffness.submatrix(ll_dofs, ll_dofs),
         )?;
-        // length scale: the largest gap or static deflection of the contact DOFs (as the
-        // redistributed MS-HBM, so that tolerances mean the same)
-        let static_deflection = {
-            let llt = system
-                .stiffness
-                .to_faer()
-                .sp_cholesky(faer::Side::Lower)
-                .map_err(|_| {
-                    Error::Singular(
-                        "the stiffness matrix is singular (the structure is not held)".into(),
-                    )
-                })?;
-            let f: Vec<f64> = system
-                .harmonic_load
-                .iter()
-                .zip(&system.constant_load)
-                .map(|(a, b)| a.abs() + b.abs())
-                .collect();
-            let mut rhs = Mat::<f64>::from_fn(f.len(), 1, |i, _| f[i]);
-            llt.solve_in_place(rhs.as_mut());
-            nl_dofs
-                .iter()
-                .fold(0.0f64, |m, &i| m.max(rhs[(i, 0)].abs()))
-        };
-        let gap_scale = gap.iter().fold(0.0f64, |m, g| m.max(g.abs()));
-        let length_scale = if gap_scale.max(static_deflection) > 0.0 {
-            gap_scale.max(static_deflection)
-        } else {
-            1.0
-        };
-        let pick = |v: &[f64], idx: &[usize]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
+        // the same length scale as the redistributed MS-HBM, so that tolerances mean the same
+        let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         Ok(HbmAft {
             ln: Block::new(&system, ll_dofs, nl_dofs),
             nl: Block::new(&system, nl_dofs, ll_dofs),
             nn: Block::new(&system, nl_dofs, nl_dofs),
-            load_l: [
-                pick(&system.constant_load, ll_dofs),
-                pick(&system.harmonic_load, ll_dofs),
-            ],
-            load_n: [
-                pick(&system.constant_load, nl_dofs),
-                pick(&system.harmonic_load, nl_dofs),
-            ],
+            partition,
             harmonics: h,
             sampling: Sampling::new(h, samples),
             quadrature: options.quadrature,
@@ -421,7 +376,6 @@ impl HbmAft {
             penalty,
             contact_stiffness,
             reference_stiffness,
-            length_scale,
             frequency: None,
             guess_iterations: 0,
             system,
@@ -470,14 +424,6 @@ impl HbmAft {
         self.gap.len()
     }
 
-    /// Complex load amplitude of harmonic `k` (`None` if zero).
-    fn load(v: &[Vec<f64>; 2], k: usize) -> Option<Vec<c64>> {
-        let v = v.get(k)?;
-        v.iter()
-            .any(|&x| x != 0.0)
-            .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
-    }
-
     fn prepare(&mut self, omega: f64) -> Result<()> {
         if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
             return Ok(());
@@ -497,7 +443,7 @@ impl HbmAft {
             let kw = k as f64 * omega;
             let mut y = self.ln.dense(kw);
             factors.solve_in_place(k, &mut y)?;
-            let u = match Self::load(&self.load_l, k) {
+            let u = match self.partition.load_l.complex(k) {
                 Some(f) => {
                     let mut u = Mat::<c64>::from_fn(nl, 1, |i, _| f[i]);
                     factors.solve_in_place(k, &mut u)?;
@@ -515,7 +461,11 @@ impl HbmAft {
                 self.nl.apply(kw, &col_in, &mut col_out);
                 (0..n).for_each(|i| ht[(i, j)] -= col_out[i]);
             }
-            let mut ft = Self::load(&self.load_n, k).unwrap_or_else(|| vec![zero(); n]);
+            let mut ft = self
+                .partition
+                .load_n
+                .complex(k)
+                .unwrap_or_else(|| vec![zero(); n]);
             let mut au = vec![zero(); n];
             self.nl.apply(kw, &u, &mut au);
             ft.iter_mut().zip(&au).for_each(|(f, a)| *f -= *a);
@@ -961,7 +911,7 @@ impl PeriodicProblem for HbmAft {
     }
 
     fn length_scale(&self) -> f64 {
-        self.length_scale
+        self.partition.length_scale()
     }
 
     fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
@@ -984,21 +934,11 @@ impl PeriodicProblem for HbmAft {
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
-        if response_dof >= self.system.n_model_dofs {
-            return Err(Error::argument(
-                "dof",
-                format!(
-                    "DOF {response_dof} does not exist (the model has DOFs 0..{})",
-                    self.system.n_model_dofs - 1
-                ),
-            ));
-        }
+        let location = self.partition.locate_response(&self.system, response_dof)?;
         let (residual, state, _) = self.evaluate(x, omega)?;
         let (n, ncon, ns) = (self.n(), self.n_contacts(), self.sampling.len());
         let h = self.harmonics;
         let nc = n_coefficients(h);
-        let nl_dofs = &self.system.nonlinear_dofs;
-        let coefficients_of_n = |i: usize| -> Vec<f64> { (0..nc).map(|c| x[c * n + i]).collect() };
         let extremes = |coef: &[f64]| -> (f64, f64) {
             (
                 polynomial_extremum(coef, ns, 1.0),
@@ -1007,15 +947,11 @@ impl PeriodicProblem for HbmAft {
         };
         let mut contacts = Vec::with_capacity(ncon);
         for (c, sc) in self.system.contacts.iter().enumerate() {
-            let dof_s = sc.w[0].0;
-            let i = nl_dofs
-                .iter()
-                .position(|&d| d == dof_s)
-                .expect("contact DOF in N");
-            let coefficients = coefficients_of_n(i);
+            let i = self.partition.contact_n_index(&self.system, c);
+            let coefficients = n_dof_coefficients(x, n, h, i);
             let (max, min) = extremes(&coefficients);
             contacts.push(ContactSeries {
-                dof: self.system.model_dof[dof_s],
+                dof: self.system.model_dof[sc.w[0].0],
                 coefficients,
                 displacement: (0..ns).map(|j| state.displacement[j * n + i]).collect(),
                 gap: (0..ns).map(|j| state.gap[j * ncon + c]).collect(),
@@ -1024,26 +960,17 @@ impl PeriodicProblem for HbmAft {
                 min,
             });
         }
-        let coefficients = match self.system.system_dof(response_dof) {
+        let coefficients = match location {
             // a Dirichlet DOF does not move
-            None => vec![0.0; nc],
-            Some(s) => {
-                if let Some(i) = nl_dofs.iter().position(|&d| d == s) {
-                    coefficients_of_n(i)
-                } else {
-                    let l = self
-                        .system
-                        .linear_dofs
-                        .iter()
-                        .position(|&d| d == s)
-                        .expect("L or N");
-                    let mut out = vec![0.0; nc];
-                    for k in 0..=h {
-                        let q = self.linear_harmonic(x, k)[l];
-                        store_harmonic(&[q], 1, k, &mut out);
-                    }
-                    out
+            DofLocation::Fixed => vec![0.0; nc],
+            DofLocation::Nonlinear(i) => n_dof_coefficients(x, n, h, i),
+            DofLocation::Linear(l) => {
+                let mut out = vec![0.0; nc];
+                for k in 0..=h {
+                    let q = self.linear_harmonic(x, k)[l];
+                    store_harmonic(&[q], 1, k, &mut out);
                 }
+                out
             }
         };
         let (max, min) = if coefficients.iter().all(|&v| v == 0.0) {
@@ -1051,33 +978,26 @@ impl PeriodicProblem for HbmAft {
         } else {
             extremes(&coefficients)
         };
-        let taus = &self.sampling.taus;
-        Ok(PeriodicSolution {
-            frequency_hz: omega / (2.0 * std::f64::consts::PI),
-            harmonics: h,
-            samples: ns,
-            quadrature: self.quadrature.name().to_string(),
-            method: "hbm-aft".to_string(),
-            converged: false,
-            iterations: 0,
-            residual_norm: residual.iter().fold(0.0f64, |m, v| m.max(v.abs())) / self.length_scale,
-            time_s: taus.iter().map(|t| t / omega).collect(),
-            contact_dofs: self
-                .system
-                .contacts
-                .iter()
-                .map(|c| self.system.model_dof[c.w[0].0])
-                .collect(),
-            contacts,
-            frictions: vec![],
-            response: DofResponse {
-                dof: response_dof,
-                coefficients,
-                max,
-                min,
+        Ok(periodic_solution(
+            &self.system,
+            &self.partition,
+            omega,
+            SolutionParts {
+                method: "hbm-aft",
+                quadrature: self.quadrature.name(),
+                harmonics: h,
+                taus: &self.sampling.taus,
+                residual: &residual,
+                contacts,
+                frictions: vec![],
+                response: DofResponse {
+                    dof: response_dof,
+                    coefficients,
+                    max,
+                    min,
+                },
             },
-            stability: None,
-        })
+        ))
     }
 }
 

@@ -1,11 +1,15 @@
 //! Periodic-solution methods, each an implementor of [`crate::problem::PeriodicProblem`].
 
 pub mod hbm_aft;
+pub(crate) mod partition;
 pub mod redistributed;
 pub mod shooting;
 
 use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
+use crate::model::System;
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
+use partition::Partition;
 
 /// Check the settings every method shares: at least one harmonic, and enough samples
 /// (`what`: "samples" or "steps per period") to resolve them (`≥ 2H + 1`).
@@ -37,4 +41,71 @@ pub(crate) fn check_frequency(omega: f64) -> Result<()> {
             omega / (2.0 * std::f64::consts::PI)
         ),
     ))
+}
+
+/// The method-specific parts of a [`PeriodicSolution`]; [`periodic_solution`] adds what the
+/// methods share.
+pub(crate) struct SolutionParts<'a> {
+    /// The method's name as reported (`"redistributed"`, `"mshbm"`, `"hbm-aft"`).
+    pub method: &'static str,
+    /// The quadrature of the Fourier coefficients (`"exact"`, `"sampled"`).
+    pub quadrature: &'static str,
+    pub harmonics: usize,
+    /// Phases `τ_j = ω t_j` of the time series (their number is the reported `samples`).
+    pub taus: &'a [f64],
+    /// The residual `R(x, ω)` at the solution.
+    pub residual: &'a [f64],
+    pub contacts: Vec<ContactSeries>,
+    pub frictions: Vec<FrictionSeries>,
+    pub response: DofResponse,
+}
+
+/// The [`PeriodicSolution`] of `parts` at `ω` for `system`: times `t_j = τ_j/ω`, the contacts'
+/// model DOFs, `‖R‖_∞` relative to the partition's length scale; Newton statistics and
+/// stability are left at their defaults ([`crate::problem::PeriodicProblem::solution`]).
+pub(crate) fn periodic_solution(
+    system: &System,
+    partition: &Partition,
+    omega: f64,
+    parts: SolutionParts,
+) -> PeriodicSolution {
+    PeriodicSolution {
+        frequency_hz: omega / (2.0 * std::f64::consts::PI),
+        harmonics: parts.harmonics,
+        samples: parts.taus.len(),
+        quadrature: parts.quadrature.to_string(),
+        method: parts.method.to_string(),
+        converged: false,
+        iterations: 0,
+        residual_norm: parts.residual.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+            / partition.length_scale(),
+        time_s: parts.taus.iter().map(|t| t / omega).collect(),
+        contact_dofs: system
+            .contacts
+            .iter()
+            .map(|c| system.model_dof[c.w[0].0])
+            .collect(),
+        contacts: parts.contacts,
+        frictions: parts.frictions,
+        response: parts.response,
+        stability: None,
+    }
+}
+
+/// The response of a Dirichlet DOF (it does not move): zero coefficients and extremes.
+pub(crate) fn fixed_response(dof: usize, harmonics: usize) -> DofResponse {
+    DofResponse {
+        dof,
+        coefficients: vec![0.0; n_coefficients(harmonics)],
+        max: 0.0,
+        min: 0.0,
+    }
+}
+
+/// The Fourier coefficients `[a0, a1, b1, …]` of `N`-DOF `i` in the harmonic-major
+/// unknowns `x` (coefficient `c` at `c·n + i`, METHODS §0; `n` = number of `N` DOFs).
+pub(crate) fn n_dof_coefficients(x: &[f64], n: usize, harmonics: usize, i: usize) -> Vec<f64> {
+    (0..n_coefficients(harmonics))
+        .map(|c| x[c * n + i])
+        .collect()
 }

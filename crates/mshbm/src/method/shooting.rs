@@ -76,6 +76,8 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use rayon::prelude::*;
 
+use super::partition::{DofLocation, Partition, SingularStiffness};
+use super::{fixed_response, n_dof_coefficients, periodic_solution, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::integrate::{Integrator, Scheme, Settings};
@@ -209,12 +211,9 @@ pub struct GeneralMsHbm {
     ln: [SparseMatrix; 3],
     /// `(K, M, C)_NN`.
     nn: [SparseMatrix; 3],
-    harmonic_load_l: Vec<f64>,
-    constant_load_l: Vec<f64>,
-    harmonic_load_n: Vec<f64>,
-    constant_load_n: Vec<f64>,
+    /// `L | N` partition, split loads and length scale.
+    partition: Partition,
     frequency: Option<FrequencyData>,
-    length_scale: f64,
     /// Diagonal of `K_NN` (N numbering).
     stiffness_nn_diagonal: Vec<f64>,
 }
@@ -252,8 +251,14 @@ impl GeneralMsHbm {
         let system = model.system(MassKind::Consistent)?;
         let (nl_dofs, ll) = (&system.nonlinear_dofs, &system.linear_dofs);
         let n = nl_dofs.len();
-        let mut pos = vec![usize::MAX; system.n_dofs()];
-        nl_dofs.iter().enumerate().for_each(|(k, &d)| pos[d] = k);
+        // the N-subsystem is integrated with its mass: a free structure (singular K) is
+        // fine, the gaps alone then set the length scale
+        let partition = Partition::new(&system, SingularStiffness::Ignore)?;
+        let pos = |d: usize| {
+            partition
+                .n_index(d)
+                .expect("contact and friction DOFs are in N")
+        };
         let sub = |a: &SparseMatrix, r: &[usize], c: &[usize]| a.submatrix(r, c);
         let mats = [&system.stiffness, &system.mass, &system.damping];
         let nn = mats.map(|a| sub(a, nl_dofs, nl_dofs));
@@ -285,7 +290,7 @@ impl GeneralMsHbm {
                 .contacts
                 .iter()
                 .map(|c| SystemContact {
-                    w: c.w.iter().map(|&(d, w)| (pos[d], w)).collect(),
+                    w: c.w.iter().map(|&(d, w)| (pos(d), w)).collect(),
                     gap: c.gap,
                 })
                 .collect(),
@@ -293,7 +298,7 @@ impl GeneralMsHbm {
                 .frictions
                 .iter()
                 .map(|f| SystemFriction {
-                    w: f.w.iter().map(|&(d, w)| (pos[d], w)).collect(),
+                    w: f.w.iter().map(|&(d, w)| (pos(d), w)).collect(),
                     mu: f.mu,
                     normal: f.normal.clone(),
                 })
@@ -312,35 +317,8 @@ impl GeneralMsHbm {
                 system.stiffness.submatrix(ll, ll),
             )?)
         };
-        let pick = |v: &[f64], idx: &[usize]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
-        // length scale: the largest gap or static deflection of the N DOFs
-        let static_deflection = match system.stiffness.to_faer().sp_cholesky(faer::Side::Lower) {
-            Ok(llt) => {
-                let f: Vec<f64> = system
-                    .harmonic_load
-                    .iter()
-                    .zip(&system.constant_load)
-                    .map(|(a, b)| a.abs() + b.abs())
-                    .collect();
-                let mut rhs = Mat::<f64>::from_fn(f.len(), 1, |i, _| f[i]);
-                llt.solve_in_place(rhs.as_mut());
-                nl_dofs
-                    .iter()
-                    .fold(0.0f64, |m, &i| m.max(rhs[(i, 0)].abs()))
-            }
-            Err(_) => 0.0,
-        };
-        let gap_scale = system
-            .contacts
-            .iter()
-            .fold(0.0f64, |m, c| m.max(c.gap.abs()));
-        let s = gap_scale.max(static_deflection);
-        let length_scale = if s.is_finite() && s > 0.0 { s } else { 1.0 };
         Ok(GeneralMsHbm {
-            harmonic_load_l: pick(&system.harmonic_load, ll),
-            constant_load_l: pick(&system.constant_load, ll),
-            harmonic_load_n: pick(&system.harmonic_load, nl_dofs),
-            constant_load_n: pick(&system.constant_load, nl_dofs),
+            partition,
             harmonics: h,
             steps,
             theta: options.theta,
@@ -354,7 +332,6 @@ impl GeneralMsHbm {
             ln,
             nn: nn.clone(),
             frequency: None,
-            length_scale,
             stiffness_nn_diagonal: {
                 let mut d = vec![0.0; n];
                 nn[0]
@@ -391,14 +368,7 @@ impl GeneralMsHbm {
     }
 
     fn load_l(&self, k: usize) -> Option<Vec<c64>> {
-        let v = match k {
-            0 => &self.constant_load_l,
-            1 => &self.harmonic_load_l,
-            _ => return None,
-        };
-        v.iter()
-            .any(|&x| x != 0.0)
-            .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
+        self.partition.load_l.complex(k)
     }
 
     fn frequency_data(&self, omega: f64) -> Result<FrequencyData> {
@@ -471,8 +441,8 @@ impl GeneralMsHbm {
         crate::linear::interface_load_coefficients(
             &fd.g,
             &fd.u0,
-            &self.constant_load_n,
-            &self.harmonic_load_n,
+            &self.partition.load_n.constant,
+            &self.partition.load_n.harmonic,
             x,
         )
     }
@@ -675,7 +645,9 @@ impl GeneralMsHbm {
         let r = self.residual(x, omega)?;
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
-        let norm = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs())) / self.length_scale;
+        let norm = |v: &[f64]| {
+            v.iter().fold(0.0f64, |m, x| m.max(x.abs())) / self.partition.length_scale()
+        };
         Ok((norm(&r[..n * nc]), norm(&r[n * nc..])))
     }
 
@@ -700,10 +672,9 @@ impl GeneralMsHbm {
                     a[(i, j)] = col[i] - fd.g[k][i * n + j];
                 }
             }
-            let f: Vec<f64> = match k {
-                0 => self.constant_load_n.clone(),
-                1 => self.harmonic_load_n.clone(),
-                _ => vec![0.0; n],
+            let f: Vec<f64> = match self.partition.load_n.real(k) {
+                Some(f) => f.to_vec(),
+                None => vec![0.0; n],
             };
             let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(f[i], 0.0) - fd.u0[k][i]);
             let z = a.partial_piv_lu().solve(&rhs);
@@ -812,9 +783,12 @@ impl GeneralMsHbm {
                     let it = slot.as_mut().expect("created");
                     let (mut q, mut v) = (q0.clone(), v0.clone());
                     let (target, scale) = if j < m {
-                        (&mut q[massive[j]], this.length_scale)
+                        (&mut q[massive[j]], this.partition.length_scale())
                     } else {
-                        (&mut v[massive[j - m]], this.length_scale * omega)
+                        (
+                            &mut v[massive[j - m]],
+                            this.partition.length_scale() * omega,
+                        )
                     };
                     let before = *target;
                     *target += this.fd_step * before.abs().max(scale);
@@ -843,7 +817,7 @@ impl PeriodicProblem for GeneralMsHbm {
     }
 
     fn length_scale(&self) -> f64 {
-        self.length_scale
+        self.partition.length_scale()
     }
 
     fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
@@ -867,7 +841,7 @@ impl PeriodicProblem for GeneralMsHbm {
         let columns: Vec<Result<Vec<f64>>> = (0..dim)
             .into_par_iter()
             .map(|j| {
-                let h = this.fd_step * x[j].abs().max(this.length_scale);
+                let h = this.fd_step * x[j].abs().max(this.partition.length_scale());
                 let mut xp = x.to_vec();
                 xp[j] += h;
                 let h = xp[j] - x[j];
@@ -934,22 +908,13 @@ impl PeriodicProblem for GeneralMsHbm {
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
-        if response_dof >= self.system.n_model_dofs {
-            return Err(Error::argument(
-                "dof",
-                format!(
-                    "DOF {response_dof} does not exist (the model has DOFs 0..{})",
-                    self.system.n_model_dofs - 1
-                ),
-            ));
-        }
+        let location = self.partition.locate_response(&self.system, response_dof)?;
         self.check_x(x)?;
         self.prepare(omega)?;
         let fd = self.frequency.as_ref().expect("prepared");
         let (residual, tr) = self.residual_with(fd, x)?;
         let n = self.n();
         let h = self.harmonics;
-        let nc = n_coefficients(h);
         let ns = self.steps;
         let sampling = Sampling::new(h, ns);
         let extremes = |v: &[f64]| -> (f64, f64) {
@@ -959,20 +924,14 @@ impl PeriodicProblem for GeneralMsHbm {
                 })
         };
         let series = |i: usize| -> Vec<f64> { tr.displacement.iter().map(|q| q[i]).collect() };
-        let coefficients_of_n = |i: usize| -> Vec<f64> { (0..nc).map(|c| x[c * n + i]).collect() };
-        let nl_dofs = self.system.nonlinear_dofs.clone();
         let mut contacts = Vec::with_capacity(self.system.contacts.len());
         for (c, sc) in self.system.contacts.iter().enumerate() {
-            let dof_s = sc.w[0].0;
-            let i = nl_dofs
-                .iter()
-                .position(|&d| d == dof_s)
-                .expect("contact DOF in N");
+            let i = self.partition.contact_n_index(&self.system, c);
             let disp = series(i);
             let (max, min) = extremes(&disp);
             contacts.push(ContactSeries {
-                dof: self.system.model_dof[dof_s],
-                coefficients: coefficients_of_n(i),
+                dof: self.system.model_dof[sc.w[0].0],
+                coefficients: n_dof_coefficients(x, n, h, i),
                 displacement: disp,
                 gap: tr.gaps.iter().map(|g| g[c]).collect(),
                 force: tr.contact_forces.iter().map(|f| f[c]).collect(),
@@ -997,70 +956,51 @@ impl PeriodicProblem for GeneralMsHbm {
                 }
             })
             .collect();
-        let response = match self.system.system_dof(response_dof) {
-            None => DofResponse {
-                dof: response_dof,
-                coefficients: vec![0.0; nc],
-                max: 0.0,
-                min: 0.0,
-            },
-            Some(s) => {
-                if let Some(i) = nl_dofs.iter().position(|&d| d == s) {
-                    let (max, min) = extremes(&series(i));
-                    DofResponse {
-                        dof: response_dof,
-                        coefficients: coefficients_of_n(i),
-                        max,
-                        min,
-                    }
-                } else {
-                    let l = self
-                        .system
-                        .linear_dofs
-                        .iter()
-                        .position(|&d| d == s)
-                        .expect("L or N");
-                    let coefficients = self.linear_dof_coefficients(x, l)?;
-                    // the truncated series on a grid 4× finer than the steps
-                    let fine: Vec<f64> = (0..4 * ns)
-                        .map(|j| {
-                            evaluate(
-                                &coefficients,
-                                2.0 * std::f64::consts::PI * j as f64 / (4 * ns) as f64,
-                            )
-                        })
-                        .collect();
-                    let (max, min) = extremes(&fine);
-                    DofResponse {
-                        dof: response_dof,
-                        coefficients,
-                        max,
-                        min,
-                    }
+        let response = match location {
+            DofLocation::Fixed => fixed_response(response_dof, h),
+            DofLocation::Nonlinear(i) => {
+                let (max, min) = extremes(&series(i));
+                DofResponse {
+                    dof: response_dof,
+                    coefficients: n_dof_coefficients(x, n, h, i),
+                    max,
+                    min,
+                }
+            }
+            DofLocation::Linear(l) => {
+                let coefficients = self.linear_dof_coefficients(x, l)?;
+                // the truncated series on a grid 4× finer than the steps
+                let fine: Vec<f64> = (0..4 * ns)
+                    .map(|j| {
+                        evaluate(
+                            &coefficients,
+                            2.0 * std::f64::consts::PI * j as f64 / (4 * ns) as f64,
+                        )
+                    })
+                    .collect();
+                let (max, min) = extremes(&fine);
+                DofResponse {
+                    dof: response_dof,
+                    coefficients,
+                    max,
+                    min,
                 }
             }
         };
-        let _ = &sampling;
-        Ok(PeriodicSolution {
-            frequency_hz: omega / (2.0 * std::f64::consts::PI),
-            harmonics: h,
-            samples: ns,
-            quadrature: "sampled".to_string(),
-            method: "mshbm".to_string(),
-            converged: false,
-            iterations: 0,
-            residual_norm: residual.iter().fold(0.0f64, |m, v| m.max(v.abs())) / self.length_scale,
-            time_s: sampling.taus.iter().map(|t| t / omega).collect(),
-            contact_dofs: self
-                .system
-                .contacts
-                .iter()
-                .map(|c| self.system.model_dof[c.w[0].0])
-                .collect(),
-            contacts,
-            frictions,
-            response,
-            stability: None,
-        })
+        Ok(periodic_solution(
+            &self.system,
+            &self.partition,
+            omega,
+            SolutionParts {
+                method: "mshbm",
+                quadrature: "sampled",
+                harmonics: h,
+                taus: &sampling.taus,
+                residual: &residual,
+                contacts,
+                frictions,
+                response,
+            },
+        ))
     }
 }

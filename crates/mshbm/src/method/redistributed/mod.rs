@@ -23,9 +23,10 @@ pub mod static_contact;
 
 use std::rc::Rc;
 
-use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
+use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
+use super::{fixed_response, n_dof_coefficients, periodic_solution, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
@@ -76,13 +77,10 @@ pub struct RedistributedMsHbm {
     /// `K_NL` (`n_N × n_L`) and `K_LN`.
     k_nl: SparseMatrix,
     k_ln: SparseMatrix,
-    harmonic_load_l: Vec<f64>,
-    constant_load_l: Vec<f64>,
-    harmonic_load_n: Vec<f64>,
-    constant_load_n: Vec<f64>,
+    /// `L | N` partition, split loads and length scale.
+    partition: Partition,
     contact: StaticContact,
     frequency: Option<FrequencyData>,
-    length_scale: f64,
     stability_options: StabilityOptions,
     /// The L-system of the Floquet analysis (full or reduced), built on first use.
     stability_system: Option<Rc<ReducedSystem>>,
@@ -126,67 +124,25 @@ impl RedistributedMsHbm {
             ));
         }
         let k_nn = system.stiffness.submatrix(nl, nl);
-        let n = nl.len();
-        let nc = system.contacts.len();
-        let mut w = vec![0.0; n * nc];
-        for (c, contact) in system.contacts.iter().enumerate() {
-            for &(dof, coeff) in &contact.w {
-                let i = nl
-                    .iter()
-                    .position(|&d| d == dof)
-                    .expect("contact DOFs are in N");
-                w[i * nc + c] += coeff;
-            }
-        }
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
-        let contact = StaticContact::new(&k_nn, w, gap.clone())?;
+        let contact = StaticContact::new(&k_nn, contact_directions(&system), gap)?;
         let linear = LinearPart::new(
             system.mass.submatrix(ll, ll),
             system.damping.submatrix(ll, ll),
             system.stiffness.submatrix(ll, ll),
         )?;
-        let pick = |v: &[f64], idx: &[usize]| -> Vec<f64> { idx.iter().map(|&i| v[i]).collect() };
-        // length scale: the largest gap or static deflection of the contact DOFs
-        let static_deflection = {
-            let llt = system
-                .stiffness
-                .to_faer()
-                .sp_cholesky(faer::Side::Lower)
-                .map_err(|_| {
-                    Error::Singular(
-                        "the stiffness matrix is singular (the structure is not held)".into(),
-                    )
-                })?;
-            let f: Vec<f64> = system
-                .harmonic_load
-                .iter()
-                .zip(&system.constant_load)
-                .map(|(a, b)| a.abs() + b.abs())
-                .collect();
-            let mut rhs = Mat::<f64>::from_fn(f.len(), 1, |i, _| f[i]);
-            llt.solve_in_place(rhs.as_mut());
-            nl.iter().fold(0.0f64, |m, &i| m.max(rhs[(i, 0)].abs()))
-        };
-        let gap_scale = gap.iter().fold(0.0f64, |m, g| m.max(g.abs()));
-        let length_scale = if gap_scale.max(static_deflection) > 0.0 {
-            gap_scale.max(static_deflection)
-        } else {
-            1.0
-        };
+        // the MS-HBM needs the structure held (K positive definite)
+        let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         Ok(RedistributedMsHbm {
             k_nl: system.stiffness.submatrix(nl, ll),
             k_ln: system.stiffness.submatrix(ll, nl),
-            harmonic_load_l: pick(&system.harmonic_load, ll),
-            constant_load_l: pick(&system.constant_load, ll),
-            harmonic_load_n: pick(&system.harmonic_load, nl),
-            constant_load_n: pick(&system.constant_load, nl),
+            partition,
             harmonics: h,
             sampling: Sampling::new(h, samples),
             quadrature: options.quadrature,
             linear,
             contact,
             frequency: None,
-            length_scale,
             stability_options: StabilityOptions::default(),
             stability_system: None,
             stability_cache: std::collections::HashMap::new(),
@@ -213,14 +169,7 @@ impl RedistributedMsHbm {
 
     /// Complex load amplitude on L for harmonic k (`f_L,0` constant, `f_L,1` the harmonic load).
     fn load_l(&self, k: usize) -> Option<Vec<c64>> {
-        let v = match k {
-            0 => &self.constant_load_l,
-            1 => &self.harmonic_load_l,
-            _ => return None,
-        };
-        v.iter()
-            .any(|&x| x != 0.0)
-            .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
+        self.partition.load_l.complex(k)
     }
 
     fn prepare(&mut self, omega: f64) -> Result<()> {
@@ -270,8 +219,8 @@ impl RedistributedMsHbm {
         crate::linear::interface_load_coefficients(
             &f.g,
             &f.u0,
-            &self.constant_load_n,
-            &self.harmonic_load_n,
+            &self.partition.load_n.constant,
+            &self.partition.load_n.harmonic,
             x,
         )
     }
@@ -512,7 +461,7 @@ impl PeriodicProblem for RedistributedMsHbm {
     }
 
     fn length_scale(&self) -> f64 {
-        self.length_scale
+        self.partition.length_scale()
     }
 
     fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
@@ -537,15 +486,7 @@ impl PeriodicProblem for RedistributedMsHbm {
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
-        if response_dof >= self.system.n_model_dofs {
-            return Err(Error::argument(
-                "dof",
-                format!(
-                    "DOF {response_dof} does not exist (the model has DOFs 0..{})",
-                    self.system.n_model_dofs - 1
-                ),
-            ));
-        }
+        let location = self.partition.locate_response(&self.system, response_dof)?;
         let (residual, integration, b) = self.evaluate(x, omega)?;
         let n = self.n();
         let h = self.harmonics;
@@ -583,19 +524,13 @@ impl PeriodicProblem for RedistributedMsHbm {
             }
             (mx, mn)
         };
-        let nl_dofs = self.system.nonlinear_dofs.clone();
-        let coefficients_of_n = |i: usize| -> Vec<f64> { (0..nc).map(|c| x[c * n + i]).collect() };
         let mut contacts = Vec::with_capacity(self.system.contacts.len());
         for (c, sc) in self.system.contacts.iter().enumerate() {
-            let dof_s = sc.w[0].0;
-            let i = nl_dofs
-                .iter()
-                .position(|&d| d == dof_s)
-                .expect("contact DOF in N");
+            let i = self.partition.contact_n_index(&self.system, c);
             let (max, min) = n_extremes(i);
             contacts.push(ContactSeries {
-                dof: self.system.model_dof[dof_s],
-                coefficients: coefficients_of_n(i),
+                dof: self.system.model_dof[sc.w[0].0],
+                coefficients: n_dof_coefficients(x, n, h, i),
                 displacement: q_s.iter().map(|q| q[i]).collect(),
                 gap: g_s.iter().map(|g| g[c]).collect(),
                 force: f_s.iter().map(|l| l[c]).collect(),
@@ -603,66 +538,45 @@ impl PeriodicProblem for RedistributedMsHbm {
                 min,
             });
         }
-        let response = match self.system.system_dof(response_dof) {
-            // a Dirichlet DOF does not move
-            None => DofResponse {
-                dof: response_dof,
-                coefficients: vec![0.0; nc],
-                max: 0.0,
-                min: 0.0,
-            },
-            Some(s) => {
-                if let Some(i) = nl_dofs.iter().position(|&d| d == s) {
-                    let (max, min) = n_extremes(i);
-                    DofResponse {
-                        dof: response_dof,
-                        coefficients: coefficients_of_n(i),
-                        max,
-                        min,
-                    }
-                } else {
-                    let l = self
-                        .system
-                        .linear_dofs
-                        .iter()
-                        .position(|&d| d == s)
-                        .expect("L or N");
-                    let coefficients = self.linear_dof_coefficients(x, l)?;
-                    let samples: Vec<f64> =
-                        taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
-                    let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
-                    let min =
-                        refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
-                    DofResponse {
-                        dof: response_dof,
-                        coefficients,
-                        max,
-                        min,
-                    }
+        let response = match location {
+            DofLocation::Fixed => fixed_response(response_dof, h),
+            DofLocation::Nonlinear(i) => {
+                let (max, min) = n_extremes(i);
+                DofResponse {
+                    dof: response_dof,
+                    coefficients: n_dof_coefficients(x, n, h, i),
+                    max,
+                    min,
+                }
+            }
+            DofLocation::Linear(l) => {
+                let coefficients = self.linear_dof_coefficients(x, l)?;
+                let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
+                let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
+                let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
+                DofResponse {
+                    dof: response_dof,
+                    coefficients,
+                    max,
+                    min,
                 }
             }
         };
-        Ok(PeriodicSolution {
-            frequency_hz: omega / (2.0 * std::f64::consts::PI),
-            harmonics: h,
-            samples: self.sampling.len(),
-            quadrature: self.quadrature.name().to_string(),
-            method: "redistributed".to_string(),
-            converged: false,
-            iterations: 0,
-            residual_norm: residual.iter().fold(0.0f64, |m, v| m.max(v.abs())) / self.length_scale,
-            time_s: taus.iter().map(|t| t / omega).collect(),
-            contact_dofs: self
-                .system
-                .contacts
-                .iter()
-                .map(|c| self.system.model_dof[c.w[0].0])
-                .collect(),
-            contacts,
-            frictions: vec![],
-            response,
-            stability: None,
-        })
+        Ok(periodic_solution(
+            &self.system,
+            &self.partition,
+            omega,
+            SolutionParts {
+                method: "redistributed",
+                quadrature: self.quadrature.name(),
+                harmonics: h,
+                taus: &taus,
+                residual: &residual,
+                contacts,
+                frictions: vec![],
+                response,
+            },
+        ))
     }
 
     /// Floquet multipliers (METHODS §7.2, derived): condensing the static contact

@@ -1,0 +1,212 @@
+//! The `L | N` partition as the periodic-solution methods use it (METHODS §0, paper eqs. 3
+//! and 23): where each system DOF sits in `N` (the DOFs the set-valued laws act on) or `L`,
+//! the loads restricted to both parts, the contact directions `W` in `N` numbering, and the
+//! length scale that Newton's tolerance and the continuation's scaling are relative to
+//! ([`crate::problem::PeriodicProblem::length_scale`]). One piece of code for the
+//! redistributed MS-HBM, the general MS-HBM and the HBM-AFT, so that their unknowns,
+//! tolerances and reported DOFs mean the same.
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+
+use crate::error::{Error, Result};
+use crate::model::System;
+
+/// The constant and `cos ωt` load amplitudes restricted to one part (`L` or `N`) of the
+/// partition, in that part's numbering.
+#[derive(Clone, Debug)]
+pub(crate) struct PartLoad {
+    /// Constant load (harmonic 0).
+    pub constant: Vec<f64>,
+    /// Cosine amplitude of the harmonic load (harmonic 1).
+    pub harmonic: Vec<f64>,
+}
+
+impl PartLoad {
+    fn restrict(system: &System, dofs: &[usize]) -> Self {
+        let pick = |v: &[f64]| -> Vec<f64> { dofs.iter().map(|&i| v[i]).collect() };
+        PartLoad {
+            constant: pick(&system.constant_load),
+            harmonic: pick(&system.harmonic_load),
+        }
+    }
+
+    /// The real amplitude of harmonic `k` (cosine part; the loads have no sine part), `None`
+    /// for `k ≥ 2`.
+    pub fn real(&self, k: usize) -> Option<&[f64]> {
+        match k {
+            0 => Some(&self.constant),
+            1 => Some(&self.harmonic),
+            _ => None,
+        }
+    }
+
+    /// The complex amplitude `f_k` of harmonic `k` (`z = a − i b`, METHODS §0), `None` when
+    /// it is zero.
+    pub fn complex(&self, k: usize) -> Option<Vec<c64>> {
+        let v = self.real(k)?;
+        v.iter()
+            .any(|&x| x != 0.0)
+            .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
+    }
+}
+
+/// Where a model DOF sits in the partition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum DofLocation {
+    /// A Dirichlet DOF: it does not move.
+    Fixed,
+    /// Index in `N`.
+    Nonlinear(usize),
+    /// Index in `L`.
+    Linear(usize),
+}
+
+/// What a stiffness matrix that cannot be Cholesky-factored means for the length scale.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SingularStiffness {
+    /// An error: the method needs the structure to be held (`K` positive definite).
+    Refuse,
+    /// The static deflection is taken as zero (the gaps alone set the scale).
+    Ignore,
+}
+
+/// The `L | N` partition of a [`System`] with its split loads and its length scale.
+#[derive(Clone, Debug)]
+pub(crate) struct Partition {
+    /// Index in `N` of each system DOF (`None` for an `L` DOF).
+    n_index: Vec<Option<usize>>,
+    /// Index in `L` of each system DOF (`None` for an `N` DOF).
+    l_index: Vec<Option<usize>>,
+    /// Loads on `L`.
+    pub load_l: PartLoad,
+    /// Loads on `N`.
+    pub load_n: PartLoad,
+    length_scale: f64,
+}
+
+impl Partition {
+    /// The partition of `system` ([`System::nonlinear_dofs`] / [`System::linear_dofs`]).
+    pub fn new(system: &System, singular: SingularStiffness) -> Result<Self> {
+        let index_of = |dofs: &[usize]| {
+            let mut index = vec![None; system.n_dofs()];
+            dofs.iter()
+                .enumerate()
+                .for_each(|(k, &d)| index[d] = Some(k));
+            index
+        };
+        let static_deflection = match (static_deflection(system), singular) {
+            (Ok(d), _) => d,
+            (Err(_), SingularStiffness::Ignore) => 0.0,
+            (Err(e), SingularStiffness::Refuse) => return Err(e),
+        };
+        Ok(Partition {
+            n_index: index_of(&system.nonlinear_dofs),
+            l_index: index_of(&system.linear_dofs),
+            load_l: PartLoad::restrict(system, &system.linear_dofs),
+            load_n: PartLoad::restrict(system, &system.nonlinear_dofs),
+            length_scale: length_scale(system, static_deflection),
+        })
+    }
+
+    /// The length scale: the largest gap `|g0|` or static deflection of an `N` DOF, 1 when
+    /// both vanish.
+    pub fn length_scale(&self) -> f64 {
+        self.length_scale
+    }
+
+    /// Index in `N` of a system DOF (`None` for an `L` DOF).
+    pub fn n_index(&self, system_dof: usize) -> Option<usize> {
+        self.n_index[system_dof]
+    }
+
+    /// Index in `N` of the (first) DOF of contact `c`, the DOF its [`ContactSeries`]
+    /// reports.
+    ///
+    /// [`ContactSeries`]: crate::solution::ContactSeries
+    pub fn contact_n_index(&self, system: &System, c: usize) -> usize {
+        self.n_index(system.contacts[c].w[0].0)
+            .expect("contact DOFs are in N")
+    }
+
+    /// Where the model DOF `response_dof` (the DOF a solution reports) sits; an error names
+    /// it when the model has no such DOF.
+    pub fn locate_response(&self, system: &System, response_dof: usize) -> Result<DofLocation> {
+        if response_dof >= system.n_model_dofs {
+            return Err(Error::argument(
+                "dof",
+                format!(
+                    "DOF {response_dof} does not exist (the model has DOFs 0..{})",
+                    system.n_model_dofs - 1
+                ),
+            ));
+        }
+        Ok(match system.system_dof(response_dof) {
+            None => DofLocation::Fixed,
+            Some(s) => match (self.n_index[s], self.l_index[s]) {
+                (Some(i), _) => DofLocation::Nonlinear(i),
+                (None, Some(l)) => DofLocation::Linear(l),
+                (None, None) => unreachable!("every system DOF is in L or N"),
+            },
+        })
+    }
+}
+
+/// `W = ∂g/∂q_N` (`n_N × n_c`, row-major): the contact directions of `system` in `N`
+/// numbering (METHODS §0).
+pub(crate) fn contact_directions(system: &System) -> Vec<f64> {
+    let n = system.nonlinear_dofs.len();
+    let nc = system.contacts.len();
+    let mut w = vec![0.0; n * nc];
+    for (c, contact) in system.contacts.iter().enumerate() {
+        for &(dof, coeff) in &contact.w {
+            let i = system
+                .nonlinear_dofs
+                .iter()
+                .position(|&d| d == dof)
+                .expect("contact DOFs are in N");
+            w[i * nc + c] += coeff;
+        }
+    }
+    w
+}
+
+/// The largest static deflection `max_{i∈N} |(K⁻¹ (|f_h| + |f_0|))_i|` of an `N` DOF under
+/// the magnitudes of the harmonic and the constant load (sparse Cholesky of the full `K`).
+/// Fails when `K` is not positive definite (the structure is not held).
+fn static_deflection(system: &System) -> Result<f64> {
+    let llt = system
+        .stiffness
+        .to_faer()
+        .sp_cholesky(faer::Side::Lower)
+        .map_err(|_| {
+            Error::Singular("the stiffness matrix is singular (the structure is not held)".into())
+        })?;
+    let f: Vec<f64> = system
+        .harmonic_load
+        .iter()
+        .zip(&system.constant_load)
+        .map(|(a, b)| a.abs() + b.abs())
+        .collect();
+    let mut rhs = Mat::<f64>::from_fn(f.len(), 1, |i, _| f[i]);
+    llt.solve_in_place(rhs.as_mut());
+    Ok(system
+        .nonlinear_dofs
+        .iter()
+        .fold(0.0f64, |m, &i| m.max(rhs[(i, 0)].abs())))
+}
+
+/// The larger of the largest gap `|g0|` and `static_deflection`; 1 when that is zero or
+/// not finite.
+fn length_scale(system: &System, static_deflection: f64) -> f64 {
+    let gap_scale = system
+        .contacts
+        .iter()
+        .fold(0.0f64, |m, c| m.max(c.gap.abs()));
+    let s = gap_scale.max(static_deflection);
+    if s.is_finite() && s > 0.0 {
+        s
+    } else {
+        1.0
+    }
+}
