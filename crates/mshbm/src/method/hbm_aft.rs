@@ -84,7 +84,10 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{n_dof_coefficients, periodic_solution, SolutionParts};
+use super::{
+    check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution, store_harmonic, zero,
+    SolutionParts,
+};
 use crate::error::{Error, Result};
 use crate::harmonic::{
     add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Sampling,
@@ -265,34 +268,6 @@ pub struct HbmAft {
     frequency: Option<FrequencyData>,
     /// Newton iterations spent by the last [`PeriodicProblem::initial_guess`].
     guess_iterations: usize,
-}
-
-fn zero() -> c64 {
-    c64::new(0.0, 0.0)
-}
-
-/// Complex amplitude `z_k` of harmonic `k` of the harmonic-major vector `x` (`n` DOFs).
-fn complex_harmonic(x: &[f64], n: usize, k: usize) -> Vec<c64> {
-    if k == 0 {
-        x[..n].iter().map(|&v| c64::new(v, 0.0)).collect()
-    } else {
-        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-        (0..n).map(|i| c64::new(x[ci + i], -x[si + i])).collect()
-    }
-}
-
-/// Write the complex amplitude `v` of harmonic `k` into the real vector `out` (`a = Re`,
-/// `b = −Im`; the mean takes the real part).
-fn store_harmonic(v: &[c64], n: usize, k: usize, out: &mut [f64]) {
-    if k == 0 {
-        (0..n).for_each(|i| out[i] = v[i].re);
-    } else {
-        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-        for i in 0..n {
-            out[ci + i] = v[i].re;
-            out[si + i] = -v[i].im;
-        }
-    }
 }
 
 fn mat_vec(a: &Mat<c64>, x: &[c64]) -> Vec<c64> {
@@ -485,16 +460,6 @@ impl HbmAft {
         Ok(())
     }
 
-    fn check_dimension(&self, x: &[f64]) -> Result<()> {
-        if x.len() != self.dimension() {
-            return Err(Error::argument(
-                "x",
-                format!("expected {} unknowns, got {}", self.dimension(), x.len()),
-            ));
-        }
-        Ok(())
-    }
-
     /// The AFT: `q_N(τ_j)`, gaps and penalty forces at every sample.
     fn contact_state(&self, x: &[f64]) -> ContactState {
         let (n, nc, ns) = (self.n(), self.n_contacts(), self.sampling.len());
@@ -539,7 +504,7 @@ impl HbmAft {
         x: &[f64],
         omega: f64,
     ) -> Result<(Vec<f64>, ContactState, Vec<PenaltyGroup>)> {
-        self.check_dimension(x)?;
+        check_dimension(x, self.dimension())?;
         self.prepare(omega)?;
         let f = self.frequency.as_ref().expect("prepared");
         let n = self.n();
@@ -881,7 +846,7 @@ impl HbmAft {
     /// Penetration `max_τ (−g_c(τ))` of each contact over the time signal (the truncated
     /// series `q_N(τ)`, refined between samples); negative when the contact never closes.
     pub fn penetration(&self, x: &[f64]) -> Result<Vec<f64>> {
-        self.check_dimension(x)?;
+        check_dimension(x, self.dimension())?;
         Ok(self
             .gap_coefficients(x)
             .iter()
@@ -892,7 +857,7 @@ impl HbmAft {
     /// Penetration `max_j (−g_c(τ_j))` of each contact over the AFT samples (what the
     /// penalty sees).
     pub fn sample_penetration(&self, x: &[f64]) -> Result<Vec<f64>> {
-        self.check_dimension(x)?;
+        check_dimension(x, self.dimension())?;
         let state = self.contact_state(x);
         let ncon = self.n_contacts();
         Ok((0..ncon)

@@ -5,6 +5,8 @@ pub(crate) mod partition;
 pub mod redistributed;
 pub mod shooting;
 
+use faer::c64;
+
 use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
 use crate::model::System;
@@ -108,4 +110,46 @@ pub(crate) fn n_dof_coefficients(x: &[f64], n: usize, harmonics: usize, i: usize
     (0..n_coefficients(harmonics))
         .map(|c| x[c * n + i])
         .collect()
+}
+
+/// The complex zero.
+pub(crate) fn zero() -> c64 {
+    c64::new(0.0, 0.0)
+}
+
+/// Complex amplitude `z_k = a_k − i b_k` of harmonic `k` of the harmonic-major coefficients
+/// `x` of `n` DOFs (METHODS §0; `z_0 = a_0`).
+pub(crate) fn complex_harmonic(x: &[f64], n: usize, k: usize) -> Vec<c64> {
+    if k == 0 {
+        x[..n].iter().map(|&v| c64::new(v, 0.0)).collect()
+    } else {
+        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+        (0..n).map(|i| c64::new(x[ci + i], -x[si + i])).collect()
+    }
+}
+
+/// Write the complex amplitude `v` of harmonic `k` of `n` DOFs into the harmonic-major real
+/// coefficients `out` (`a = Re`, `b = −Im`; the mean takes the real part), the inverse of
+/// [`complex_harmonic`].
+pub(crate) fn store_harmonic(v: &[c64], n: usize, k: usize, out: &mut [f64]) {
+    if k == 0 {
+        (0..n).for_each(|i| out[i] = v[i].re);
+    } else {
+        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+        for i in 0..n {
+            out[ci + i] = v[i].re;
+            out[si + i] = -v[i].im;
+        }
+    }
+}
+
+/// The unknowns `x` must have the problem's dimension.
+pub(crate) fn check_dimension(x: &[f64], dimension: usize) -> Result<()> {
+    if x.len() != dimension {
+        return Err(Error::argument(
+            "x",
+            format!("expected {dimension} unknowns, got {}", x.len()),
+        ));
+    }
+    Ok(())
 }

@@ -77,7 +77,10 @@ use faer::{c64, Mat};
 use rayon::prelude::*;
 
 use super::partition::{DofLocation, Partition, SingularStiffness};
-use super::{fixed_response, n_dof_coefficients, periodic_solution, SolutionParts};
+use super::{
+    check_dimension, complex_harmonic, fixed_response, n_dof_coefficients, periodic_solution,
+    store_harmonic, zero, SolutionParts,
+};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::integrate::{Integrator, Scheme, Settings};
@@ -187,10 +190,6 @@ fn dyn_times(
     for (i, j, v) in c.iter() {
         y[i] += x[j] * c64::new(0.0, kw * v);
     }
-}
-
-fn zero() -> c64 {
-    c64::new(0.0, 0.0)
 }
 
 /// The general MS-HBM for one model.
@@ -448,13 +447,7 @@ impl GeneralMsHbm {
     }
 
     fn check_x(&self, x: &[f64]) -> Result<()> {
-        if x.len() != self.dimension() {
-            return Err(Error::argument(
-                "unknowns",
-                format!("expected {} values, got {}", self.dimension(), x.len()),
-            ));
-        }
-        Ok(())
+        check_dimension(x, self.dimension())
     }
 
     /// Integrate the nonlinear subsystem over one period (eq. 10) from the state in `x`.
@@ -581,15 +574,7 @@ impl GeneralMsHbm {
         let mut out = Vec::with_capacity(self.harmonics + 1);
         for k in 0..=self.harmonics {
             let kw = k as f64 * fd.omega;
-            let z: Vec<c64> = (0..n)
-                .map(|j| {
-                    if k == 0 {
-                        c64::new(x[j], 0.0)
-                    } else {
-                        c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
-                    }
-                })
-                .collect();
+            let z = complex_harmonic(x, n, k);
             let mut hz = vec![zero(); nlin];
             dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &z, &mut hz);
             let f = self.load_l(k).unwrap_or_else(|| vec![zero(); nlin]);
@@ -678,21 +663,14 @@ impl GeneralMsHbm {
             };
             let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(f[i], 0.0) - fd.u0[k][i]);
             let z = a.partial_piv_lu().solve(&rhs);
-            for i in 0..n {
-                let v = z[(i, 0)];
-                if !(v.re.is_finite() && v.im.is_finite()) {
-                    return Err(Error::Singular(format!(
-                        "the dynamic stiffness is singular at harmonic {k} (k·f = {} Hz is an eigenfrequency; add damping or move the frequency)",
-                        kw / (2.0 * std::f64::consts::PI)
-                    )));
-                }
-                if k == 0 {
-                    x[i] = v.re;
-                } else {
-                    x[(2 * k - 1) * n + i] = v.re;
-                    x[2 * k * n + i] = -v.im;
-                }
+            let z: Vec<c64> = (0..n).map(|i| z[(i, 0)]).collect();
+            if z.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
+                return Err(Error::Singular(format!(
+                    "the dynamic stiffness is singular at harmonic {k} (k·f = {} Hz is an eigenfrequency; add damping or move the frequency)",
+                    kw / (2.0 * std::f64::consts::PI)
+                )));
             }
+            store_harmonic(&z, n, k, &mut x);
         }
         // initial state of the harmonic motion: q(0) = Σ a, q̇(0) = Σ kω b
         for i in 0..n {
@@ -714,12 +692,7 @@ impl GeneralMsHbm {
         let z = self.linear_part_amplitudes(fd, x)?;
         let mut out = vec![0.0; n_coefficients(self.harmonics)];
         for (k, zk) in z.iter().enumerate() {
-            if k == 0 {
-                out[0] = zk[(l, 0)].re;
-            } else {
-                out[2 * k - 1] = zk[(l, 0)].re;
-                out[2 * k] = -zk[(l, 0)].im;
-            }
+            store_harmonic(&[zk[(l, 0)]], 1, k, &mut out);
         }
         Ok(out)
     }

@@ -26,7 +26,10 @@ use std::rc::Rc;
 use faer::{c64, Mat};
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{fixed_response, n_dof_coefficients, periodic_solution, SolutionParts};
+use super::{
+    check_dimension, complex_harmonic, fixed_response, n_dof_coefficients, periodic_solution,
+    store_harmonic, zero, SolutionParts,
+};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
@@ -89,10 +92,6 @@ pub struct RedistributedMsHbm {
 }
 
 type StabilityData = (Mat<f64>, Option<crate::stability::ModalExponential>);
-
-fn zero() -> c64 {
-    c64::new(0.0, 0.0)
-}
 
 impl RedistributedMsHbm {
     /// Set up the method for `model` (mass redistribution, partition, checks).
@@ -235,8 +234,9 @@ impl RedistributedMsHbm {
             let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
             // q̂_L,k = A⁻¹ (f_L,k − K_LN z_k)
             let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
+            let z = complex_harmonic(x, n, k);
             for (l, j, v) in self.k_ln.iter() {
-                rhs[l] -= c64::new(x[ci + j], -x[si + j]) * v;
+                rhs[l] -= z[j] * v;
             }
             let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
             f.factors.solve_in_place(k, &mut q)?;
@@ -292,12 +292,7 @@ impl RedistributedMsHbm {
     }
 
     fn evaluate(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Integration, Vec<f64>)> {
-        if x.len() != self.dimension() {
-            return Err(Error::argument(
-                "x",
-                format!("expected {} unknowns, got {}", self.dimension(), x.len()),
-            ));
-        }
+        check_dimension(x, self.dimension())?;
         self.prepare(omega)?;
         let b = self.load_coefficients(x);
         let integration = integrate(&mut self.contact, &b, &self.sampling, self.quadrature)?;
@@ -434,22 +429,13 @@ impl RedistributedMsHbm {
         let mut out = vec![0.0; n_coefficients(self.harmonics)];
         for k in 0..=self.harmonics {
             let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
+            let z = complex_harmonic(x, n, k);
             for (r, j, v) in self.k_ln.iter() {
-                let z = if k == 0 {
-                    c64::new(x[j], 0.0)
-                } else {
-                    c64::new(x[(2 * k - 1) * n + j], -x[2 * k * n + j])
-                };
-                rhs[r] -= z * v;
+                rhs[r] -= z[j] * v;
             }
             let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
             f.factors.solve_in_place(k, &mut q)?;
-            if k == 0 {
-                out[0] = q[(l, 0)].re;
-            } else {
-                out[2 * k - 1] = q[(l, 0)].re;
-                out[2 * k] = -q[(l, 0)].im;
-            }
+            store_harmonic(&[q[(l, 0)]], 1, k, &mut out);
         }
         Ok(out)
     }
