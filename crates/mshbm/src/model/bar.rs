@@ -13,6 +13,43 @@ use crate::error::{Error, Result};
 use crate::fe::bar1d;
 use crate::model::{Contact, Damping, Model};
 
+/// A finite positive parameter `v` of the model from `source`; the error names `field`.
+pub(super) fn check_positive(source: &Path, field: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::field(
+            source,
+            field,
+            format!("must be positive, got {v}"),
+        ))
+    }
+}
+
+/// The parameters of a uniform bar of two-node elements (eq. 45) as `bar1d::assemble`
+/// needs them: at least two elements, positive length, density, Young's modulus and area;
+/// errors name the `bar.*` field of `source`.
+pub(super) fn check_uniform_bar(
+    source: &Path,
+    elements: usize,
+    length: f64,
+    density: f64,
+    young: f64,
+    area: f64,
+) -> Result<()> {
+    if elements < 2 {
+        return Err(Error::field(
+            source,
+            "bar.elements",
+            format!("must be at least 2, got {elements}"),
+        ));
+    }
+    check_positive(source, "bar.length", length)?;
+    check_positive(source, "bar.density", density)?;
+    check_positive(source, "bar.young", young)?;
+    check_positive(source, "bar.area", area)
+}
+
 /// Which end of the bar is clamped (the contact is at the other end).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -76,28 +113,14 @@ impl BarParameters {
 
     /// Build the model; `source` names the origin in error messages.
     pub fn build(&self, source: &Path) -> Result<Model> {
-        let positive = |field: &str, v: f64| -> Result<()> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(Error::field(
-                    source,
-                    field,
-                    format!("must be positive, got {v}"),
-                ))
-            }
-        };
-        if self.elements < 2 {
-            return Err(Error::field(
-                source,
-                "bar.elements",
-                format!("must be at least 2, got {}", self.elements),
-            ));
-        }
-        positive("bar.length", self.length)?;
-        positive("bar.density", self.density)?;
-        positive("bar.young", self.young)?;
-        positive("bar.area", self.area)?;
+        check_uniform_bar(
+            source,
+            self.elements,
+            self.length,
+            self.density,
+            self.young,
+            self.area,
+        )?;
         if !self.force_amplitude.is_finite() {
             return Err(Error::field(source, "load.amplitude", "must be finite"));
         }

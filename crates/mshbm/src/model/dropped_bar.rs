@@ -18,6 +18,7 @@ use std::path::Path;
 use crate::error::{Error, Result};
 use crate::fe::bar1d;
 use crate::integrate::analytic::DroppedBarSolution;
+use crate::model::bar::{check_positive, check_uniform_bar};
 use crate::model::{Contact, Damping, Model};
 
 /// Parameters of the dropped bar (units are the user's).
@@ -82,29 +83,15 @@ impl DroppedBarParameters {
 
     /// Build the model; `source` names the origin in error messages.
     pub fn build(&self, source: &Path) -> Result<Model> {
-        let positive = |field: &str, v: f64| -> Result<()> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(Error::field(
-                    source,
-                    field,
-                    format!("must be positive, got {v}"),
-                ))
-            }
-        };
-        if self.elements < 2 {
-            return Err(Error::field(
-                source,
-                "bar.elements",
-                format!("must be at least 2, got {}", self.elements),
-            ));
-        }
-        positive("bar.length", self.length)?;
-        positive("bar.density", self.density)?;
-        positive("bar.young", self.young)?;
-        positive("bar.area", self.area)?;
-        positive("drop.gravity", self.gravity)?;
+        check_uniform_bar(
+            source,
+            self.elements,
+            self.length,
+            self.density,
+            self.young,
+            self.area,
+        )?;
+        check_positive(source, "drop.gravity", self.gravity)?;
         if !(self.height.is_finite() && self.height >= 0.0) {
             return Err(Error::field(
                 source,

@@ -158,6 +158,61 @@ impl Model {
         nodes
     }
 
+    /// Check the DOFs and the direction coefficients of a contact (`W`, the gap gradient) or
+    /// of a friction element (the slip direction): at least one DOF, one coefficient per
+    /// DOF, every DOF in range and not a Dirichlet DOF, coefficients finite and not all
+    /// zero. `field` names a field of the element (`field("dofs")`); `element` and
+    /// `direction` name the element and its coefficients in the messages.
+    fn check_direction(
+        &self,
+        dofs: &[usize],
+        w: &[f64],
+        field: impl Fn(&str) -> String,
+        element: &str,
+        direction: &str,
+    ) -> Result<()> {
+        let file = &self.source;
+        let n = self.n_dofs();
+        if dofs.is_empty() {
+            return Err(Error::field(
+                file,
+                field("dofs"),
+                format!("{element} needs at least one DOF"),
+            ));
+        }
+        if dofs.len() != w.len() {
+            return Err(Error::field(
+                file,
+                field("w"),
+                format!("{} coefficients for {} DOFs", w.len(), dofs.len()),
+            ));
+        }
+        for &d in dofs {
+            if d >= n {
+                return Err(Error::field(
+                    file,
+                    field("dofs"),
+                    format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
+                ));
+            }
+            if self.dirichlet.contains(&d) {
+                return Err(Error::field(
+                    file,
+                    field("dofs"),
+                    format!("DOF {d} is also a Dirichlet DOF"),
+                ));
+            }
+        }
+        if w.iter().any(|v| !v.is_finite()) || w.iter().all(|&v| v == 0.0) {
+            return Err(Error::field(
+                file,
+                field("w"),
+                format!("{direction} must be finite and non-zero"),
+            ));
+        }
+        Ok(())
+    }
+
     /// Check the consistency of the model; errors name the field (with the model's source).
     pub fn validate(&self) -> Result<()> {
         let file = &self.source;
@@ -249,86 +304,20 @@ impl Model {
         }
         for (k, c) in self.contacts.iter().enumerate() {
             let field = |f: &str| format!("contacts[{k}].{f}");
-            if c.dofs.is_empty() {
-                return Err(Error::field(
-                    file,
-                    field("dofs"),
-                    "a contact needs at least one DOF",
-                ));
-            }
-            if c.dofs.len() != c.w.len() {
-                return Err(Error::field(
-                    file,
-                    field("w"),
-                    format!("{} coefficients for {} DOFs", c.w.len(), c.dofs.len()),
-                ));
-            }
-            for &d in &c.dofs {
-                if d >= n {
-                    return Err(Error::field(
-                        file,
-                        field("dofs"),
-                        format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
-                    ));
-                }
-                if self.dirichlet.contains(&d) {
-                    return Err(Error::field(
-                        file,
-                        field("dofs"),
-                        format!("DOF {d} is also a Dirichlet DOF"),
-                    ));
-                }
-            }
-            if c.w.iter().any(|v| !v.is_finite()) || c.w.iter().all(|&v| v == 0.0) {
-                return Err(Error::field(
-                    file,
-                    field("w"),
-                    "the gap gradient must be finite and non-zero",
-                ));
-            }
+            self.check_direction(&c.dofs, &c.w, field, "a contact", "the gap gradient")?;
             if !c.gap.is_finite() {
                 return Err(Error::field(file, field("gap"), "must be finite"));
             }
         }
         for (k, f) in self.frictions.iter().enumerate() {
             let field = |x: &str| format!("frictions[{k}].{x}");
-            if f.dofs.is_empty() {
-                return Err(Error::field(
-                    file,
-                    field("dofs"),
-                    "a friction element needs at least one DOF",
-                ));
-            }
-            if f.dofs.len() != f.w.len() {
-                return Err(Error::field(
-                    file,
-                    field("w"),
-                    format!("{} coefficients for {} DOFs", f.w.len(), f.dofs.len()),
-                ));
-            }
-            for &d in &f.dofs {
-                if d >= n {
-                    return Err(Error::field(
-                        file,
-                        field("dofs"),
-                        format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
-                    ));
-                }
-                if self.dirichlet.contains(&d) {
-                    return Err(Error::field(
-                        file,
-                        field("dofs"),
-                        format!("DOF {d} is also a Dirichlet DOF"),
-                    ));
-                }
-            }
-            if f.w.iter().any(|v| !v.is_finite()) || f.w.iter().all(|&v| v == 0.0) {
-                return Err(Error::field(
-                    file,
-                    field("w"),
-                    "the slip direction must be finite and non-zero",
-                ));
-            }
+            self.check_direction(
+                &f.dofs,
+                &f.w,
+                field,
+                "a friction element",
+                "the slip direction",
+            )?;
             if !(f.mu.is_finite() && f.mu >= 0.0) {
                 return Err(Error::field(
                     file,
