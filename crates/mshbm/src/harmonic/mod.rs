@@ -222,8 +222,17 @@ pub fn polynomial_extremum(coef: &[f64], samples: usize, sign: f64) -> f64 {
             (best_tau, best) = (tau, v);
         }
     }
-    let f = |t: f64| sign * evaluate(coef, t);
-    let (mut a, mut d) = (best_tau - step, best_tau + step);
+    let refined = golden_section_max(
+        |t| sign * evaluate(coef, t),
+        best_tau - step,
+        best_tau + step,
+    );
+    sign * best.max(refined)
+}
+
+/// Golden-section search for a maximum of `f` in the bracket `[a, d]` (60 reductions of the
+/// bracket, to `0.618⁶⁰` of its width): the larger of the two final interior values.
+pub(crate) fn golden_section_max(mut f: impl FnMut(f64) -> f64, mut a: f64, mut d: f64) -> f64 {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut b, mut c) = (d - g * (d - a), a + g * (d - a));
     let (mut fb, mut fc) = (f(b), f(c));
@@ -242,7 +251,7 @@ pub fn polynomial_extremum(coef: &[f64], samples: usize, sign: f64) -> f64 {
             fc = f(c);
         }
     }
-    sign * best.max(fb).max(fc)
+    fb.max(fc)
 }
 
 /// Add the exact Gram block of the interval `[a, b]` (`Γ_mc += w_m/(2π) ∫_a^b b_m b_c dτ`,

@@ -31,7 +31,7 @@ use super::{
     store_harmonic, zero, SolutionParts,
 };
 use crate::error::{Error, Result};
-use crate::harmonic::{evaluate, n_coefficients, Sampling};
+use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Sampling};
 use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
@@ -631,25 +631,6 @@ fn refine_extremum(taus: &[f64], values: &[f64], sign: f64, mut f: impl FnMut(f6
             }
         });
     let step = 2.0 * std::f64::consts::PI / n as f64;
-    let (mut a, mut d) = (taus[j] - step, taus[j] + step);
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let mut b = d - g * (d - a);
-    let mut c = a + g * (d - a);
-    let (mut fb, mut fc) = (sign * f(b), sign * f(c));
-    for _ in 0..60 {
-        if fb > fc {
-            d = c;
-            c = b;
-            fc = fb;
-            b = d - g * (d - a);
-            fb = sign * f(b);
-        } else {
-            a = b;
-            b = c;
-            fb = fc;
-            c = a + g * (d - a);
-            fc = sign * f(c);
-        }
-    }
-    sign * best.max(fb).max(fc)
+    let refined = golden_section_max(|t| sign * f(t), taus[j] - step, taus[j] + step);
+    sign * best.max(refined)
 }
