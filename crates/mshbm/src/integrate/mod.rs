@@ -405,6 +405,24 @@ pub struct Integrator {
     n_model_dofs: usize,
 }
 
+/// The parameters of the Moreau–Jean scheme (METHODS §3.1): `θ ∈ [½, 1]` and the Newton
+/// restitution coefficient `e_N ∈ [0, 1]`.
+pub(crate) fn check_moreau_jean(theta: f64, restitution: f64) -> Result<()> {
+    if !(theta.is_finite() && (0.5..=1.0).contains(&theta)) {
+        return Err(Error::argument(
+            "theta",
+            format!("must lie in [0.5, 1], got {theta}"),
+        ));
+    }
+    if !(restitution.is_finite() && (0.0..=1.0).contains(&restitution)) {
+        return Err(Error::argument(
+            "restitution",
+            format!("the restitution coefficient must lie in [0, 1], got {restitution}"),
+        ));
+    }
+    Ok(())
+}
+
 impl Integrator {
     /// Set up the scheme for `system` (factors the iteration matrix once).
     pub fn new(system: &System, settings: &Settings) -> Result<Self> {
@@ -495,20 +513,7 @@ impl Integrator {
         };
         let kernel = match settings.scheme {
             Scheme::MoreauJean { theta, restitution } => {
-                if !(theta.is_finite() && (0.5..=1.0).contains(&theta)) {
-                    return Err(Error::argument(
-                        "theta",
-                        format!("must lie in [0.5, 1], got {theta}"),
-                    ));
-                }
-                if !(restitution.is_finite() && (0.0..=1.0).contains(&restitution)) {
-                    return Err(Error::argument(
-                        "restitution",
-                        format!(
-                            "the restitution coefficient must lie in [0, 1], got {restitution}"
-                        ),
-                    ));
-                }
+                check_moreau_jean(theta, restitution)?;
                 if !data.massless.is_empty() && theta <= 0.5 {
                     return Err(Error::argument(
                         "theta",

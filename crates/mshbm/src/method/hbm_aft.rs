@@ -84,10 +84,8 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{
-    check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution, store_harmonic, zero,
-    SolutionParts,
-};
+use super::{check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution};
+use super::{store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{
     add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Sampling,

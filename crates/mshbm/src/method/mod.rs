@@ -31,6 +31,17 @@ pub(crate) fn check_resolution(harmonics: usize, samples: usize, what: &str) -> 
     Ok(())
 }
 
+/// A default time resolution for `H` harmonics: `max(at_least, per_coefficient (2H + 1))`
+/// samples or steps per period, far above the `2H + 1` needed (METHODS §0: resolve the
+/// nonsmooth time signal, not just the harmonics).
+pub(crate) fn default_resolution(
+    harmonics: usize,
+    per_coefficient: usize,
+    at_least: usize,
+) -> usize {
+    (per_coefficient * n_coefficients(harmonics)).max(at_least)
+}
+
 /// A frequency (rad/s) must be finite and positive; the message is in Hz.
 pub(crate) fn check_frequency(omega: f64) -> Result<()> {
     if omega.is_finite() && omega > 0.0 {

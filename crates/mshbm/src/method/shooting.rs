@@ -77,10 +77,8 @@ use faer::{c64, Mat};
 use rayon::prelude::*;
 
 use super::partition::{DofLocation, Partition, SingularStiffness};
-use super::{
-    check_dimension, complex_harmonic, fixed_response, n_dof_coefficients, periodic_solution,
-    store_harmonic, zero, SolutionParts,
-};
+use super::{check_dimension, complex_harmonic, fixed_response, n_dof_coefficients};
+use super::{periodic_solution, store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::integrate::{Integrator, Scheme, Settings};
@@ -97,7 +95,7 @@ pub const MAX_FLOQUET_DOFS: usize = 1500;
 
 /// Default steps per period for `H` harmonics: `max(512, 32 (2H + 1))`.
 pub fn default_steps(harmonics: usize) -> usize {
-    (32 * n_coefficients(harmonics)).max(512)
+    super::default_resolution(harmonics, 32, 512)
 }
 
 /// Settings of the general MS-HBM.
@@ -223,18 +221,7 @@ impl GeneralMsHbm {
         let h = options.harmonics;
         let steps = options.steps.unwrap_or_else(|| default_steps(h));
         super::check_resolution(h, steps, "steps per period")?;
-        if !(options.theta.is_finite() && (0.5..=1.0).contains(&options.theta)) {
-            return Err(Error::argument(
-                "theta",
-                format!("must lie in [0.5, 1], got {}", options.theta),
-            ));
-        }
-        if !(options.restitution.is_finite() && (0.0..=1.0).contains(&options.restitution)) {
-            return Err(Error::argument(
-                "restitution",
-                format!("must lie in [0, 1], got {}", options.restitution),
-            ));
-        }
+        crate::integrate::check_moreau_jean(options.theta, options.restitution)?;
         if !(options.fd_step.is_finite() && options.fd_step > 0.0 && options.fd_step < 0.1) {
             return Err(Error::argument(
                 "fd_step",

@@ -26,10 +26,8 @@ use std::rc::Rc;
 use faer::{c64, Mat};
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{
-    check_dimension, complex_harmonic, fixed_response, n_dof_coefficients, periodic_solution,
-    store_harmonic, zero, SolutionParts,
-};
+use super::{check_dimension, complex_harmonic, fixed_response, n_dof_coefficients};
+use super::{periodic_solution, store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Sampling};
 use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
@@ -48,7 +46,7 @@ pub const MAX_DENSE_STABILITY_DOFS: usize = 1500;
 /// resolve the kinks of `q_N(t)` (sampled quadrature) and to locate the switching times
 /// (exact quadrature).
 pub fn default_samples(harmonics: usize) -> usize {
-    (16 * n_coefficients(harmonics)).max(256)
+    super::default_resolution(harmonics, 16, 256)
 }
 
 /// Settings of the redistributed MS-HBM.
