@@ -9,19 +9,17 @@ use std::f64::consts::PI;
 
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::integrate::analytic::{BouncingBarSolution, DroppedBarSolution};
-use mshbm::integrate::initial::state_from_harmonics;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
-use mshbm::method::redistributed::quadrature::Quadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::{load_dropped_bar, load_model};
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
 
+use common::{ms_hbm, rayleigh_damped_bar, state_on_orbit};
+
 fn clamped_bar(overrides: &[&str]) -> Model {
-    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    load_model(&common::examples().join("clamped_bar.toml"), &o).unwrap()
+    common::example_model("clamped_bar.toml", overrides)
 }
 
 /// The dropped bar of examples/dropped_bar.toml with its closed form.
@@ -535,48 +533,23 @@ fn many_contacts_are_exactly_complementary() {
     }
 }
 
-/// Rayleigh damping of the paper's bar acting on the L block only (so that C_NN = C_NL = 0,
-/// as the redistributed MS-HBM needs): `C = α M_R + β K_LL` with 1 % modal damping at the
-/// first eigenfrequency ω₁ and at 10 ω₁ (mass-proportional damping alone leaves the high
-/// modes, which every contact excites, ringing; see `mass_proportional_damping_…` below).
-fn rayleigh_damped_bar() -> Model {
-    // 1 % modal damping at ω₁ and at 10 ω₁: alpha on the mass, beta on the linear part's
-    // stiffness only (`damping.beta_linear`, which keeps C_NN = C_NL = 0)
-    let model = clamped_bar(&[]);
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let w1 = mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness).unwrap();
-    let (zeta, w2) = (0.01, 10.0 * w1);
-    let alpha = 2.0 * zeta * w1 * w2 / (w1 + w2);
-    let beta = 2.0 * zeta / (w1 + w2);
-    clamped_bar(&[
-        &format!("damping.alpha={alpha}"),
-        &format!("damping.beta_linear={beta}"),
-    ])
-}
-
-fn ms_hbm(model: &Model, f: f64, harmonics: usize) -> PeriodicSolution {
-    let mut p = RedistributedMsHbm::new(
-        model,
-        &RedistributedOptions {
-            harmonics,
-            samples: None,
-            quadrature: Quadrature::Exact,
-        },
-    )
-    .unwrap();
+/// The redistributed MS-HBM solution at `f` Hz from the linear response.
+fn ms_hbm_solution(model: &Model, f: f64, harmonics: usize) -> PeriodicSolution {
+    let mut p = ms_hbm(model, harmonics);
     let (sol, out) =
         solve_at_frequency(&mut p, 2.0 * PI * f, 100, &NewtonOptions::default()).unwrap();
     assert!(out.converged, "MS-HBM at {f} Hz, H = {harmonics}");
     sol
 }
 
-fn steady(
+/// Position-level Newmark on the redistributed system of `model` forced at `f` Hz, `n`
+/// steps per period, started on the orbit of `start` (or at rest).
+fn forced_integrator(
     model: &Model,
     f: f64,
     n: usize,
-    max_periods: usize,
     start: Option<&PeriodicSolution>,
-) -> SteadyState {
+) -> Integrator {
     let omega = 2.0 * PI * f;
     let system = model.system(MassKind::Redistributed).unwrap();
     let mut it = Integrator::new(
@@ -590,28 +563,34 @@ fn steady(
     )
     .unwrap();
     if let Some(s) = start {
-        let known: Vec<(usize, Vec<f64>)> = s
-            .contacts
-            .iter()
-            .map(|c| (system.system_dof(c.dof).unwrap(), c.coefficients.clone()))
-            .collect();
-        let (q, v) = state_from_harmonics(&system, omega, &known).unwrap();
+        let (q, v) = state_on_orbit(&system, omega, s);
         it.set_state(0.0, &q, &v).unwrap();
     }
-    simulate_to_steady_state(
-        &mut it,
-        omega,
-        &SteadyStateOptions {
-            steps_per_period: n,
-            max_periods,
-            tolerance: 1e-6,
-            harmonics: 10,
-            response_dof: 100,
-        },
-        |_| {},
-        |_, _| {},
-    )
-    .unwrap()
+    it
+}
+
+/// Steady state to 1e-6 within `max_periods` of `n` steps, H = 10, response at the
+/// contact DOF 100.
+fn steady_state_options(n: usize, max_periods: usize) -> SteadyStateOptions {
+    SteadyStateOptions {
+        steps_per_period: n,
+        max_periods,
+        tolerance: 1e-6,
+        harmonics: 10,
+        response_dof: 100,
+    }
+}
+
+fn steady(
+    model: &Model,
+    f: f64,
+    n: usize,
+    max_periods: usize,
+    start: Option<&PeriodicSolution>,
+) -> SteadyState {
+    let mut it = forced_integrator(model, f, n, start);
+    let options = steady_state_options(n, max_periods);
+    simulate_to_steady_state(&mut it, 2.0 * PI * f, &options, |_| {}, |_, _| {}).unwrap()
 }
 
 /// Paper Fig. 9's check: the simulated steady state agrees with `mshbm solve` at H = 10 on
@@ -619,7 +598,7 @@ fn steady(
 /// MS-HBM converges to the simulation as H grows (H = 40: 0.05 %, 1e-4 mm).
 #[test]
 fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
-    let model = rayleigh_damped_bar();
+    let model = rayleigh_damped_bar(100);
     for f in [30e3, 90e3] {
         let ti = steady(&model, f, 1000, 200, None);
         assert!(
@@ -635,7 +614,7 @@ fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
             c.max
         );
         for (h, min_tol, coef_tol) in [(10, 0.01, 1e-3), (40, 5e-4, 1e-4)] {
-            let hb = ms_hbm(&model, f, h);
+            let hb = ms_hbm_solution(&model, f, h);
             let m = &hb.contacts[0];
             let d_min = (c.min - m.min).abs() / m.min.abs();
             let d_coef: Vec<f64> = (0..3)
@@ -664,9 +643,9 @@ fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
 /// `--from-solution` check), and sooner.
 #[test]
 fn starting_from_the_ms_hbm_solution_reaches_the_same_orbit() {
-    let model = rayleigh_damped_bar();
+    let model = rayleigh_damped_bar(100);
     let f = 90e3;
-    let hb = ms_hbm(&model, f, 10);
+    let hb = ms_hbm_solution(&model, f, 10);
     let from_rest = steady(&model, f, 1000, 200, None);
     let from_hb = steady(&model, f, 1000, 200, Some(&hb));
     assert!(from_rest.periodic && from_hb.periodic);
@@ -695,7 +674,7 @@ fn starting_from_the_ms_hbm_solution_reaches_the_same_orbit() {
 fn linear_steady_state_is_the_frequency_response() {
     let model = clamped_bar(&["damping.first_mode_ratio=0.01", "contact.gap=100"]);
     let f = 90e3;
-    let hb = ms_hbm(&model, f, 1);
+    let hb = ms_hbm_solution(&model, f, 1);
     let from_hb = steady(&model, f, 4000, 50, Some(&hb));
     assert!(from_hb.periodic, "change {}", from_hb.period_change);
     assert!(
@@ -724,7 +703,7 @@ fn linear_steady_state_is_the_frequency_response() {
 fn mass_proportional_damping_at_90_khz_is_reported_not_periodic() {
     let model = clamped_bar(&["damping.first_mode_ratio=0.01"]);
     let f = 90e3;
-    let hb = ms_hbm(&model, f, 10);
+    let hb = ms_hbm_solution(&model, f, 10);
     let ti = steady(&model, f, 1000, 150, Some(&hb));
     assert!(!ti.periodic);
     assert!(!ti.solution.converged);
@@ -803,13 +782,7 @@ fn bad_settings_are_errors() {
     assert!(err.to_string().contains("damping"), "{err}");
     // steady state: dt must be the period over the steps
     let mut it = Integrator::new(&system, &ok).unwrap();
-    let opts = SteadyStateOptions {
-        steps_per_period: 100,
-        max_periods: 2,
-        tolerance: 1e-6,
-        harmonics: 10,
-        response_dof: 100,
-    };
+    let opts = steady_state_options(100, 2);
     assert!(simulate_to_steady_state(&mut it, 1e5, &opts, |_| {}, |_, _| {}).is_err());
 }
 
@@ -822,41 +795,15 @@ fn periods_of(
     max_periods: usize,
     start: Option<&PeriodicSolution>,
 ) -> (SteadyState, Vec<(f64, Vec<f64>)>) {
-    let omega = 2.0 * PI * f;
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let mut it = Integrator::new(
-        &system,
-        &Settings {
-            dt: 1.0 / (f * n as f64),
-            scheme: Scheme::PositionNewmark,
-            omega: Some(omega),
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
-    if let Some(s) = start {
-        let known: Vec<(usize, Vec<f64>)> = s
-            .contacts
-            .iter()
-            .map(|c| (system.system_dof(c.dof).unwrap(), c.coefficients.clone()))
-            .collect();
-        let (q, v) = state_from_harmonics(&system, omega, &known).unwrap();
-        it.set_state(0.0, &q, &v).unwrap();
-    }
+    let mut it = forced_integrator(model, f, n, start);
     let cd = it.contact_first_dofs()[0].1;
     let sampling = mshbm::harmonic::Sampling::new(10, n);
     let mut series = vec![it.q()[cd]];
     let mut periods: Vec<(f64, Vec<f64>)> = Vec::new();
     let ti = simulate_to_steady_state(
         &mut it,
-        omega,
-        &SteadyStateOptions {
-            steps_per_period: n,
-            max_periods,
-            tolerance: 1e-6,
-            harmonics: 10,
-            response_dof: 100,
-        },
+        2.0 * PI * f,
+        &steady_state_options(n, max_periods),
         |s| {
             if series.len() == n {
                 let min = series.iter().fold(f64::INFINITY, |m, &x| m.min(x));
@@ -891,19 +838,11 @@ fn survey_steady_state_against_the_ms_hbm() {
             "mass-proportional",
             clamped_bar(&["damping.first_mode_ratio=0.01"]),
         ),
-        ("Rayleigh on L", rayleigh_damped_bar()),
+        ("Rayleigh on L", rayleigh_damped_bar(100)),
     ] {
         for f in [30e3, 45e3, 55e3, 60e3, 65e3, 90e3] {
             let omega = 2.0 * PI * f;
-            let mut p = RedistributedMsHbm::new(
-                &model,
-                &RedistributedOptions {
-                    harmonics: 10,
-                    samples: None,
-                    quadrature: Quadrature::Exact,
-                },
-            )
-            .unwrap();
+            let mut p = ms_hbm(&model, 10);
             let (mut hb, out) =
                 solve_at_frequency(&mut p, omega, 100, &NewtonOptions::default()).unwrap();
             let mut converged = out.converged;
