@@ -13,6 +13,7 @@ use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, Stea
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::{load_dropped_bar, load_model};
+use mshbm::model::System;
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
 
@@ -72,6 +73,21 @@ fn run(model: &Model, kind: MassKind, scheme: Scheme, dt: f64, duration: f64) ->
     })
     .unwrap();
     r
+}
+
+/// The integrator of `system` with step `dt` and `scheme`, forced at `omega` (or free),
+/// its energy counted from zero.
+fn integrator(system: &System, dt: f64, scheme: Scheme, omega: Option<f64>) -> Integrator {
+    Integrator::new(
+        system,
+        &Settings {
+            dt,
+            scheme,
+            omega,
+            energy_offset: 0.0,
+        },
+    )
+    .unwrap()
 }
 
 /// Maximal runs of steps with a positive contact force: `(first index, last index)`.
@@ -363,16 +379,7 @@ fn clamped_bar_released_onto_a_stop_has_period_3l_over_c() {
     let exact = BouncingBarSolution::new(l, c, lift, ea).unwrap();
     let period = exact.period();
     let dt = period / 3000.0;
-    let mut it = Integrator::new(
-        &system,
-        &Settings {
-            dt,
-            scheme: Scheme::PositionNewmark,
-            omega: None,
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
+    let mut it = integrator(&system, dt, Scheme::PositionNewmark, None);
     // u(x) = −a x/L (toward −x, away from the stop at the right end)
     let q: Vec<f64> = system
         .model_dof
@@ -447,16 +454,7 @@ fn undamped_linear_energy_is_conserved() {
         let system = model.system(kind).unwrap();
         let f1 = 60381.0;
         let dt = 1.0 / (f1 * 200.0);
-        let mut it = Integrator::new(
-            &system,
-            &Settings {
-                dt,
-                scheme,
-                omega: None,
-                energy_offset: 0.0,
-            },
-        )
-        .unwrap();
+        let mut it = integrator(&system, dt, scheme, None);
         let q: Vec<f64> = system
             .model_dof
             .iter()
@@ -497,16 +495,7 @@ fn many_contacts_are_exactly_complementary() {
         ),
     ] {
         let system = model.system(kind).unwrap();
-        let mut it = Integrator::new(
-            &system,
-            &Settings {
-                dt: 1.0 / (5.0 * 400.0),
-                scheme,
-                omega: Some(omega),
-                energy_offset: 0.0,
-            },
-        )
-        .unwrap();
+        let mut it = integrator(&system, 1.0 / (5.0 * 400.0), scheme, Some(omega));
         let mut most_closed = 0;
         let mut bad = 0;
         it.run(400 * 6, |s| {
@@ -552,16 +541,12 @@ fn forced_integrator(
 ) -> Integrator {
     let omega = 2.0 * PI * f;
     let system = model.system(MassKind::Redistributed).unwrap();
-    let mut it = Integrator::new(
+    let mut it = integrator(
         &system,
-        &Settings {
-            dt: 1.0 / (f * n as f64),
-            scheme: Scheme::PositionNewmark,
-            omega: Some(omega),
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
+        1.0 / (f * n as f64),
+        Scheme::PositionNewmark,
+        Some(omega),
+    );
     if let Some(s) = start {
         let (q, v) = state_on_orbit(&system, omega, s);
         it.set_state(0.0, &q, &v).unwrap();

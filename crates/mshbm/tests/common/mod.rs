@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
+use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::integrate::initial::state_from_harmonics;
 use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
@@ -68,6 +69,16 @@ pub fn ms_hbm_with(
     quadrature: Quadrature,
     samples: Option<usize>,
 ) -> RedistributedMsHbm {
+    try_ms_hbm(model, harmonics, quadrature, samples).unwrap()
+}
+
+/// Constructing the redistributed MS-HBM, which may refuse the model or the settings.
+pub fn try_ms_hbm(
+    model: &Model,
+    harmonics: usize,
+    quadrature: Quadrature,
+    samples: Option<usize>,
+) -> mshbm::Result<RedistributedMsHbm> {
     RedistributedMsHbm::new(
         model,
         &RedistributedOptions {
@@ -76,7 +87,6 @@ pub fn ms_hbm_with(
             quadrature,
         },
     )
-    .unwrap()
 }
 
 /// A point off the solution `x`: every unknown scaled by `1 + 0.05 sin i`.
@@ -134,6 +144,41 @@ pub fn jacobian_errors(p: &mut impl PeriodicProblem, x: &[f64], omega: f64) -> (
     (jac_rel, w_rel)
 }
 
+/// The analytic Jacobian and ∂R/∂ω of `p` at `x` agree with central differences
+/// ([`jacobian_errors`]) within `tolerance`, relative; `case` names the case on failure.
+pub fn assert_derivatives_match_finite_differences(
+    p: &mut impl PeriodicProblem,
+    x: &[f64],
+    omega: f64,
+    tolerance: f64,
+    case: &str,
+) {
+    let (ej, ew) = jacobian_errors(p, x, omega);
+    assert!(
+        ej < tolerance && ew < tolerance,
+        "{case}: J err {ej:.2e}, dR/dw err {ew:.2e}"
+    );
+}
+
+/// Newton for `p` at `omega` from the linear response (response DOF `dof`) converges, and
+/// the analytic derivatives agree with central differences within `tolerance` at the
+/// solution and at the [`perturbed`] point off it. Returns the solution for the case's own
+/// checks.
+pub fn solve_and_check_derivatives(
+    p: &mut impl PeriodicProblem,
+    omega: f64,
+    dof: usize,
+    tolerance: f64,
+    case: &str,
+) -> PeriodicSolution {
+    let (sol, out) = solve_at_frequency(p, omega, dof, &NewtonOptions::default()).unwrap();
+    assert!(out.converged, "{case}: {:?}", out.reason);
+    for x in [&out.x, &perturbed(&out.x)] {
+        assert_derivatives_match_finite_differences(p, x, omega, tolerance, case);
+    }
+    sol
+}
+
 /// Direct linear frequency response of the full system with `mass` (dense complex solve of
 /// `(K − ω² M + iω C) z = f`, the contact-free reference): harmonic 1 of every free DOF,
 /// and the system's model numbering.
@@ -149,6 +194,21 @@ pub fn direct_linear_response(model: &Model, mass: MassKind, omega: f64) -> (Vec
     let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(s.harmonic_load[i], 0.0));
     let z = a.partial_piv_lu().solve(&rhs);
     (s.model_dof.clone(), (0..n).map(|i| z[(i, 0)]).collect())
+}
+
+/// The response coefficients `c = [a0, a1, b1, a2, …]` are those of the linear response
+/// with harmonic-1 phasor `z` (`a1 = Re z`, `b1 = −Im z`, every other one zero), within
+/// `tolerance·|z|`; `case` names the case on failure.
+pub fn assert_is_linear_response(c: &[f64], z: c64, tolerance: f64, case: &str) {
+    let amp = z.norm();
+    assert!(
+        (c[1] - z.re).abs() <= tolerance * amp && (c[2] + z.im).abs() <= tolerance * amp,
+        "{case}: {c:?} vs {z:?}"
+    );
+    assert!(
+        c[0].abs() <= tolerance * amp && c[3..].iter().all(|v| v.abs() <= tolerance * amp),
+        "{case}: {c:?}"
+    );
 }
 
 /// `(q(0), v(0))` of `system` on the periodic solution `sol` at `omega`, from the harmonics
