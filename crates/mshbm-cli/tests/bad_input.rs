@@ -1,36 +1,9 @@
 //! Bad input gets one clear error line naming the file and the field, a non-zero exit,
 //! and never a panic.
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use assert_cmd::Command;
-
-fn examples() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
-}
-
-/// Run `mshbm args…`, expect failure, return stderr.
-fn fails(args: &[&str]) -> String {
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(
-        !out.status.success(),
-        "expected failure for {args:?}; stderr: {stderr}"
-    );
-    assert!(!stderr.contains("panicked"), "panic for {args:?}: {stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(
-        lines.len(),
-        1,
-        "expected one error line for {args:?}, got: {stderr}"
-    );
-    assert!(lines[0].starts_with("error: "), "{stderr}");
-    stderr
-}
+use common::{example, examples, fails};
 
 /// A general model in a temporary directory, with the bar's matrices unless replaced.
 struct GeneralModel {
@@ -104,7 +77,7 @@ fn unknown_key() {
 
 #[test]
 fn unknown_key_through_set() {
-    let p = examples().join("clamped_bar.toml").display().to_string();
+    let p = example("clamped_bar.toml");
     let err = fails(&["modes", &p, "--set", "contact.gapp=0.1"]);
     assert!(err.contains("gapp"), "{err}");
 }
@@ -213,14 +186,14 @@ fn malformed_matrix_market_line() {
 
 #[test]
 fn count_larger_than_the_number_of_dofs() {
-    let p = examples().join("clamped_bar.toml").display().to_string();
+    let p = example("clamped_bar.toml");
     let err = fails(&["modes", &p, "--count", "500"]);
     assert!(err.contains("count") && err.contains("500"), "{err}");
 }
 
 #[test]
 fn bad_override_syntax() {
-    let p = examples().join("clamped_bar.toml").display().to_string();
+    let p = example("clamped_bar.toml");
     let err = fails(&["modes", &p, "--set", "contact.gap"]);
     assert!(err.contains("key=value"), "{err}");
 }

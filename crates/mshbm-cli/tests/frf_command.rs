@@ -1,53 +1,53 @@
 //! `mshbm frf`: CSV streaming, JSON, plots, several harmonics, and failure reporting.
 
-use std::path::Path;
+mod common;
 
-use assert_cmd::Command;
+use std::path::Path;
+use std::process::Output;
+
+use common::{assert_png, assert_success, example, mshbm, stdout_json, FRD_HEADER};
 
 fn bar() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples/clamped_bar.toml")
-        .display()
-        .to_string()
+    example("clamped_bar.toml")
 }
 
-const HEADER: &str =
-    "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
+/// `mshbm frf` on the paper's bar with 1 % damping of the first mode from `from` to `to`
+/// Hz with `harmonics`, the CSV written to `csv`, and `extra` options.
+fn frf_damped_bar(from: &str, to: &str, harmonics: &str, csv: &Path, extra: &[&str]) -> Output {
+    let (bar, csv) = (bar(), csv.display().to_string());
+    let mut args = vec![
+        "frf",
+        &bar,
+        "--from",
+        from,
+        "--to",
+        to,
+        "--harmonics",
+        harmonics,
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--output",
+        &csv,
+    ];
+    args.extend_from_slice(extra);
+    mshbm(&args)
+}
 
 #[test]
 fn csv_json_and_plot_for_two_branches() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("frd.csv");
     let png = dir.path().join("frd.png");
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args([
-            "frf",
-            &bar(),
-            "--from",
-            "15000",
-            "--to",
-            "25000",
-            "--harmonics",
-            "1,3",
-            "--set",
-            "damping.first_mode_ratio=0.01",
-            "--json",
-        ])
-        .args([
-            "--output",
-            &csv.display().to_string(),
-            "--plot",
-            &png.display().to_string(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let png_arg = png.display().to_string();
+    let out = frf_damped_bar(
+        "15000",
+        "25000",
+        "1,3",
+        &csv,
+        &["--json", "--plot", &png_arg],
     );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    assert_success(&out);
+    let v = stdout_json(&out);
     let branches = v["branches"].as_array().unwrap();
     assert_eq!(branches.len(), 2);
     assert_eq!(branches[0]["harmonics"], 1);
@@ -73,7 +73,7 @@ fn csv_json_and_plot_for_two_branches() {
     );
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next().unwrap(), HEADER);
+    assert_eq!(lines.next().unwrap(), FRD_HEADER);
     let rows: Vec<&str> = lines.collect();
     let points: usize = branches
         .iter()
@@ -86,29 +86,20 @@ fn csv_json_and_plot_for_two_branches() {
             .count(),
         folds.len()
     );
-    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    assert_png(&png);
 }
 
 #[test]
 fn injected_failure_keeps_the_points_and_says_where_it_stopped() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("frd.csv");
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args([
-            "frf",
-            &bar(),
-            "--from",
-            "1000",
-            "--to",
-            "30000",
-            "--harmonics",
-            "3",
-            "--set",
-            "damping.first_mode_ratio=0.01",
-        ])
-        // one corrector iteration and no room to shrink the step: fails where contact starts
-        .args([
+    // one corrector iteration and no room to shrink the step: fails where contact starts
+    let out = frf_damped_bar(
+        "1000",
+        "30000",
+        "3",
+        &csv,
+        &[
             "--max-iterations",
             "1",
             "--step",
@@ -117,10 +108,8 @@ fn injected_failure_keeps_the_points_and_says_where_it_stopped() {
             "0.05",
             "--max-step",
             "0.05",
-        ])
-        .args(["--output", &csv.display().to_string()])
-        .output()
-        .unwrap();
+        ],
+    );
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");
@@ -132,7 +121,7 @@ fn injected_failure_keeps_the_points_and_says_where_it_stopped() {
     );
     let text = std::fs::read_to_string(&csv).unwrap();
     let rows: Vec<&str> = text.lines().collect();
-    assert_eq!(rows[0], HEADER);
+    assert_eq!(rows[0], FRD_HEADER);
     assert!(
         rows.len() > 2,
         "the points found before the failure are kept"
@@ -143,16 +132,14 @@ fn injected_failure_keeps_the_points_and_says_where_it_stopped() {
 
 #[test]
 fn bad_ranges_are_clear_errors() {
-    for args in [
+    let bar = bar();
+    for range in [
         ["--from", "0", "--to", "100"],
         ["--from", "100", "--to", "100"],
     ] {
-        let out = Command::cargo_bin("mshbm")
-            .unwrap()
-            .args(["frf", &bar()])
-            .args(args)
-            .output()
-            .unwrap();
+        let mut args = vec!["frf", bar.as_str()];
+        args.extend(range);
+        let out = mshbm(&args);
         assert!(!out.status.success());
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(
@@ -166,31 +153,9 @@ fn bad_ranges_are_clear_errors() {
 fn stability_columns_are_filled_with_stability() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("frd.csv");
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args([
-            "frf",
-            &bar(),
-            "--from",
-            "20000",
-            "--to",
-            "23000",
-            "--harmonics",
-            "3",
-            "--set",
-            "damping.first_mode_ratio=0.01",
-            "--stability",
-            "--json",
-        ])
-        .args(["--output", &csv.display().to_string()])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let out = frf_damped_bar("20000", "23000", "3", &csv, &["--stability", "--json"]);
+    assert_success(&out);
+    let v = stdout_json(&out);
     let pts = v["branches"][0]["points"].as_array().unwrap();
     for p in pts {
         let stable = p["stable"]

@@ -1,33 +1,12 @@
 //! `--method hbm-aft`: the JSON of `solve`, the Fig. 11 overlay of `frf`, and clear errors
 //! for bad `--penalty`/`--mass` values.
 
-use std::path::Path;
+mod common;
 
-use assert_cmd::Command;
+use common::{assert_png, example, fails, numbers, success_json, FRD_HEADER};
 
 fn gap0() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples/clamped_bar_gap0.toml")
-        .display()
-        .to_string()
-}
-
-fn mshbm(args: &[&str]) -> std::process::Output {
-    Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn one_error_line(out: &std::process::Output) -> String {
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{stderr}");
-    assert!(lines[0].starts_with("error: "), "{stderr}");
-    stderr
+    example("clamped_bar_gap0.toml")
 }
 
 const DAMPED: [&str; 2] = ["--set", "damping.first_mode_ratio=0.01"];
@@ -50,28 +29,14 @@ fn solve_json_reports_the_penalty_solution() {
             "--json",
         ];
         args.extend(DAMPED);
-        let out = mshbm(&args);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+        let v = success_json(&args);
         assert_eq!(v["method"], "hbm-aft");
         assert_eq!(v["quadrature"], "sampled");
         assert_eq!(v["converged"], true);
         assert_eq!(v["contact_dofs"], serde_json::json!([100]));
         let c = &v["contacts"][0];
         let ns = v["samples"].as_u64().unwrap() as usize;
-        let series = |key: &str| -> Vec<f64> {
-            c[key]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|x| x.as_f64().unwrap())
-                .collect()
-        };
-        let (gap, force) = (series("gap"), series("force"));
+        let (gap, force) = (numbers(&c["gap"]), numbers(&c["force"]));
         assert_eq!(gap.len(), ns);
         assert_eq!(c["coefficients"].as_array().unwrap().len(), 11);
         // penalty contact: the gap goes negative where the force acts, force = kp·(−g)
@@ -112,13 +77,7 @@ fn frf_overlays_the_ms_hbm_and_several_penalties() {
     args.extend(DAMPED);
     let (c, p) = (csv.display().to_string(), png.display().to_string());
     args.extend(["--output", &c, "--plot", &p]);
-    let out = mshbm(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let v = success_json(&args);
     let branches = v["branches"].as_array().unwrap();
     let methods: Vec<&str> = branches
         .iter()
@@ -142,11 +101,11 @@ fn frf_overlays_the_ms_hbm_and_several_penalties() {
     let rows: Vec<&str> = text.lines().collect();
     assert_eq!(
         rows[0],
-        "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier,method,penalty,max_penetration"
+        format!("{FRD_HEADER},method,penalty,max_penetration")
     );
     assert!(rows[1..].iter().all(|r| r.split(',').count() == 13));
     assert!(rows.iter().any(|r| r.contains(",hbm-aft,1.000000e6,")));
-    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    assert_png(&png);
 }
 
 #[test]
@@ -169,10 +128,10 @@ fn bad_penalty_and_mass_options_are_one_clear_error_line() {
     ] {
         let mut args = vec!["solve", &g, "--frequency", "60000"];
         args.extend(extra.iter().copied());
-        let err = one_error_line(&mshbm(&args));
+        let err = fails(&args);
         assert!(err.contains(expect), "{extra:?}: {err}");
     }
-    let err = one_error_line(&mshbm(&[
+    let err = fails(&[
         "frf",
         &g,
         "--from",
@@ -180,6 +139,6 @@ fn bad_penalty_and_mass_options_are_one_clear_error_line() {
         "--to",
         "60000",
         "--overlay-mshbm",
-    ]));
+    ]);
     assert!(err.contains("--method hbm-aft"), "{err}");
 }

@@ -1,42 +1,24 @@
 //! `mshbm modes`: JSON shape and values, plots, `--set`.
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use assert_cmd::Command;
+use common::{assert_png, assert_success, example, mshbm, numbers, success_json};
 
-fn examples() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
-}
-
+/// `mshbm modes args… --json`, which must succeed.
 fn modes_json(args: &[&str]) -> serde_json::Value {
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .arg("modes")
-        .args(args)
-        .arg("--json")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("stdout is exactly one JSON object")
+    let mut all = vec!["modes"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    success_json(&all)
 }
 
 #[test]
 fn json_has_the_three_lists_and_the_papers_first_frequency() {
-    let p = examples().join("clamped_bar.toml").display().to_string();
+    let p = example("clamped_bar.toml");
     let v = modes_json(&[&p, "--count", "30"]);
     let obj = v.as_object().unwrap();
     assert_eq!(obj.len(), 3);
-    let get = |k: &str| -> Vec<f64> {
-        v[k].as_array()
-            .unwrap()
-            .iter()
-            .map(|x| x.as_f64().unwrap())
-            .collect()
-    };
+    let get = |k: &str| numbers(&v[k]);
     let (o, r, e) = (
         get("original_hz"),
         get("redistributed_hz"),
@@ -51,19 +33,8 @@ fn json_has_the_three_lists_and_the_papers_first_frequency() {
 
 #[test]
 fn general_model_gives_the_same_json_as_the_bar() {
-    let a = modes_json(&[
-        &examples().join("clamped_bar.toml").display().to_string(),
-        "--count",
-        "10",
-    ]);
-    let b = modes_json(&[
-        &examples()
-            .join("bar_matrices/model.toml")
-            .display()
-            .to_string(),
-        "--count",
-        "10",
-    ]);
+    let a = modes_json(&[&example("clamped_bar.toml"), "--count", "10"]);
+    let b = modes_json(&[&example("bar_matrices/model.toml"), "--count", "10"]);
     for key in ["original_hz", "redistributed_hz"] {
         for (x, y) in a[key]
             .as_array()
@@ -80,33 +51,28 @@ fn general_model_gives_the_same_json_as_the_bar() {
 #[test]
 fn plots_are_written_as_svg_and_png() {
     let dir = tempfile::tempdir().unwrap();
-    let p = examples().join("clamped_bar.toml").display().to_string();
+    let p = example("clamped_bar.toml");
     for name in ["fig8.svg", "fig8.png"] {
         let file = dir.path().join(name);
-        Command::cargo_bin("mshbm")
-            .unwrap()
-            .args([
-                "modes",
-                &p,
-                "--count",
-                "30",
-                "--plot",
-                &file.display().to_string(),
-            ])
-            .assert()
-            .success();
-        let bytes = std::fs::read(&file).unwrap();
+        assert_success(&mshbm(&[
+            "modes",
+            &p,
+            "--count",
+            "30",
+            "--plot",
+            &file.display().to_string(),
+        ]));
         if name.ends_with(".png") {
-            assert_eq!(&bytes[1..4], b"PNG");
+            assert_png(&file);
         } else {
-            assert!(String::from_utf8_lossy(&bytes).contains("<svg"));
+            assert!(String::from_utf8_lossy(&std::fs::read(&file).unwrap()).contains("<svg"));
         }
     }
 }
 
 #[test]
 fn set_overrides_work_on_the_example() {
-    let p = examples().join("clamped_bar.toml").display().to_string();
+    let p = example("clamped_bar.toml");
     let v = modes_json(&[
         &p,
         "--count",

@@ -3,10 +3,13 @@
 //! dropped bar's closed form, the gap), and summary.md covers every figure. The full run
 //! (a few minutes) is not part of the test suite: `mshbm paper`.
 
+mod common;
+
 use std::collections::HashMap;
 use std::path::Path;
+use std::process::Output;
 
-use assert_cmd::Command;
+use common::{command, FRD_HEADER};
 
 /// Table 1 of the paper.
 const DENSITY: f64 = 9e-9;
@@ -54,16 +57,22 @@ impl Csv {
     }
 }
 
+/// `mshbm paper args… --output <dir>`.
+fn paper(args: &[&str], dir: &Path) -> Output {
+    command()
+        .arg("paper")
+        .args(args)
+        .arg("--output")
+        .arg(dir)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn quick_paper_run_writes_every_figure_with_sane_values() {
     let dir = tempfile::tempdir().unwrap();
     let out_dir = dir.path().join("figures");
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(["paper", "--quick", "--output"])
-        .arg(&out_dir)
-        .output()
-        .unwrap();
+    let out = paper(&["--quick"], &out_dir);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     // progress names every part
@@ -144,9 +153,8 @@ fn quick_paper_run_writes_every_figure_with_sane_values() {
     assert!(last("energy_normalized_e0") < 0.99);
 
     // Fig. 9: four branches in the range, never beyond the gap, stability filled
-    let frd_header = "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
     let fig9 = Csv::read(&out_dir.join("fig9_frd.csv"));
-    assert_eq!(fig9.header, frd_header);
+    assert_eq!(fig9.header, FRD_HEADER);
     let mut per_h: HashMap<String, usize> = HashMap::new();
     let (hc, fc, sc) = (
         fig9.column("harmonics"),
@@ -204,7 +212,7 @@ fn quick_paper_run_writes_every_figure_with_sane_values() {
     let fig11 = Csv::read(&out_dir.join("fig11_frd.csv"));
     assert_eq!(
         fig11.header,
-        format!("{frd_header},method,penalty,max_penetration")
+        format!("{FRD_HEADER},method,penalty,max_penetration")
     );
     let (mc, pc, xc) = (
         fig11.column("method"),
@@ -249,21 +257,11 @@ fn quick_paper_run_writes_every_figure_with_sane_values() {
 #[test]
 fn paper_rejects_zero_jobs_and_unknown_formats() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(["paper", "--jobs", "0", "--output"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = paper(&["--jobs", "0"], dir.path());
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("--jobs"), "{stderr}");
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(["paper", "--format", "jpg", "--output"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = paper(&["--format", "jpg"], dir.path());
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("jpg"));
 }
@@ -274,12 +272,7 @@ fn a_failing_figure_does_not_lose_the_others() {
     // written, summary.md says what failed, and the exit status says so at the end
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("fig8_eigenfrequencies.csv")).unwrap();
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(["paper", "--quick", "--format", "svg", "--output"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = paper(&["--quick", "--format", "svg"], dir.path());
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!stderr.contains("panicked"), "{stderr}");

@@ -1,69 +1,22 @@
 //! `mshbm simulate`: the JSON object of a steady state (the same as `mshbm solve --json`),
 //! the CSV and plot outputs, starting from a solution file, and clear errors.
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use assert_cmd::Command;
+use std::path::PathBuf;
+use std::process::Output;
 
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
-}
+use common::{assert_success, example, mshbm, one_error_line, stdout_json, SOLVE_FIELDS};
 
-fn mshbm(args: &[&str]) -> std::process::Output {
-    Command::cargo_bin("mshbm")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn simulate(args: &[&str]) -> std::process::Output {
+fn simulate(args: &[&str]) -> Output {
     let mut all = vec!["simulate"];
     all.extend_from_slice(args);
     mshbm(&all)
 }
 
-fn success(out: &std::process::Output) {
-    assert!(
-        out.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
-fn one_error_line(out: &std::process::Output) -> String {
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{stderr}");
-    assert!(lines[0].starts_with("error: "), "{stderr}");
-    stderr
-}
-
 fn tmp(dir: &tempfile::TempDir, name: &str) -> PathBuf {
     dir.path().join(name)
 }
-
-/// The fields of `mshbm solve --json` (see solve_command.rs).
-const SOLVE_FIELDS: [&str; 12] = [
-    "frequency_hz",
-    "harmonics",
-    "samples",
-    "quadrature",
-    "method",
-    "converged",
-    "iterations",
-    "residual_norm",
-    "time_s",
-    "contact_dofs",
-    "contacts",
-    "response",
-];
 
 /// A run that does not become periodic within its period limit prints the object with
 /// `"periodic": false` and the change, and exits non-zero with one error line.
@@ -84,8 +37,7 @@ fn steady_state_json_has_the_solve_fields_and_says_when_not_periodic() {
     ]);
     let stderr = one_error_line(&out);
     assert!(stderr.contains("did not become periodic"), "{stderr}");
-    let v: serde_json::Value =
-        serde_json::from_slice(&out.stdout).expect("exactly one JSON object");
+    let v = stdout_json(&out);
     for key in SOLVE_FIELDS {
         assert!(v.get(key).is_some(), "missing {key}");
     }
@@ -117,16 +69,16 @@ fn steady_state_json_has_the_solve_fields_and_says_when_not_periodic() {
 fn from_solution_starts_on_the_orbit() {
     let dir = tempfile::tempdir().unwrap();
     let model = example("clamped_bar.toml");
-    let common = [
+    let model_settings = [
         "--set",
         "damping.first_mode_ratio=0.01",
         "--set",
         "contact.gap=100",
     ];
     let mut args = vec!["solve", model.as_str(), "--frequency", "45000", "--json"];
-    args.extend_from_slice(&common);
+    args.extend_from_slice(&model_settings);
     let solved = mshbm(&args);
-    success(&solved);
+    assert_success(&solved);
     let file = tmp(&dir, "solution.json");
     std::fs::write(&file, &solved.stdout).unwrap();
     let mut args = vec![
@@ -140,11 +92,11 @@ fn from_solution_starts_on_the_orbit() {
         "20",
         "--json",
     ];
-    args.extend_from_slice(&common);
+    args.extend_from_slice(&model_settings);
     let out = simulate(&args);
-    success(&out);
-    let s: serde_json::Value = serde_json::from_slice(&solved.stdout).unwrap();
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_success(&out);
+    let s = stdout_json(&solved);
+    let v = stdout_json(&out);
     assert_eq!(v["periodic"], true);
     assert_eq!(v["frequency_hz"], s["frequency_hz"]);
     // from rest this takes hundreds of periods (1 % damping of the first mode)
@@ -170,7 +122,7 @@ fn from_solution_starts_on_the_orbit() {
         "--frequency",
         "46000",
     ];
-    args.extend_from_slice(&common);
+    args.extend_from_slice(&model_settings);
     let stderr = one_error_line(&simulate(&args));
     assert!(stderr.contains("differs"), "{stderr}");
 }
@@ -188,7 +140,7 @@ fn csv_has_a_header_and_one_row_per_step() {
         "--output",
         csv.to_str().unwrap(),
     ]);
-    success(&out);
+    assert_success(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     assert_eq!(
@@ -227,7 +179,7 @@ fn plot_and_text_summary() {
         "--plot",
         svg.to_str().unwrap(),
     ]);
-    success(&out);
+    assert_success(&out);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         stdout.contains("Moreau-Jean (theta = 0.5, e_N = 1)"),
@@ -241,8 +193,8 @@ fn plot_and_text_summary() {
 #[test]
 fn transient_json_summary() {
     let out = simulate(&[&example("dropped_bar.toml"), "--periods", "0.5", "--json"]);
-    success(&out);
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_success(&out);
+    let v = stdout_json(&out);
     assert_eq!(v["steps"], 4000);
     assert_eq!(v["contacts"][0]["min_gap"], 0.0);
     assert!((v["energy_initial"].as_f64().unwrap() - 4.5).abs() < 1e-12);

@@ -1,32 +1,21 @@
 //! `mshbm solve`: the JSON object, CSV and plot outputs, and clear errors.
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use assert_cmd::Command;
+use std::path::PathBuf;
+use std::process::Output;
+
+use common::{assert_success, example, mshbm, one_error_line, stdout_json, SOLVE_FIELDS};
 
 fn bar() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples/clamped_bar.toml")
-        .display()
-        .to_string()
+    example("clamped_bar.toml")
 }
 
-fn run(args: &[&str]) -> std::process::Output {
-    Command::cargo_bin("mshbm")
-        .unwrap()
-        .arg("solve")
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn one_error_line(out: &std::process::Output) -> String {
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{stderr}");
-    stderr
+/// `mshbm solve args…`.
+fn run(args: &[&str]) -> Output {
+    let mut all = vec!["solve"];
+    all.extend_from_slice(args);
+    mshbm(&all)
 }
 
 #[test]
@@ -41,27 +30,9 @@ fn json_object_has_every_field() {
         "damping.first_mode_ratio=0.01",
         "--json",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value =
-        serde_json::from_slice(&out.stdout).expect("exactly one JSON object");
-    for key in [
-        "frequency_hz",
-        "harmonics",
-        "samples",
-        "quadrature",
-        "method",
-        "converged",
-        "iterations",
-        "residual_norm",
-        "time_s",
-        "contact_dofs",
-        "contacts",
-        "response",
-    ] {
+    assert_success(&out);
+    let v = stdout_json(&out);
+    for key in SOLVE_FIELDS {
         assert!(v.get(key).is_some(), "missing {key}");
     }
     assert_eq!(v["method"], "redistributed");
@@ -108,12 +79,8 @@ fn response_of_another_dof_and_outputs() {
         "--plot",
         &svg.display().to_string(),
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_success(&out);
+    let v = stdout_json(&out);
     assert_eq!(v["response"]["dof"], 50);
     assert_eq!(v["samples"], 400);
     assert_eq!(v["quadrature"], "sampled");
@@ -162,7 +129,7 @@ fn non_convergence_is_reported_with_the_solution_and_a_non_zero_exit() {
         err.contains("did not converge") && err.contains("60000"),
         "{err}"
     );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = stdout_json(&out);
     assert_eq!(v["converged"], false);
 }
 

@@ -186,6 +186,16 @@ fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs()
 }
 
+/// The MS-HBM's `(max, min)` at `f` Hz agree with the simulation's within `tolerance`,
+/// relative.
+fn assert_extremes_agree(f: f64, ms_hbm: (f64, f64), simulation: (f64, f64), tolerance: f64) {
+    let ((a_max, a_min), (b_max, b_min)) = (ms_hbm, simulation);
+    assert!(
+        rel(a_max, b_max) < tolerance && rel(a_min, b_min) < tolerance,
+        "{f} Hz: MS-HBM max/min {a_max} {a_min}, simulation {b_max} {b_min}"
+    );
+}
+
 /// Acceptance: the friction oscillator at several frequencies across its resonance — in
 /// stick–slip below and above it, in pure slip at it — with H = 10 agrees with full-system
 /// Moreau–Jean integration run to steady state within 2 % on the friction DOF's max and min;
@@ -229,14 +239,7 @@ fn friction_oscillator_agrees_with_time_integration_across_resonance() {
             a.max, a.min, b.max, b.min, st.periods_simulated
         );
         assert_eq!(a.dof, 2);
-        assert!(
-            rel(a.max, b.max) < 0.02 && rel(a.min, b.min) < 0.02,
-            "{f} Hz: MS-HBM max/min {} {}, simulation {} {}",
-            a.max,
-            a.min,
-            b.max,
-            b.min
-        );
+        assert_extremes_agree(f, (a.max, a.min), (b.max, b.min), 0.02);
     }
     assert!(
         stick_slip >= 3,
@@ -348,14 +351,7 @@ fn bar_with_impacts_agrees_with_time_integration() {
             a.max, a.min, b.max, b.min, st.periods_simulated
         );
         assert_eq!((a.dof, b.dof), (100, 100));
-        assert!(
-            rel(a.max, b.max) < 0.03 && rel(a.min, b.min) < 0.03,
-            "{f} Hz: MS-HBM max/min {} {}, simulation {} {}",
-            a.max,
-            a.min,
-            b.max,
-            b.min
-        );
+        assert_extremes_agree(f, (a.max, a.min), (b.max, b.min), 0.03);
         // the contact is hit, without penetration (position projection), and the force is
         // never negative
         assert!((a.max - 0.2).abs() < 1e-12, "{}", a.max);

@@ -10,34 +10,25 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use mshbm::continuation::arclength::{trace_branch, ContinuationOptions};
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
-use mshbm::method::redistributed::quadrature::Quadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::model::file::load_model;
+use mshbm::method::redistributed::RedistributedMsHbm;
 use mshbm::problem::PeriodicProblem;
 use mshbm::MassKind;
 
+use common::{example_model, ms_hbm, rayleigh_damped_bar, state_on_orbit};
+
 #[test]
 fn linear_limit_multipliers_are_exponentials_of_the_damped_eigenvalues() {
-    let model = load_model(
-        &common::examples().join("clamped_bar.toml"),
+    let model = example_model(
+        "clamped_bar.toml",
         &[
-            "bar.elements=20".into(),
-            "contact.gap=100".into(),
-            "damping.first_mode_ratio=0.01".into(),
+            "bar.elements=20",
+            "contact.gap=100",
+            "damping.first_mode_ratio=0.01",
         ],
-    )
-    .unwrap();
+    );
     let f = 30e3;
     let omega = 2.0 * PI * f;
-    let mut p = RedistributedMsHbm::new(
-        &model,
-        &RedistributedOptions {
-            harmonics: 3,
-            samples: None,
-            quadrature: Quadrature::Exact,
-        },
-    )
-    .unwrap();
+    let mut p = ms_hbm(&model, 3);
     let (_, out) = solve_at_frequency(&mut p, omega, 20, &NewtonOptions::default()).unwrap();
     assert!(out.converged);
     let floquet = p.floquet(&out.x, omega).unwrap().unwrap();
@@ -97,15 +88,7 @@ fn linear_limit_multipliers_are_exponentials_of_the_damped_eigenvalues() {
 fn stability_changes_at_the_folds_of_the_bilinear_oscillator() {
     let model = common::bilinear_oscillator(1.0, 1.0, 3.0, 1.0, 0.1, 0.04);
     for harmonics in [5, 10] {
-        let mut p = RedistributedMsHbm::new(
-            &model,
-            &RedistributedOptions {
-                harmonics,
-                samples: None,
-                quadrature: Quadrature::Exact,
-            },
-        )
-        .unwrap();
+        let mut p = ms_hbm(&model, harmonics);
         let mut options = ContinuationOptions::new(0.5, 2.5);
         options.max_step = 0.01;
         let branch = trace_branch(&mut p, &options, |_, _| Ok(())).unwrap();
@@ -163,11 +146,7 @@ fn stability_changes_at_the_folds_of_the_bilinear_oscillator() {
 /// of the clamped bar with the contact DOF held is a fixed–fixed bar, `f_k = k c/(2L)`.
 #[test]
 fn subspace_iteration_finds_the_fixed_interface_modes() {
-    let model = load_model(
-        &common::examples().join("clamped_bar.toml"),
-        &["bar.elements=400".into()],
-    )
-    .unwrap();
+    let model = example_model("clamped_bar.toml", &["bar.elements=400"]);
     let s = model.system(MassKind::Redistributed).unwrap();
     let l = &s.linear_dofs;
     let (m, k) = (s.mass.submatrix(l, l), s.stiffness.submatrix(l, l));
@@ -218,15 +197,7 @@ fn reduced_basis_multipliers_converge_to_the_full_space() {
     let model = rayleigh_damped_bar(400);
     let f = 30e3;
     let omega = 2.0 * PI * f;
-    let mut p = RedistributedMsHbm::new(
-        &model,
-        &RedistributedOptions {
-            harmonics: 5,
-            samples: None,
-            quadrature: Quadrature::Exact,
-        },
-    )
-    .unwrap();
+    let mut p = ms_hbm(&model, 5);
     let (_, out) = solve_at_frequency(&mut p, omega, 20, &NewtonOptions::default()).unwrap();
     assert!(out.converged);
     p.set_stability_options(StabilityOptions {
@@ -257,25 +228,6 @@ fn reduced_basis_multipliers_converge_to_the_full_space() {
     assert!(*errors.last().unwrap() < 0.12, "{errors:?}");
 }
 
-/// The paper's bar refined to `elements`, 1 % damping at the first mode and at ten times
-/// it (mass-proportional `alpha` plus `beta_linear` on the L-part's stiffness).
-fn rayleigh_damped_bar(elements: usize) -> mshbm::Model {
-    let path = common::examples().join("clamped_bar.toml");
-    let model = load_model(&path, &[format!("bar.elements={elements}")]).unwrap();
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let w1 = mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness).unwrap();
-    let (zeta, w2) = (0.01, 10.0 * w1);
-    load_model(
-        &path,
-        &[
-            format!("bar.elements={elements}"),
-            format!("damping.alpha={}", 2.0 * zeta * w1 * w2 / (w1 + w2)),
-            format!("damping.beta_linear={}", 2.0 * zeta / (w1 + w2)),
-        ],
-    )
-    .unwrap()
-}
-
 /// The numbers behind `ReducedSystem`'s truncation statement (not a check; `--ignored
 /// --nocapture`, about a minute): largest multiplier modulus of the 400-element bar at
 /// 30/60/90 kHz, H = 5, full space against m = 2…398 fixed-interface modes, with
@@ -296,18 +248,10 @@ fn survey_reduced_basis() {
     ] {
         let mut o = vec!["bar.elements=400".to_string()];
         o.extend(extra);
-        let model = load_model(&common::examples().join("clamped_bar.toml"), &o).unwrap();
+        let model = example_model("clamped_bar.toml", &o);
         for f in [30e3, 60e3, 90e3] {
             let omega = 2.0 * PI * f;
-            let mut p = RedistributedMsHbm::new(
-                &model,
-                &RedistributedOptions {
-                    harmonics: 5,
-                    samples: None,
-                    quadrature: Quadrature::Exact,
-                },
-            )
-            .unwrap();
+            let mut p = ms_hbm(&model, 5);
             let (_, out) =
                 solve_at_frequency(&mut p, omega, 20, &NewtonOptions::default()).unwrap();
             println!("{label} {f}: converged {}", out.converged);
@@ -356,11 +300,7 @@ fn survey_reduced_basis() {
 #[test]
 fn simulation_started_on_the_orbit_stays_when_stable_and_leaves_when_unstable() {
     let max_of = |v: &[f64]| v.iter().fold(0.0f64, |m, &x| m.max(x));
-    let mass_proportional = load_model(
-        &common::examples().join("clamped_bar.toml"),
-        &["damping.first_mode_ratio=0.01".into()],
-    )
-    .unwrap();
+    let mass_proportional = example_model("clamped_bar.toml", &["damping.first_mode_ratio=0.01"]);
     let cases = [
         (
             rayleigh_damped_bar(100),
@@ -374,15 +314,7 @@ fn simulation_started_on_the_orbit_stays_when_stable_and_leaves_when_unstable() 
         ),
     ];
     for (model, label, frequencies) in &cases {
-        let mut p = RedistributedMsHbm::new(
-            model,
-            &RedistributedOptions {
-                harmonics: 10,
-                samples: None,
-                quadrature: Quadrature::Exact,
-            },
-        )
-        .unwrap();
+        let mut p = ms_hbm(model, 10);
         for &f in frequencies {
             let omega = 2.0 * PI * f;
             let (_, out) =
@@ -424,18 +356,12 @@ fn deviations(
     steps_per_period: usize,
     periods: usize,
 ) -> (Vec<f64>, Vec<f64>) {
-    use mshbm::integrate::initial::state_from_harmonics;
     use mshbm::integrate::{Integrator, Scheme, Settings};
     let system = model.system(MassKind::Redistributed).unwrap();
     let sol = p
         .solution(x, omega, system.model_dof[system.nonlinear_dofs[0]])
         .unwrap();
-    let known: Vec<(usize, Vec<f64>)> = sol
-        .contacts
-        .iter()
-        .map(|c| (system.system_dof(c.dof).unwrap(), c.coefficients.clone()))
-        .collect();
-    let (q0, v0) = state_from_harmonics(&system, omega, &known).unwrap();
+    let (q0, v0) = state_on_orbit(&system, omega, &sol);
     let c = &sol.contacts[0];
     let amplitude = 0.5 * (c.max - c.min);
     let mut it = Integrator::new(
@@ -478,24 +404,12 @@ fn survey_simulation_from_the_orbit() {
     for (label, model) in [
         (
             "mass-proportional",
-            load_model(
-                &common::examples().join("clamped_bar.toml"),
-                &["damping.first_mode_ratio=0.01".into()],
-            )
-            .unwrap(),
+            example_model("clamped_bar.toml", &["damping.first_mode_ratio=0.01"]),
         ),
         ("Rayleigh", rayleigh_damped_bar(100)),
     ] {
         for h in [3, 10] {
-            let mut p = RedistributedMsHbm::new(
-                &model,
-                &RedistributedOptions {
-                    harmonics: h,
-                    samples: None,
-                    quadrature: Quadrature::Exact,
-                },
-            )
-            .unwrap();
+            let mut p = ms_hbm(&model, h);
             for f in [
                 30e3, 40e3, 45e3, 50e3, 55e3, 58e3, 60e3, 62e3, 65e3, 70e3, 80e3, 90e3,
             ] {
@@ -530,21 +444,9 @@ fn survey_simulation_from_the_orbit() {
 #[test]
 #[ignore]
 fn survey_branch() {
-    let model = load_model(
-        &common::examples().join("clamped_bar.toml"),
-        &["damping.first_mode_ratio=0.01".into()],
-    )
-    .unwrap();
+    let model = example_model("clamped_bar.toml", &["damping.first_mode_ratio=0.01"]);
     for h in [5, 10] {
-        let mut p = RedistributedMsHbm::new(
-            &model,
-            &RedistributedOptions {
-                harmonics: h,
-                samples: None,
-                quadrature: Quadrature::Exact,
-            },
-        )
-        .unwrap();
+        let mut p = ms_hbm(&model, h);
         let t = std::time::Instant::now();
         let options = ContinuationOptions::new(2.0 * PI * 30e3, 2.0 * PI * 95e3);
         let branch = trace_branch(&mut p, &options, |_, _| Ok(())).unwrap();

@@ -9,19 +9,18 @@ use std::f64::consts::PI;
 
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::integrate::analytic::{BouncingBarSolution, DroppedBarSolution};
-use mshbm::integrate::initial::state_from_harmonics;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
-use mshbm::method::redistributed::quadrature::Quadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::{load_dropped_bar, load_model};
+use mshbm::model::System;
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
 
+use common::{ms_hbm, rayleigh_damped_bar, state_on_orbit};
+
 fn clamped_bar(overrides: &[&str]) -> Model {
-    let o: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-    load_model(&common::examples().join("clamped_bar.toml"), &o).unwrap()
+    common::example_model("clamped_bar.toml", overrides)
 }
 
 /// The dropped bar of examples/dropped_bar.toml with its closed form.
@@ -74,6 +73,21 @@ fn run(model: &Model, kind: MassKind, scheme: Scheme, dt: f64, duration: f64) ->
     })
     .unwrap();
     r
+}
+
+/// The integrator of `system` with step `dt` and `scheme`, forced at `omega` (or free),
+/// its energy counted from zero.
+fn integrator(system: &System, dt: f64, scheme: Scheme, omega: Option<f64>) -> Integrator {
+    Integrator::new(
+        system,
+        &Settings {
+            dt,
+            scheme,
+            omega,
+            energy_offset: 0.0,
+        },
+    )
+    .unwrap()
 }
 
 /// Maximal runs of steps with a positive contact force: `(first index, last index)`.
@@ -365,16 +379,7 @@ fn clamped_bar_released_onto_a_stop_has_period_3l_over_c() {
     let exact = BouncingBarSolution::new(l, c, lift, ea).unwrap();
     let period = exact.period();
     let dt = period / 3000.0;
-    let mut it = Integrator::new(
-        &system,
-        &Settings {
-            dt,
-            scheme: Scheme::PositionNewmark,
-            omega: None,
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
+    let mut it = integrator(&system, dt, Scheme::PositionNewmark, None);
     // u(x) = −a x/L (toward −x, away from the stop at the right end)
     let q: Vec<f64> = system
         .model_dof
@@ -449,16 +454,7 @@ fn undamped_linear_energy_is_conserved() {
         let system = model.system(kind).unwrap();
         let f1 = 60381.0;
         let dt = 1.0 / (f1 * 200.0);
-        let mut it = Integrator::new(
-            &system,
-            &Settings {
-                dt,
-                scheme,
-                omega: None,
-                energy_offset: 0.0,
-            },
-        )
-        .unwrap();
+        let mut it = integrator(&system, dt, scheme, None);
         let q: Vec<f64> = system
             .model_dof
             .iter()
@@ -499,16 +495,7 @@ fn many_contacts_are_exactly_complementary() {
         ),
     ] {
         let system = model.system(kind).unwrap();
-        let mut it = Integrator::new(
-            &system,
-            &Settings {
-                dt: 1.0 / (5.0 * 400.0),
-                scheme,
-                omega: Some(omega),
-                energy_offset: 0.0,
-            },
-        )
-        .unwrap();
+        let mut it = integrator(&system, 1.0 / (5.0 * 400.0), scheme, Some(omega));
         let mut most_closed = 0;
         let mut bad = 0;
         it.run(400 * 6, |s| {
@@ -535,39 +522,48 @@ fn many_contacts_are_exactly_complementary() {
     }
 }
 
-/// Rayleigh damping of the paper's bar acting on the L block only (so that C_NN = C_NL = 0,
-/// as the redistributed MS-HBM needs): `C = α M_R + β K_LL` with 1 % modal damping at the
-/// first eigenfrequency ω₁ and at 10 ω₁ (mass-proportional damping alone leaves the high
-/// modes, which every contact excites, ringing; see `mass_proportional_damping_…` below).
-fn rayleigh_damped_bar() -> Model {
-    // 1 % modal damping at ω₁ and at 10 ω₁: alpha on the mass, beta on the linear part's
-    // stiffness only (`damping.beta_linear`, which keeps C_NN = C_NL = 0)
-    let model = clamped_bar(&[]);
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let w1 = mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness).unwrap();
-    let (zeta, w2) = (0.01, 10.0 * w1);
-    let alpha = 2.0 * zeta * w1 * w2 / (w1 + w2);
-    let beta = 2.0 * zeta / (w1 + w2);
-    clamped_bar(&[
-        &format!("damping.alpha={alpha}"),
-        &format!("damping.beta_linear={beta}"),
-    ])
-}
-
-fn ms_hbm(model: &Model, f: f64, harmonics: usize) -> PeriodicSolution {
-    let mut p = RedistributedMsHbm::new(
-        model,
-        &RedistributedOptions {
-            harmonics,
-            samples: None,
-            quadrature: Quadrature::Exact,
-        },
-    )
-    .unwrap();
+/// The redistributed MS-HBM solution at `f` Hz from the linear response.
+fn ms_hbm_solution(model: &Model, f: f64, harmonics: usize) -> PeriodicSolution {
+    let mut p = ms_hbm(model, harmonics);
     let (sol, out) =
         solve_at_frequency(&mut p, 2.0 * PI * f, 100, &NewtonOptions::default()).unwrap();
     assert!(out.converged, "MS-HBM at {f} Hz, H = {harmonics}");
     sol
+}
+
+/// Position-level Newmark on the redistributed system of `model` forced at `f` Hz, `n`
+/// steps per period, started on the orbit of `start` (or at rest).
+fn forced_integrator(
+    model: &Model,
+    f: f64,
+    n: usize,
+    start: Option<&PeriodicSolution>,
+) -> Integrator {
+    let omega = 2.0 * PI * f;
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let mut it = integrator(
+        &system,
+        1.0 / (f * n as f64),
+        Scheme::PositionNewmark,
+        Some(omega),
+    );
+    if let Some(s) = start {
+        let (q, v) = state_on_orbit(&system, omega, s);
+        it.set_state(0.0, &q, &v).unwrap();
+    }
+    it
+}
+
+/// Steady state to 1e-6 within `max_periods` of `n` steps, H = 10, response at the
+/// contact DOF 100.
+fn steady_state_options(n: usize, max_periods: usize) -> SteadyStateOptions {
+    SteadyStateOptions {
+        steps_per_period: n,
+        max_periods,
+        tolerance: 1e-6,
+        harmonics: 10,
+        response_dof: 100,
+    }
 }
 
 fn steady(
@@ -577,41 +573,9 @@ fn steady(
     max_periods: usize,
     start: Option<&PeriodicSolution>,
 ) -> SteadyState {
-    let omega = 2.0 * PI * f;
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let mut it = Integrator::new(
-        &system,
-        &Settings {
-            dt: 1.0 / (f * n as f64),
-            scheme: Scheme::PositionNewmark,
-            omega: Some(omega),
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
-    if let Some(s) = start {
-        let known: Vec<(usize, Vec<f64>)> = s
-            .contacts
-            .iter()
-            .map(|c| (system.system_dof(c.dof).unwrap(), c.coefficients.clone()))
-            .collect();
-        let (q, v) = state_from_harmonics(&system, omega, &known).unwrap();
-        it.set_state(0.0, &q, &v).unwrap();
-    }
-    simulate_to_steady_state(
-        &mut it,
-        omega,
-        &SteadyStateOptions {
-            steps_per_period: n,
-            max_periods,
-            tolerance: 1e-6,
-            harmonics: 10,
-            response_dof: 100,
-        },
-        |_| {},
-        |_, _| {},
-    )
-    .unwrap()
+    let mut it = forced_integrator(model, f, n, start);
+    let options = steady_state_options(n, max_periods);
+    simulate_to_steady_state(&mut it, 2.0 * PI * f, &options, |_| {}, |_, _| {}).unwrap()
 }
 
 /// Paper Fig. 9's check: the simulated steady state agrees with `mshbm solve` at H = 10 on
@@ -619,7 +583,7 @@ fn steady(
 /// MS-HBM converges to the simulation as H grows (H = 40: 0.05 %, 1e-4 mm).
 #[test]
 fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
-    let model = rayleigh_damped_bar();
+    let model = rayleigh_damped_bar(100);
     for f in [30e3, 90e3] {
         let ti = steady(&model, f, 1000, 200, None);
         assert!(
@@ -635,7 +599,7 @@ fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
             c.max
         );
         for (h, min_tol, coef_tol) in [(10, 0.01, 1e-3), (40, 5e-4, 1e-4)] {
-            let hb = ms_hbm(&model, f, h);
+            let hb = ms_hbm_solution(&model, f, h);
             let m = &hb.contacts[0];
             let d_min = (c.min - m.min).abs() / m.min.abs();
             let d_coef: Vec<f64> = (0..3)
@@ -664,9 +628,9 @@ fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
 /// `--from-solution` check), and sooner.
 #[test]
 fn starting_from_the_ms_hbm_solution_reaches_the_same_orbit() {
-    let model = rayleigh_damped_bar();
+    let model = rayleigh_damped_bar(100);
     let f = 90e3;
-    let hb = ms_hbm(&model, f, 10);
+    let hb = ms_hbm_solution(&model, f, 10);
     let from_rest = steady(&model, f, 1000, 200, None);
     let from_hb = steady(&model, f, 1000, 200, Some(&hb));
     assert!(from_rest.periodic && from_hb.periodic);
@@ -695,7 +659,7 @@ fn starting_from_the_ms_hbm_solution_reaches_the_same_orbit() {
 fn linear_steady_state_is_the_frequency_response() {
     let model = clamped_bar(&["damping.first_mode_ratio=0.01", "contact.gap=100"]);
     let f = 90e3;
-    let hb = ms_hbm(&model, f, 1);
+    let hb = ms_hbm_solution(&model, f, 1);
     let from_hb = steady(&model, f, 4000, 50, Some(&hb));
     assert!(from_hb.periodic, "change {}", from_hb.period_change);
     assert!(
@@ -724,7 +688,7 @@ fn linear_steady_state_is_the_frequency_response() {
 fn mass_proportional_damping_at_90_khz_is_reported_not_periodic() {
     let model = clamped_bar(&["damping.first_mode_ratio=0.01"]);
     let f = 90e3;
-    let hb = ms_hbm(&model, f, 10);
+    let hb = ms_hbm_solution(&model, f, 10);
     let ti = steady(&model, f, 1000, 150, Some(&hb));
     assert!(!ti.periodic);
     assert!(!ti.solution.converged);
@@ -803,13 +767,7 @@ fn bad_settings_are_errors() {
     assert!(err.to_string().contains("damping"), "{err}");
     // steady state: dt must be the period over the steps
     let mut it = Integrator::new(&system, &ok).unwrap();
-    let opts = SteadyStateOptions {
-        steps_per_period: 100,
-        max_periods: 2,
-        tolerance: 1e-6,
-        harmonics: 10,
-        response_dof: 100,
-    };
+    let opts = steady_state_options(100, 2);
     assert!(simulate_to_steady_state(&mut it, 1e5, &opts, |_| {}, |_, _| {}).is_err());
 }
 
@@ -822,41 +780,15 @@ fn periods_of(
     max_periods: usize,
     start: Option<&PeriodicSolution>,
 ) -> (SteadyState, Vec<(f64, Vec<f64>)>) {
-    let omega = 2.0 * PI * f;
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let mut it = Integrator::new(
-        &system,
-        &Settings {
-            dt: 1.0 / (f * n as f64),
-            scheme: Scheme::PositionNewmark,
-            omega: Some(omega),
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
-    if let Some(s) = start {
-        let known: Vec<(usize, Vec<f64>)> = s
-            .contacts
-            .iter()
-            .map(|c| (system.system_dof(c.dof).unwrap(), c.coefficients.clone()))
-            .collect();
-        let (q, v) = state_from_harmonics(&system, omega, &known).unwrap();
-        it.set_state(0.0, &q, &v).unwrap();
-    }
+    let mut it = forced_integrator(model, f, n, start);
     let cd = it.contact_first_dofs()[0].1;
     let sampling = mshbm::harmonic::Sampling::new(10, n);
     let mut series = vec![it.q()[cd]];
     let mut periods: Vec<(f64, Vec<f64>)> = Vec::new();
     let ti = simulate_to_steady_state(
         &mut it,
-        omega,
-        &SteadyStateOptions {
-            steps_per_period: n,
-            max_periods,
-            tolerance: 1e-6,
-            harmonics: 10,
-            response_dof: 100,
-        },
+        2.0 * PI * f,
+        &steady_state_options(n, max_periods),
         |s| {
             if series.len() == n {
                 let min = series.iter().fold(f64::INFINITY, |m, &x| m.min(x));
@@ -891,19 +823,11 @@ fn survey_steady_state_against_the_ms_hbm() {
             "mass-proportional",
             clamped_bar(&["damping.first_mode_ratio=0.01"]),
         ),
-        ("Rayleigh on L", rayleigh_damped_bar()),
+        ("Rayleigh on L", rayleigh_damped_bar(100)),
     ] {
         for f in [30e3, 45e3, 55e3, 60e3, 65e3, 90e3] {
             let omega = 2.0 * PI * f;
-            let mut p = RedistributedMsHbm::new(
-                &model,
-                &RedistributedOptions {
-                    harmonics: 10,
-                    samples: None,
-                    quadrature: Quadrature::Exact,
-                },
-            )
-            .unwrap();
+            let mut p = ms_hbm(&model, 10);
             let (mut hb, out) =
                 solve_at_frequency(&mut p, omega, 100, &NewtonOptions::default()).unwrap();
             let mut converged = out.converged;

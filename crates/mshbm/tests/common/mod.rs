@@ -1,13 +1,225 @@
-//! Test models shared by the integration tests.
+//! Test models and reference checks shared by the integration tests.
 #![allow(dead_code)]
 
+use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
-use mshbm::model::{Contact, Damping, Model};
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
+use mshbm::integrate::initial::state_from_harmonics;
+use mshbm::method::redistributed::quadrature::Quadrature;
+use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use mshbm::model::file::load_model;
+use mshbm::model::{Contact, Damping, Model, System};
+use mshbm::problem::PeriodicProblem;
+use mshbm::solution::PeriodicSolution;
 use mshbm::sparse::SparseMatrix;
+use mshbm::MassKind;
 
 pub fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+/// `examples/<file>` with the `--set`-style `overrides` (`key=value`).
+pub fn example_model<S: AsRef<str>>(file: &str, overrides: &[S]) -> Model {
+    let o: Vec<String> = overrides.iter().map(|s| s.as_ref().to_string()).collect();
+    load_model(&examples().join(file), &o).unwrap()
+}
+
+/// The paper's bar (examples/clamped_bar.toml) refined to `elements`, with Rayleigh
+/// damping acting on the L block only (so that C_NN = C_NL = 0, as the redistributed
+/// MS-HBM needs): `C = α M_R + β K_LL` (`damping.alpha`, `damping.beta_linear`) with 1 %
+/// modal damping at the first eigenfrequency ω₁ and at 10 ω₁.
+pub fn rayleigh_damped_bar(elements: usize) -> Model {
+    let refined = format!("bar.elements={elements}");
+    let model = example_model("clamped_bar.toml", &[&refined]);
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let w1 = mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness).unwrap();
+    let (zeta, w2) = (0.01, 10.0 * w1);
+    example_model(
+        "clamped_bar.toml",
+        &[
+            refined,
+            format!("damping.alpha={}", 2.0 * zeta * w1 * w2 / (w1 + w2)),
+            format!("damping.beta_linear={}", 2.0 * zeta / (w1 + w2)),
+        ],
+    )
+}
+
+/// Angular frequency (rad/s) of `f` Hz.
+pub fn hz(f: f64) -> f64 {
+    2.0 * PI * f
+}
+
+pub fn max_abs(v: impl IntoIterator<Item = f64>) -> f64 {
+    v.into_iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// The redistributed MS-HBM (paper Sections 3.1–3.2) with the exact quadrature and the
+/// default samples.
+pub fn ms_hbm(model: &Model, harmonics: usize) -> RedistributedMsHbm {
+    ms_hbm_with(model, harmonics, Quadrature::Exact, None)
+}
+
+/// The redistributed MS-HBM with the given quadrature and samples.
+pub fn ms_hbm_with(
+    model: &Model,
+    harmonics: usize,
+    quadrature: Quadrature,
+    samples: Option<usize>,
+) -> RedistributedMsHbm {
+    try_ms_hbm(model, harmonics, quadrature, samples).unwrap()
+}
+
+/// Constructing the redistributed MS-HBM, which may refuse the model or the settings.
+pub fn try_ms_hbm(
+    model: &Model,
+    harmonics: usize,
+    quadrature: Quadrature,
+    samples: Option<usize>,
+) -> mshbm::Result<RedistributedMsHbm> {
+    RedistributedMsHbm::new(
+        model,
+        &RedistributedOptions {
+            harmonics,
+            samples,
+            quadrature,
+        },
+    )
+}
+
+/// A point off the solution `x`: every unknown scaled by `1 + 0.05 sin i`.
+pub fn perturbed(x: &[f64]) -> Vec<f64> {
+    x.iter()
+        .enumerate()
+        .map(|(i, v)| v * (1.0 + 0.05 * (i as f64).sin()))
+        .collect()
+}
+
+/// Max relative deviation of the analytic Jacobian and ∂R/∂ω from central differences.
+pub fn jacobian_errors(p: &mut impl PeriodicProblem, x: &[f64], omega: f64) -> (f64, f64) {
+    let lin = p.linearize(x, omega).unwrap();
+    let n = x.len();
+    let h = 1e-7 * p.length_scale();
+    let mut fd = Mat::<f64>::zeros(n, n);
+    for j in 0..n {
+        let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+        xp[j] += h;
+        xm[j] -= h;
+        let (rp, rm) = (
+            p.residual(&xp, omega).unwrap(),
+            p.residual(&xm, omega).unwrap(),
+        );
+        for i in 0..n {
+            fd[(i, j)] = (rp[i] - rm[i]) / (2.0 * h);
+        }
+    }
+    let entries = |m: &Mat<f64>| -> Vec<f64> {
+        (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .map(|(i, j)| m[(i, j)])
+            .collect()
+    };
+    let jac_err = max_abs(
+        entries(&fd)
+            .iter()
+            .zip(entries(&lin.jacobian))
+            .map(|(a, b)| a - b),
+    );
+    let jac_rel = jac_err / max_abs(entries(&fd));
+    // |ω ∂R/∂ω| ≪ |R|, so small steps drown in round-off and large ones see the kinks of
+    // the switching times: take the best of a few steps
+    let mut w_rel = f64::INFINITY;
+    for rel in [1e-4, 1e-5, 1e-6, 1e-7] {
+        let hw = rel * omega;
+        let (rp, rm) = (
+            p.residual(x, omega + hw).unwrap(),
+            p.residual(x, omega - hw).unwrap(),
+        );
+        let fd_w: Vec<f64> = (0..n).map(|i| (rp[i] - rm[i]) / (2.0 * hw)).collect();
+        let err = max_abs(fd_w.iter().zip(&lin.d_omega).map(|(a, b)| a - b));
+        w_rel = w_rel.min(err / max_abs(fd_w.iter().copied()));
+    }
+    (jac_rel, w_rel)
+}
+
+/// The analytic Jacobian and ∂R/∂ω of `p` at `x` agree with central differences
+/// ([`jacobian_errors`]) within `tolerance`, relative; `case` names the case on failure.
+pub fn assert_derivatives_match_finite_differences(
+    p: &mut impl PeriodicProblem,
+    x: &[f64],
+    omega: f64,
+    tolerance: f64,
+    case: &str,
+) {
+    let (ej, ew) = jacobian_errors(p, x, omega);
+    assert!(
+        ej < tolerance && ew < tolerance,
+        "{case}: J err {ej:.2e}, dR/dw err {ew:.2e}"
+    );
+}
+
+/// Newton for `p` at `omega` from the linear response (response DOF `dof`) converges, and
+/// the analytic derivatives agree with central differences within `tolerance` at the
+/// solution and at the [`perturbed`] point off it. Returns the solution for the case's own
+/// checks.
+pub fn solve_and_check_derivatives(
+    p: &mut impl PeriodicProblem,
+    omega: f64,
+    dof: usize,
+    tolerance: f64,
+    case: &str,
+) -> PeriodicSolution {
+    let (sol, out) = solve_at_frequency(p, omega, dof, &NewtonOptions::default()).unwrap();
+    assert!(out.converged, "{case}: {:?}", out.reason);
+    for x in [&out.x, &perturbed(&out.x)] {
+        assert_derivatives_match_finite_differences(p, x, omega, tolerance, case);
+    }
+    sol
+}
+
+/// Direct linear frequency response of the full system with `mass` (dense complex solve of
+/// `(K − ω² M + iω C) z = f`, the contact-free reference): harmonic 1 of every free DOF,
+/// and the system's model numbering.
+pub fn direct_linear_response(model: &Model, mass: MassKind, omega: f64) -> (Vec<usize>, Vec<c64>) {
+    let s = model.system(mass).unwrap();
+    let n = s.n_dofs();
+    let a = Mat::<c64>::from_fn(n, n, |i, j| {
+        c64::new(
+            s.stiffness.get(i, j) - omega * omega * s.mass.get(i, j),
+            omega * s.damping.get(i, j),
+        )
+    });
+    let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(s.harmonic_load[i], 0.0));
+    let z = a.partial_piv_lu().solve(&rhs);
+    (s.model_dof.clone(), (0..n).map(|i| z[(i, 0)]).collect())
+}
+
+/// The response coefficients `c = [a0, a1, b1, a2, …]` are those of the linear response
+/// with harmonic-1 phasor `z` (`a1 = Re z`, `b1 = −Im z`, every other one zero), within
+/// `tolerance·|z|`; `case` names the case on failure.
+pub fn assert_is_linear_response(c: &[f64], z: c64, tolerance: f64, case: &str) {
+    let amp = z.norm();
+    assert!(
+        (c[1] - z.re).abs() <= tolerance * amp && (c[2] + z.im).abs() <= tolerance * amp,
+        "{case}: {c:?} vs {z:?}"
+    );
+    assert!(
+        c[0].abs() <= tolerance * amp && c[3..].iter().all(|v| v.abs() <= tolerance * amp),
+        "{case}: {c:?}"
+    );
+}
+
+/// `(q(0), v(0))` of `system` on the periodic solution `sol` at `omega`, from the harmonics
+/// of its contact DOFs.
+pub fn state_on_orbit(system: &System, omega: f64, sol: &PeriodicSolution) -> (Vec<f64>, Vec<f64>) {
+    let known: Vec<(usize, Vec<f64>)> = sol
+        .contacts
+        .iter()
+        .map(|c| (system.system_dof(c.dof).unwrap(), c.coefficients.clone()))
+        .collect();
+    state_from_harmonics(system, omega, &known).unwrap()
 }
 
 /// The lattice lives in the library so that the benchmarks can use it too.
