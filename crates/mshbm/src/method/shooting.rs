@@ -54,8 +54,9 @@
 //!   positions and Newton ends in the solution's affine piece (finite termination): 60 kHz
 //!   converges to 3e-13 in 28 iterations, 90 kHz to 1e-13 in 6.
 //! * With the velocity unknowns in m/s instead of `q̇/ω`, the continuation's scaled
-//!   arclength was dominated by them: 5000 points advanced 85 → 85.2 kHz. Now 85–95 kHz
-//!   (H = 5) takes 234 points.
+//!   arclength was dominated by them: 5000 points advanced 85 → 85.2 kHz. (With them as
+//!   `q̇/ω`, 85–95 kHz took 234 points before the continuation refused far-travelling
+//!   correctors; see the last item.)
 //! * What remains: after a release the contact DOF rings at the local frequency of the
 //!   N-subsystem, `√(K_NN/M_NN)/2π` ≈ 6.7 MHz for the bar (above `Hω` the harmonically
 //!   truncated L DOFs act as clamped), i.e. 4.6 steps per local period at 30 kHz. The
@@ -66,7 +67,29 @@
 //!   stops at such corners near 22.8 and 29.5 kHz; at 45 and 75 kHz Newton from the
 //!   linear response stalls at 4e-2 and 2e-2 (continuation from a converged neighbour is
 //!   the fallback). A finer step does not cure it (4096 steps: 1e-4 at 30 kHz); resolving
-//!   the local mode would need ≈ 20 steps per local period.
+//!   the local mode would need ≈ 20 steps per local period. Neither θ = 0.55/0.6
+//!   (numerical damping of the ringing) nor a larger finite-difference step (1e-4…1e-2)
+//!   lowers the 30 kHz stall (measured: 2.5e-5…5.7e-3); `fd_step` 1e-3 does converge at
+//!   75 kHz from the linear response (22 iterations, min −2.074 mm against −2.042 mm of a
+//!   full-system simulation) where 1e-6 stalls at 1.6e-2. At 45 kHz the full-system
+//!   simulation settles to a period-3 response: there is no stable `T`-periodic solution
+//!   to converge to.
+//! * **Frequency response diagrams** (`frf --method mshbm`) trace only short pieces. The
+//!   discrete period map is piecewise affine with pieces at the scale of one time step
+//!   (each switch of stick/slip or contact status moving by one step is a new piece), so
+//!   a branch is a staircase of corners ≈ 1e-7 apart in the continuation's scaled
+//!   arclength, and the Newton noise of a converged point is of the same size (one more
+//!   correction moves it by 2.6e-8 at the 86.17 kHz fold of the bar). The continuation
+//!   (built for the smooth residual of the redistributed method) refuses correctors that
+//!   travel more than half the step, so where the step shrinks to that scale it stops.
+//!   Measured (H = 5, bar with impacts, default settings): 1 → 100 kHz stops at 14.89 kHz,
+//!   85 → 95 kHz at the fold at 86.17 kHz, 60 → 100 kHz at 62.81 kHz; the friction
+//!   oscillator 2 → 40 Hz (H = 10) at 2.409 Hz, where each accepted point meets a 39°
+//!   corner. Tried and rejected (it made other ranges worse or crawled: 6789 points within
+//!   3e-5 Hz): a travel allowance from the point's estimated error or a fixed floor, and
+//!   corner escapes that accept backward turns. What would cure it is a residual that is
+//!   smooth between events — switching times located inside the step (event-driven
+//!   integration of the N-subsystem) instead of on the step grid.
 //! * Cost: every Newton iteration integrates the N-subsystem `dim + 2` times; each
 //!   residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
 //!   the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
