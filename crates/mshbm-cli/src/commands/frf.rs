@@ -136,6 +136,9 @@ pub struct BranchReport {
     /// "reached end", or why the branch stopped.
     pub stop: String,
     pub completed: bool,
+    /// Points found by stepping in frequency where the arclength step failed (general
+    /// MS-HBM only): a fold between two of them would be jumped over.
+    pub frequency_steps: usize,
 }
 
 #[derive(Debug, Serialize)]
@@ -334,6 +337,8 @@ pub fn trace(
         // quadratic, so the corrector's contraction is not a sign of a jump
         options.max_contraction = f64::INFINITY;
     }
+    // the general MS-HBM's branches are staircases of step-wide corners (method::shooting)
+    options.frequency_stepping = variant.method == Method::Mshbm;
 
     let mut points = Vec::new();
     let mut row_error: Option<anyhow::Error> = None;
@@ -425,6 +430,7 @@ pub fn trace(
         points,
         stop: stop_text(&branch.stop, args.to_hz),
         completed: branch.stop.is_success(),
+        frequency_steps: branch.frequency_steps,
     };
     Ok((report, branch))
 }
@@ -572,8 +578,14 @@ pub fn run(args: &FrfArgs) -> Result<()> {
             if !args.json {
                 let nfolds = found.folds.len() - before;
                 let iterations: usize = report.points.iter().map(|p| p.newton_iterations).sum();
+                let stepped = match report.frequency_steps {
+                    0 => String::new(),
+                    n => format!(
+                        " ({n} of them by stepping in frequency past corners of the branch, where a fold would be jumped over)"
+                    ),
+                };
                 eprintln!(
-                    "{}: {} points, {iterations} Newton iterations, {nfolds} folds, {}",
+                    "{}: {} points{stepped}, {iterations} Newton iterations, {nfolds} folds, {}",
                     report.label,
                     report.points.len(),
                     report.stop

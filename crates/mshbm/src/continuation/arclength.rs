@@ -55,6 +55,15 @@ pub struct ContinuationOptions {
     /// branch). Methods whose Newton is not quadratic (finite-difference Jacobians, stiff
     /// penalties) need `f64::INFINITY` (no check).
     pub max_contraction: f64,
+    /// Where the arclength step fails (below `min_step`, no corner escape), step in
+    /// frequency instead: Newton at `ω e^{±Δ}` from the last point, `Δ` a quarter, a
+    /// sixteenth, a sixty-fourth of `max_frequency_step` (default `false`). For residuals
+    /// whose branches are staircases of tiny corners — the general MS-HBM, whose time-stepped
+    /// residual is piecewise affine with pieces one time step wide — where Newton at a fixed
+    /// frequency converges but the arclength corrector cannot follow the corners. Such a
+    /// step cannot turn at a fold: past one it lands on whatever solution Newton finds (a
+    /// jump, as in a sweep experiment). [`Branch::frequency_steps`] counts them.
+    pub frequency_stepping: bool,
     /// Safety limit on the number of points.
     pub max_points: usize,
 }
@@ -76,6 +85,7 @@ impl ContinuationOptions {
             },
             max_frequency_step: (omega_end / omega_start).ln().abs() / 50.0,
             max_contraction: 0.5,
+            frequency_stepping: false,
             max_points: 20_000,
         }
     }
@@ -150,6 +160,8 @@ pub struct Branch {
     pub points: Vec<BranchPoint>,
     pub folds: Vec<Fold>,
     pub stop: StopReason,
+    /// Points found by stepping in frequency ([`ContinuationOptions::frequency_stepping`]).
+    pub frequency_steps: usize,
 }
 
 fn max_abs(v: &[f64]) -> f64 {
@@ -348,6 +360,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         points: Vec::new(),
         folds: Vec::new(),
         stop: StopReason::ReachedEnd,
+        frequency_steps: 0,
     };
     // first point: Newton at the start frequency
     let x0 = problem.initial_guess(w0)?;
@@ -453,12 +466,20 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         };
         let Some(point) = accepted else {
             ds *= 0.5;
-            if ds < options.min_step {
+            // with frequency stepping, steps below the staircase scale are not tried
+            // (each failed corrector of a finite-difference method costs dozens of
+            // residual evaluations) and neither are corner escapes
+            let smallest = if options.frequency_stepping {
+                options.min_step.max(FREQUENCY_STEPPING_MIN_STEP)
+            } else {
+                options.min_step
+            };
+            if ds < smallest {
                 // a corner of the branch (grazing): look for the outgoing piece on small
                 // spheres around the last point
                 // (at most once in a row: a branch that needs it again straight away is
                 // stuck, not at a corner)
-                let escaped = if last_escaped {
+                let escaped = if last_escaped || options.frequency_stepping {
                     None
                 } else {
                     escape_corner(problem, &sc, &last, options)?
@@ -479,6 +500,24 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                     ds = options.min_step.max(1e-6);
                     on_event(problem, Event::Point(&point))?;
                     branch.points.push(point);
+                    continue;
+                }
+                let stepped = if options.frequency_stepping {
+                    step_in_frequency(problem, &sc, &last, direction, options)?
+                } else {
+                    None
+                };
+                if let Some(point) = stepped {
+                    branch.frequency_steps += 1;
+                    last_escaped = false;
+                    ds = options.initial_step;
+                    let omega = point.omega;
+                    on_event(problem, Event::Point(&point))?;
+                    branch.points.push(point);
+                    if omega == w1 {
+                        branch.stop = StopReason::ReachedEnd;
+                        return Ok(branch);
+                    }
                     continue;
                 }
                 branch.stop = StopReason::StepTooSmall {
@@ -536,6 +575,68 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
             return Ok(branch);
         }
     }
+}
+
+/// Smallest arclength step tried before stepping in frequency
+/// ([`ContinuationOptions::frequency_stepping`]): well above the corners of the general
+/// MS-HBM's staircase branches (≈ 1e-7 apart in scaled units, `method::shooting`).
+const FREQUENCY_STEPPING_MIN_STEP: f64 = 1e-4;
+
+/// Newton at a fixed frequency a little ahead of `last` (see
+/// [`ContinuationOptions::frequency_stepping`]); the end frequency is not stepped over.
+fn step_in_frequency<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    sc: &Scaling,
+    last: &BranchPoint,
+    direction: f64,
+    options: &ContinuationOptions,
+) -> Result<Option<BranchPoint>> {
+    let largest = if options.max_frequency_step > 0.0 {
+        options.max_frequency_step
+    } else {
+        1e-3
+    };
+    let start = sc.to_scaled(&last.x, last.omega);
+    for fraction in [0.25, 1.0 / 16.0, 1.0 / 64.0] {
+        let mut omega = last.omega * (direction * fraction * largest).exp();
+        if (omega - options.omega_end) * direction > 0.0 {
+            omega = options.omega_end;
+        }
+        let newton = NewtonOptions {
+            max_iterations: options.newton.max_iterations.max(50),
+            ..options.newton.clone()
+        };
+        let outcome = match crate::continuation::newton::solve(problem, &last.x, omega, &newton) {
+            Ok(o) => o,
+            Err(Error::Singular(_) | Error::Numerical(_)) => continue,
+            Err(e) => return Err(e),
+        };
+        if !outcome.converged {
+            continue;
+        }
+        let secant: Vec<f64> = sc
+            .to_scaled(&outcome.x, omega)
+            .iter()
+            .zip(&start)
+            .map(|(a, b)| a - b)
+            .collect();
+        let step = dot(&secant, &secant).sqrt();
+        // bordered with the secant: near a corner the last tangent may be almost
+        // orthogonal to the branch
+        let border = normalized(secant.clone());
+        let Ok(t) = tangent(problem, sc, &outcome.x, omega, &border, &secant) else {
+            continue;
+        };
+        return Ok(Some(BranchPoint {
+            x: outcome.x,
+            omega,
+            tangent: t,
+            iterations: outcome.iterations,
+            residual_norm: outcome.residual_norm,
+            step,
+        }));
+    }
+    Ok(None)
 }
 
 /// Regula falsi on the ω-component of the tangent along the arc from `last` (arclength
