@@ -29,9 +29,10 @@ pub enum Method {
     /// max(512, 32·(2H+1))). Floquet multipliers from the whole model's period map. With
     /// impacts Newton converges to 1e-10 where the contact DOF does not chatter after a
     /// release (the bar at 60 and 90 kHz); near 30 kHz it stalls near 1e-4: use e.g.
-    /// `--tolerance 1e-4` there. `frf` with this method traces short pieces only (e.g. the
-    /// bar at 89–91 kHz with H = 3): the time-stepped residual is piecewise affine at the
-    /// scale of one step and the branch stops at its corners.
+    /// `--tolerance 1e-4` there. The time-stepped residual is piecewise affine at the scale
+    /// of one step, so `frf` steps in frequency past the corners of a branch (a fold there
+    /// is jumped over; the summary counts such points): the friction oscillator's FRD
+    /// completes, the bar with impacts only in pieces (e.g. 89–91 kHz with H = 3).
     Mshbm,
     /// Baseline: classical harmonic balance with the alternating frequency–time method and
     /// penalty contact kp·max(0, −g) (the paper's Fig. 11), condensed exactly onto the

@@ -523,9 +523,15 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
                 branch.stop = StopReason::StepTooSmall {
                     omega: last.omega,
                     reason: format!(
-                        "no continuation point within {} corrector iterations even with the smallest step {:.1e} \
+                        "no continuation point within {} corrector iterations even with the smallest step {:.1e}{} \
                          (a singular point of the branch, e.g. where a contact grazes and the branch turns sharply)",
-                        options.newton.max_iterations, options.min_step
+                        options.newton.max_iterations,
+                        smallest,
+                        if options.frequency_stepping {
+                            ", nor by Newton at a fixed frequency a little ahead"
+                        } else {
+                            ""
+                        }
                     ),
                 };
                 return Ok(branch);

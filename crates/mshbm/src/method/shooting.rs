@@ -74,7 +74,7 @@
 //!   full-system simulation) where 1e-6 stalls at 1.6e-2. At 45 kHz the full-system
 //!   simulation settles to a period-3 response: there is no stable `T`-periodic solution
 //!   to converge to.
-//! * **Frequency response diagrams** (`frf --method mshbm`) trace only short pieces. The
+//! * **Frequency response diagrams** (`frf --method mshbm`). The
 //!   discrete period map is piecewise affine with pieces at the scale of one time step
 //!   (each switch of stick/slip or contact status moving by one step is a new piece), so
 //!   a branch is a staircase of corners ≈ 1e-7 apart in the continuation's scaled
@@ -87,8 +87,16 @@
 //!   oscillator 2 → 40 Hz (H = 10) at 2.409 Hz, where each accepted point meets a 39°
 //!   corner. Tried and rejected (it made other ranges worse or crawled: 6789 points within
 //!   3e-5 Hz): a travel allowance from the point's estimated error or a fixed floor, and
-//!   corner escapes that accept backward turns. What would cure it is a residual that is
-//!   smooth between events — switching times located inside the step (event-driven
+//!   corner escapes that accept backward turns. What works where Newton at a fixed
+//!   frequency converges: stepping in frequency past the corners
+//!   ([`crate::continuation::arclength::ContinuationOptions::frequency_stepping`], on for
+//!   this method in `frf`): the friction oscillator 2 → 40 Hz (H = 10) then reaches the end
+//!   (1318 points, 26 by frequency stepping, 2 min 14 s on 2 cores), 6 → 7 Hz (H = 5, 256
+//!   steps) agrees with time integration within 0.6 % (tests/general_mshbm.rs). Such steps
+//!   cannot turn at folds, and on the bar with impacts the branch still stops (1 → 100 kHz
+//!   at 15.1 kHz, where Newton at fixed frequencies ahead does not converge either; 85 → 95
+//!   kHz turns back after the fold pair at 86.17 kHz). What would cure it is a residual that
+//!   is smooth between events — switching times located inside the step (event-driven
 //!   integration of the N-subsystem) instead of on the step grid.
 //! * Cost: every Newton iteration integrates the N-subsystem `dim + 2` times; each
 //!   residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
