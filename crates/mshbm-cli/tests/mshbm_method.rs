@@ -1,37 +1,14 @@
 //! `mshbm solve --method mshbm` (general MS-HBM) on the examples: the JSON object and the
 //! numbers of the library's acceptance tests (crates/mshbm/tests/general_mshbm.rs).
 
-use std::path::Path;
+mod common;
 
-use assert_cmd::Command;
+use common::{assert_success, example, mshbm, success_json};
 
-fn example(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../examples")
-        .join(name)
-        .display()
-        .to_string()
-}
-
-fn solve_json(args: &[&str]) -> serde_json::Value {
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .arg("solve")
-        .args(args)
-        .arg("--json")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
-}
-
-#[test]
-fn friction_oscillator_in_stick_slip() {
-    let v = solve_json(&[
+/// `solve --method mshbm --json` of the friction oscillator in stick–slip (4.25 Hz, H = 10,
+/// 512 steps), the run two tests below read.
+fn friction_oscillator_json() -> serde_json::Value {
+    solve_json(&[
         &example("friction_oscillator/model.toml"),
         "--method",
         "mshbm",
@@ -41,7 +18,19 @@ fn friction_oscillator_in_stick_slip() {
         "10",
         "--samples",
         "512",
-    ]);
+    ])
+}
+
+fn solve_json(args: &[&str]) -> serde_json::Value {
+    let mut all = vec!["solve"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    success_json(&all)
+}
+
+#[test]
+fn friction_oscillator_in_stick_slip() {
+    let v = friction_oscillator_json();
     assert_eq!(v["method"], "mshbm");
     assert_eq!(v["converged"], true);
     assert_eq!(v["samples"], 512);
@@ -85,17 +74,7 @@ fn bar_with_impacts() {
 /// limit (never exceeded: issue 7), and the Floquet multipliers (issue 8).
 #[test]
 fn friction_forces_and_multipliers_in_the_json() {
-    let v = solve_json(&[
-        &example("friction_oscillator/model.toml"),
-        "--method",
-        "mshbm",
-        "--frequency",
-        "4.25",
-        "--harmonics",
-        "10",
-        "--samples",
-        "512",
-    ]);
+    let v = friction_oscillator_json();
     let f = &v["frictions"][0];
     assert_eq!(f["dof"], 2);
     let force: Vec<f64> = f["force"]
@@ -136,31 +115,25 @@ fn frf_traces_the_bar_with_impacts() {
     let dir = std::env::temp_dir().join(format!("mshbm_general_frf_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let csv = dir.join("frd.csv");
-    let out = Command::cargo_bin("mshbm")
-        .unwrap()
-        .args([
-            "frf",
-            &example("clamped_bar_impact.toml"),
-            "--method",
-            "mshbm",
-            "--from",
-            "89000",
-            "--to",
-            "91000",
-            "--harmonics",
-            "3",
-            "--samples",
-            "512",
-            "--output",
-        ])
-        .arg(&csv)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let model = example("clamped_bar_impact.toml");
+    let csv_path = csv.display().to_string();
+    let out = mshbm(&[
+        "frf",
+        &model,
+        "--method",
+        "mshbm",
+        "--from",
+        "89000",
+        "--to",
+        "91000",
+        "--harmonics",
+        "3",
+        "--samples",
+        "512",
+        "--output",
+        &csv_path,
+    ]);
+    assert_success(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

@@ -364,15 +364,8 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     };
     // first point: Newton at the start frequency
     let x0 = problem.initial_guess(w0)?;
-    let first = crate::continuation::newton::solve(
-        problem,
-        &x0,
-        w0,
-        &NewtonOptions {
-            max_iterations: options.newton.max_iterations.max(50),
-            ..options.newton.clone()
-        },
-    )?;
+    let first =
+        crate::continuation::newton::solve(problem, &x0, w0, &fixed_frequency_newton(options))?;
     if !first.converged {
         branch.stop = StopReason::StartFailed(first.reason.unwrap_or_default());
         return Ok(branch);
@@ -583,6 +576,15 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     }
 }
 
+/// Newton at a fixed frequency without a predictor close by (the first point, frequency
+/// steps): the corrector's settings with at least 50 iterations.
+fn fixed_frequency_newton(options: &ContinuationOptions) -> NewtonOptions {
+    NewtonOptions {
+        max_iterations: options.newton.max_iterations.max(50),
+        ..options.newton.clone()
+    }
+}
+
 /// Smallest arclength step tried before stepping in frequency
 /// ([`ContinuationOptions::frequency_stepping`]): well above the corners of the general
 /// MS-HBM's staircase branches (≈ 1e-7 apart in scaled units, `method::shooting`).
@@ -608,11 +610,12 @@ fn step_in_frequency<P: PeriodicProblem + ?Sized>(
         if (omega - options.omega_end) * direction > 0.0 {
             omega = options.omega_end;
         }
-        let newton = NewtonOptions {
-            max_iterations: options.newton.max_iterations.max(50),
-            ..options.newton.clone()
-        };
-        let outcome = match crate::continuation::newton::solve(problem, &last.x, omega, &newton) {
+        let outcome = match crate::continuation::newton::solve(
+            problem,
+            &last.x,
+            omega,
+            &fixed_frequency_newton(options),
+        ) {
             Ok(o) => o,
             Err(Error::Singular(_) | Error::Numerical(_)) => continue,
             Err(e) => return Err(e),
