@@ -33,6 +33,11 @@ pub enum SchemeArg {
     Redistributed,
 }
 
+/// Default `--tolerance` of the steady state.
+pub const SIMULATE_TOLERANCE: f64 = 1e-6;
+/// Default `--harmonics` of the steady state's Fourier coefficients.
+pub const SIMULATE_HARMONICS: usize = 10;
+
 /// Arguments of `mshbm simulate`.
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
@@ -88,11 +93,11 @@ pub struct SimulateArgs {
 
     /// Steady state: largest period-to-period change of the state, relative to the largest
     /// displacement amplitude (velocities divided by ω).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = SIMULATE_TOLERANCE)]
     pub tolerance: f64,
 
     /// Steady state: number of harmonics H of the reported Fourier coefficients.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = SIMULATE_HARMONICS)]
     pub harmonics: usize,
 
     /// Steady state: model DOF whose response is reported (default: the first contact DOF).

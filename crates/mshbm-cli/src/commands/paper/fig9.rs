@@ -19,12 +19,15 @@ use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOption
 use mshbm::integrate::{Integrator, Settings};
 
 use super::run::{Job, Output, Progress};
-use super::{models, parse_args, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
-use crate::commands::frf::{
-    frd_csv_header, frd_csv_row, frd_figure, trace, BifurcationReport, BranchReport, FoldReport,
-    Found, FrdPoint, FrfArgs,
+use mshbm::frd::{
+    trace_frd_branch, BifurcationReport, BranchReport, FoldReport, FrdPoint, FrdSettings,
+    TracedBranch,
 };
-use crate::commands::simulate::{scheme_and_mass, SchemeArg, SimulateArgs};
+use mshbm::method::settings::MethodSettings;
+
+use super::{models, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
+use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
+use crate::commands::simulate::{scheme_and_mass, SchemeArg, SIMULATE_HARMONICS, SIMULATE_TOLERANCE};
 use crate::output::write_atomic;
 use crate::plot::{Series, Style};
 
@@ -143,23 +146,24 @@ impl Plan {
                 name: format!("Fig. 9 branch H = {h}"),
                 work: Box::new(move || {
                     let t0 = Instant::now();
-                    let args: FrfArgs = parse_args(&self.frf_argv(h))?;
                     let model = models::load(
                         models::CLAMPED_BAR,
                         models::CLAMPED_BAR_PATH,
-                        &args.model.overrides,
+                        &[DAMPING_OVERRIDE.to_string()],
                     )?;
-                    let variant = args.method.variants()?[0];
-                    let mut found = Found::default();
+                    let mut settings = FrdSettings::new(self.from_hz, self.to_hz);
+                    settings.stability = true;
                     let mut observer = progress.branch(format!("Fig. 9 branch H = {h}"));
-                    let (report, _) = trace(
+                    let TracedBranch {
+                        report,
+                        folds,
+                        bifurcations,
+                        ..
+                    } = trace_frd_branch(
                         &model,
-                        &args,
-                        h,
-                        &variant,
+                        &MethodSettings::redistributed(h),
+                        &settings,
                         false,
-                        &mut None,
-                        &mut found,
                         &mut observer,
                     )?;
                     progress.line(
@@ -169,8 +173,8 @@ impl Plan {
                     Ok(Output::Branch9(Traced9 {
                         harmonics: h,
                         report,
-                        folds: found.folds,
-                        bifurcations: found.bifurcations,
+                        folds,
+                        bifurcations,
                         seconds: t0.elapsed().as_secs_f64(),
                     }))
                 }),
@@ -198,20 +202,16 @@ impl Plan {
     /// --steady-state`), recording the extremes of the contact DOF per period.
     fn integrate(&self, frequency_hz: f64, progress: &Progress, part: &str) -> Result<Integration> {
         let t0 = Instant::now();
-        let args: SimulateArgs = parse_args(&self.simulate_argv(frequency_hz))?;
         let model = models::load(
             models::CLAMPED_BAR,
             models::CLAMPED_BAR_PATH,
-            &args.model.overrides,
+            &[DAMPING_OVERRIDE.to_string()],
         )?;
-        let (scheme, kind) = scheme_and_mass(
-            args.scheme.unwrap_or(SchemeArg::Moreau),
-            args.restitution,
-            args.theta,
-        );
+        // the simulate command's Moreau-Jean scheme with e_N = 0 (simulate_argv)
+        let (scheme, kind) = scheme_and_mass(SchemeArg::Moreau, Some(0.0), None);
         let system = model.system(kind)?;
         let omega = 2.0 * std::f64::consts::PI * frequency_hz;
-        let n = args.steps_per_period.unwrap_or(self.steps_per_period);
+        let n = self.steps_per_period;
         let mut integrator = Integrator::new(
             &system,
             &Settings {
@@ -224,9 +224,9 @@ impl Plan {
         let contact = integrator.contact_first_dofs()[0];
         let options = SteadyStateOptions {
             steps_per_period: n,
-            max_periods: args.periods.map_or(self.max_periods, |p| p as usize),
-            tolerance: args.tolerance,
-            harmonics: args.harmonics,
+            max_periods: self.max_periods,
+            tolerance: SIMULATE_TOLERANCE,
+            harmonics: SIMULATE_HARMONICS,
             response_dof: contact.0,
         };
         // extremes of the contact DOF in the running period, and per finished period
