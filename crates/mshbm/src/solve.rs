@@ -22,11 +22,7 @@ pub struct SolveSettings {
 impl Default for SolveSettings {
     fn default() -> Self {
         SolveSettings {
-            newton: NewtonOptions {
-                tolerance: 1e-10,
-                max_iterations: 50,
-                ..NewtonOptions::default()
-            },
+            newton: NewtonOptions::default(),
             stability: true,
             response_dof: None,
         }

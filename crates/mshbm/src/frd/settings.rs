@@ -31,6 +31,8 @@ pub struct FrdSettings {
     /// The model DOF whose extremes the points report (`None`: the first DOF of the first
     /// contact, or of the first friction element).
     pub response_dof: Option<usize>,
+    /// Most points per branch (default 20 000): a safety limit.
+    pub max_points: usize,
 }
 
 impl FrdSettings {
@@ -43,13 +45,10 @@ impl FrdSettings {
             min_step: 1e-12,
             max_step: 0.1,
             max_turn_deg: 20.0,
-            newton: NewtonOptions {
-                tolerance: 1e-10,
-                max_iterations: 50,
-                ..NewtonOptions::default()
-            },
+            newton: NewtonOptions::default(),
             stability: false,
             response_dof: None,
+            max_points: 20_000,
         }
     }
 
@@ -88,6 +87,9 @@ impl FrdSettings {
                 format!("must be positive, got {}", self.newton.tolerance),
             ));
         }
+        if self.max_points == 0 {
+            return Err(Error::argument("max_points", "must be at least 1"));
+        }
         if self.newton.max_iterations == 0 {
             return Err(Error::argument("max_iterations", "must be at least 1"));
         }
@@ -103,6 +105,7 @@ impl FrdSettings {
         options.min_step = self.min_step;
         options.max_turn_deg = self.max_turn_deg;
         options.newton = self.newton.clone();
+        options.max_points = self.max_points;
         options
     }
 }
