@@ -26,4 +26,5 @@ pub mod linear;
 pub mod method;
 pub mod problem;
 pub mod solution;
+pub mod simulation;
 pub mod solve;
