@@ -97,13 +97,19 @@ fn keep(id: &str, count: FrdCount) {
 
 /// The FRD of `method` over [`range_hz`] as `mshbm frf` traces it ([`trace_frd_branch`]
 /// with the CLI's defaults), with the corrector `tolerance` and at most `max_points`.
-fn continuation(id: &str, model: &Model, method: &MethodSettings, tolerance: f64, max_points: usize) {
+fn continuation(
+    id: &str,
+    model: &Model,
+    method: &MethodSettings,
+    tolerance: f64,
+    max_points: usize,
+) {
     let (from, to) = range_hz();
     let mut settings = FrdSettings::new(from, to);
     settings.newton.tolerance = tolerance;
     settings.max_points = max_points;
-    let traced = trace_frd_branch(model, method, &settings, false, &mut NoObserver)
-        .expect("continuation");
+    let traced =
+        trace_frd_branch(model, method, &settings, false, &mut NoObserver).expect("continuation");
     let branch = traced.branch;
     let ended = match &branch.stop {
         StopReason::ReachedEnd => "reached the end".to_string(),

@@ -22,8 +22,8 @@ use common::{hz, median, show, timed};
 use criterion::Criterion;
 use mshbm::continuation::arclength::StopReason;
 use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
-use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty, Quadrature};
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
+use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty, Quadrature};
 use mshbm::method::settings::MethodSettings;
 use mshbm::{MassKind, Model};
 
@@ -129,7 +129,11 @@ fn bench_penalty(c: &mut Criterion) {
     group.measurement_time(Duration::from_secs(5));
     group.bench_function("ms_hbm", |b| {
         timed(b, "penalty/ms_hbm", || {
-            counted_frd("penalty/ms_hbm", &m, &MethodSettings::redistributed(HARMONICS))
+            counted_frd(
+                "penalty/ms_hbm",
+                &m,
+                &MethodSettings::redistributed(HARMONICS),
+            )
         })
     });
     for kp in PENALTIES {

@@ -25,6 +25,6 @@ pub mod integrate;
 pub mod linear;
 pub mod method;
 pub mod problem;
-pub mod solution;
 pub mod simulation;
+pub mod solution;
 pub mod solve;

@@ -108,7 +108,13 @@ struct FrfOutput {
 }
 
 impl FrdObserver for FrfOutput {
-    fn point(&mut self, branch: &BranchInfo, point: &FrdPoint, points: usize, step: f64) -> mshbm::Result<()> {
+    fn point(
+        &mut self,
+        branch: &BranchInfo,
+        point: &FrdPoint,
+        points: usize,
+        step: f64,
+    ) -> mshbm::Result<()> {
         if let Some((path, w)) = self.csv.as_mut() {
             let method = self
                 .method_columns

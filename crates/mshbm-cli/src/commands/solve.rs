@@ -383,7 +383,12 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         label,
         outcome,
         stability_error,
-    } = solve_periodic(&model, &method, args.frequency, &solve_settings(args, &model)?)?;
+    } = solve_periodic(
+        &model,
+        &method,
+        args.frequency,
+        &solve_settings(args, &model)?,
+    )?;
     if let Some(e) = stability_error {
         eprintln!("note: stability not computed: {e}");
     }

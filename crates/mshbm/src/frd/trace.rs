@@ -72,8 +72,13 @@ pub fn trace_diagram(
     let mut report = FrdReport::default();
     for method in methods {
         for &h in harmonics {
-            let traced =
-                trace_frd_branch(model, &method.with_harmonics(h), settings, several, observer)?;
+            let traced = trace_frd_branch(
+                model,
+                &method.with_harmonics(h),
+                settings,
+                several,
+                observer,
+            )?;
             report.folds.extend(traced.folds);
             report.bifurcations.extend(traced.bifurcations);
             report.branches.push(traced.report);

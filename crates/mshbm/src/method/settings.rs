@@ -98,12 +98,9 @@ impl MethodSettings {
                 ))
             }
             MethodSettings::HbmAft(o) => match o.penalty {
-                Penalty::Stiffness(v) | Penalty::Relative(v) if !(v.is_finite() && v > 0.0) => {
-                    Err(Error::argument(
-                        "penalty",
-                        format!("must be positive, got {v}"),
-                    ))
-                }
+                Penalty::Stiffness(v) | Penalty::Relative(v) if !(v.is_finite() && v > 0.0) => Err(
+                    Error::argument("penalty", format!("must be positive, got {v}")),
+                ),
                 _ => Ok(()),
             },
             _ => Ok(()),

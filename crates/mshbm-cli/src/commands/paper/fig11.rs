@@ -11,8 +11,8 @@ use anyhow::Result;
 
 use super::run::{Job, Output, Progress};
 use mshbm::frd::{trace_frd_branch, BranchReport, FoldReport, FrdPoint, FrdSettings, TracedBranch};
-use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
+use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
 use mshbm::stability::StabilityOptions;
@@ -104,7 +104,10 @@ impl Plan {
         if index == 0 {
             "Fig. 11 branch MS-HBM".into()
         } else {
-            format!("Fig. 11 branch HBM-AFT kp = {:e}", self.penalties[index - 1])
+            format!(
+                "Fig. 11 branch HBM-AFT kp = {:e}",
+                self.penalties[index - 1]
+            )
         }
     }
 

@@ -27,7 +27,9 @@ use mshbm::method::settings::MethodSettings;
 
 use super::{models, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
 use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
-use crate::commands::simulate::{scheme_and_mass, SchemeArg, SIMULATE_HARMONICS, SIMULATE_TOLERANCE};
+use crate::commands::simulate::{
+    scheme_and_mass, SchemeArg, SIMULATE_HARMONICS, SIMULATE_TOLERANCE,
+};
 use crate::output::write_atomic;
 use crate::plot::{Series, Style};
 
