@@ -130,3 +130,45 @@ impl TransientStatistics {
         self.closed_steps[c] as f64 / self.steps as f64
     }
 }
+
+/// Contact phases in a gap history sampled at equidistant `time`: (start, duration) of each
+/// maximal run of samples with `gap <= tolerance` (a run lasts its number of samples times
+/// the sampling interval), and the total closed time.
+pub fn contact_intervals(time: &[f64], gap: &[f64], tolerance: f64) -> (Vec<(f64, f64)>, f64) {
+    let dt = if time.len() > 1 {
+        time[1] - time[0]
+    } else {
+        0.0
+    };
+    let mut runs = Vec::new();
+    let mut start: Option<usize> = None;
+    for (i, &g) in gap.iter().enumerate() {
+        match (g <= tolerance, start) {
+            (true, None) => start = Some(i),
+            (false, Some(s)) => {
+                runs.push((time[s], (i - s) as f64 * dt));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        runs.push((time[s], (gap.len() - s) as f64 * dt));
+    }
+    let total = runs.iter().map(|r| r.1).sum();
+    (runs, total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::contact_intervals;
+
+    #[test]
+    fn contact_intervals_of_a_square_wave() {
+        let time: Vec<f64> = (0..10).map(|i| i as f64 * 0.5).collect();
+        let gap = [1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 0.0];
+        let (runs, total) = contact_intervals(&time, &gap, 1e-12);
+        assert_eq!(runs, vec![(0.5, 1.5), (3.0, 0.5), (4.0, 1.0)]);
+        assert_eq!(total, 3.0);
+    }
+}

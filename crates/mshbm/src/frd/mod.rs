@@ -16,6 +16,9 @@ mod report;
 mod settings;
 mod trace;
 
-pub use report::{describe_stop, BifurcationReport, BranchReport, FoldReport, FrdPoint, FrdReport};
+pub use report::{
+    branch_values_at, describe_stop, BifurcationReport, BranchReport, BranchValue, FoldReport,
+    FrdPoint, FrdReport,
+};
 pub use settings::{response_dof, FrdSettings};
 pub use trace::{trace_diagram, trace_frd_branch, BranchInfo, FrdObserver, TracedBranch};

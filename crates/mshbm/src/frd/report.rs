@@ -117,3 +117,42 @@ pub fn describe_stop(stop: &StopReason, to_hz: f64) -> String {
         }
     }
 }
+
+/// A branch's values at one frequency ([`branch_values_at`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BranchValue {
+    pub max: f64,
+    pub min: f64,
+    /// Stability of the nearer neighbouring point, when computed.
+    pub stable: Option<bool>,
+}
+
+/// The extremes of a branch at `frequency_hz`, linearly interpolated between neighbouring
+/// points (folds left out); where the branch passes the frequency several times, the
+/// crossing whose min is closest to `near_min`. `None` where the branch does not reach the
+/// frequency.
+pub fn branch_values_at(
+    points: &[FrdPoint],
+    frequency_hz: f64,
+    near_min: f64,
+) -> Option<BranchValue> {
+    let pts: Vec<&FrdPoint> = points.iter().filter(|p| !p.fold).collect();
+    let mut best: Option<BranchValue> = None;
+    for w in pts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (fa, fb) = (a.frequency_hz, b.frequency_hz);
+        if (fa - frequency_hz) * (fb - frequency_hz) > 0.0 || fa == fb {
+            continue;
+        }
+        let t = (frequency_hz - fa) / (fb - fa);
+        let v = BranchValue {
+            max: a.max_qn + t * (b.max_qn - a.max_qn),
+            min: a.min_qn + t * (b.min_qn - a.min_qn),
+            stable: if t < 0.5 { a.stable } else { b.stable },
+        };
+        if best.is_none_or(|m| (v.min - near_min).abs() < (m.min - near_min).abs()) {
+            best = Some(v);
+        }
+    }
+    best
+}

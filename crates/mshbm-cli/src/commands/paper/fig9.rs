@@ -20,8 +20,8 @@ use mshbm::integrate::{Integrator, Settings};
 
 use super::run::{Job, Output, Progress};
 use mshbm::frd::{
-    trace_frd_branch, BifurcationReport, BranchReport, FoldReport, FrdPoint, FrdSettings,
-    TracedBranch,
+    branch_values_at, trace_frd_branch, BifurcationReport, BranchReport, FoldReport, FrdPoint,
+    FrdSettings, TracedBranch,
 };
 use mshbm::method::settings::MethodSettings;
 
@@ -526,7 +526,7 @@ impl Plan {
                 sim.seconds
             );
             for t in &traced {
-                match values_at(&t.report.points, sim.frequency_hz, sim.min) {
+                match branch_values_at(&t.report.points, sim.frequency_hz, sim.min) {
                     Some(v) => {
                         let _ = write!(
                             s,
@@ -548,7 +548,8 @@ impl Plan {
         // the MS-HBM solution of the largest H that reaches each frequency
         let reference_at = |sim: &Integration| {
             traced.iter().rev().find_map(|t| {
-                values_at(&t.report.points, sim.frequency_hz, sim.min).map(|v| (t.harmonics, v))
+                branch_values_at(&t.report.points, sim.frequency_hz, sim.min)
+                    .map(|v| (t.harmonics, v))
             })
         };
         let unstable_where_wandering = sims
@@ -619,38 +620,4 @@ impl Plan {
             problems,
         })
     }
-}
-
-/// A branch's values at one frequency.
-#[derive(Clone, Copy, Debug)]
-struct BranchValue {
-    max: f64,
-    min: f64,
-    /// Stability of the nearer neighbouring point, when computed.
-    stable: Option<bool>,
-}
-
-/// The (max, min) of a branch at `frequency_hz`, linearly interpolated between
-/// neighbouring points; where the branch passes the frequency several times, the crossing
-/// whose min is closest to `near_min`.
-fn values_at(points: &[FrdPoint], frequency_hz: f64, near_min: f64) -> Option<BranchValue> {
-    let pts: Vec<&FrdPoint> = points.iter().filter(|p| !p.fold).collect();
-    let mut best: Option<BranchValue> = None;
-    for w in pts.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let (fa, fb) = (a.frequency_hz, b.frequency_hz);
-        if (fa - frequency_hz) * (fb - frequency_hz) > 0.0 || fa == fb {
-            continue;
-        }
-        let t = (frequency_hz - fa) / (fb - fa);
-        let v = BranchValue {
-            max: a.max_qn + t * (b.max_qn - a.max_qn),
-            min: a.min_qn + t * (b.min_qn - a.min_qn),
-            stable: if t < 0.5 { a.stable } else { b.stable },
-        };
-        if best.is_none_or(|m| (v.min - near_min).abs() < (m.min - near_min).abs()) {
-            best = Some(v);
-        }
-    }
-    best
 }
