@@ -8,7 +8,8 @@
 //! `FRD_FROM_HZ` / `FRD_TO_HZ` change the range (e.g. `FRD_FROM_HZ=1000 FRD_TO_HZ=100000`
 //! for the whole Fig. 9 range; slow).
 //!
-//! **Methods** (continuation with the defaults of `mshbm frf`):
+//! **Methods** (traced by the library's `trace_frd_branch` with the defaults of
+//! `mshbm frf`, each point's solution extracted as the CLI does):
 //! * `ms_hbm`: the redistributed MS-HBM, exact quadrature;
 //! * `hbm_aft`: HBM-AFT, consistent mass, kp = 100 k_c (the default), exact penalty
 //!   quadrature (the classical sampled AFT stops at a fold on a kink at this kp, see
@@ -35,14 +36,14 @@ use std::time::Duration;
 
 use common::{hz, median, show, timed};
 use criterion::Criterion;
-use mshbm::continuation::arclength::{trace_branch, ContinuationOptions, StopReason};
+use mshbm::continuation::arclength::StopReason;
+use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
-use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
+use mshbm::method::hbm_aft::HbmAftOptions;
 use mshbm::method::redistributed::quadrature::Quadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
-use mshbm::problem::PeriodicProblem;
+use mshbm::method::settings::MethodSettings;
+use mshbm::method::shooting::GeneralOptions;
 use mshbm::{MassKind, Model};
 
 const HARMONICS: usize = 5;
@@ -75,17 +76,9 @@ fn rayleigh_model() -> Model {
     common::example("clamped_bar.toml", &o)
 }
 
-fn ms_hbm(model: &Model) -> RedistributedMsHbm {
-    RedistributedMsHbm::new(
-        model,
-        &RedistributedOptions {
-            harmonics: HARMONICS,
-            samples: None,
-            quadrature: Quadrature::Exact,
-        },
-    )
-    .expect("MS-HBM")
-}
+/// Observes nothing: the benchmark counts from the returned branch.
+struct NoObserver;
+impl FrdObserver for NoObserver {}
 
 /// What one FRD cost and how it ended.
 #[derive(Clone, Debug)]
@@ -102,12 +95,22 @@ fn keep(id: &str, count: FrdCount) {
     COUNTS.lock().expect("counts").insert(id.to_string(), count);
 }
 
-fn continuation(id: &str, problem: &mut dyn PeriodicProblem, tolerance: f64, max_points: usize) {
+/// The FRD of `method` over [`range_hz`] as `mshbm frf` traces it ([`trace_frd_branch`]
+/// with the CLI's defaults), with the corrector `tolerance` and at most `max_points`.
+fn continuation(
+    id: &str,
+    model: &Model,
+    method: &MethodSettings,
+    tolerance: f64,
+    max_points: usize,
+) {
     let (from, to) = range_hz();
-    let mut options = ContinuationOptions::new(hz(from), hz(to));
-    options.newton.tolerance = tolerance;
-    options.max_points = max_points;
-    let branch = trace_branch(problem, &options, |_, _| Ok(())).expect("continuation");
+    let mut settings = FrdSettings::new(from, to);
+    settings.newton.tolerance = tolerance;
+    settings.max_points = max_points;
+    let traced =
+        trace_frd_branch(model, method, &settings, false, &mut NoObserver).expect("continuation");
+    let branch = traced.branch;
     let ended = match &branch.stop {
         StopReason::ReachedEnd => "reached the end".to_string(),
         StopReason::StepTooSmall { omega, .. } => {
@@ -192,35 +195,34 @@ fn bench_frd(c: &mut Criterion) {
     group.measurement_time(Duration::from_secs(5));
     group.bench_function("ms_hbm", |b| {
         timed(b, "frd/ms_hbm", || {
-            continuation("frd/ms_hbm", &mut ms_hbm(&fig9), 1e-10, 20_000)
+            continuation(
+                "frd/ms_hbm",
+                &fig9,
+                &MethodSettings::redistributed(HARMONICS),
+                1e-10,
+                20_000,
+            )
         })
     });
     group.bench_function("hbm_aft", |b| {
         timed(b, "frd/hbm_aft", || {
-            let mut p = HbmAft::new(
-                &fig9,
-                &HbmAftOptions {
-                    quadrature: Quadrature::Exact,
-                    ..HbmAftOptions::new(HARMONICS)
-                },
-            )
-            .expect("HBM-AFT");
-            continuation("frd/hbm_aft", &mut p, 1e-10, 20_000)
+            let method = MethodSettings::HbmAft(HbmAftOptions {
+                quadrature: Quadrature::Exact,
+                ..HbmAftOptions::new(HARMONICS)
+            });
+            continuation("frd/hbm_aft", &fig9, &method, 1e-10, 20_000)
         })
     });
     group.bench_function("general_ms_hbm", |b| {
         timed(b, "frd/general_ms_hbm", || {
-            let mut p = GeneralMsHbm::new(
-                &fig9,
-                &GeneralOptions {
-                    steps: Some(GENERAL_STEPS),
-                    ..GeneralOptions::new(HARMONICS)
-                },
-            )
-            .expect("general MS-HBM");
+            let method = MethodSettings::General(GeneralOptions {
+                steps: Some(GENERAL_STEPS),
+                ..GeneralOptions::new(HARMONICS)
+            });
             continuation(
                 "frd/general_ms_hbm",
-                &mut p,
+                &fig9,
+                &method,
                 GENERAL_TOLERANCE,
                 GENERAL_MAX_POINTS,
             )
@@ -228,7 +230,13 @@ fn bench_frd(c: &mut Criterion) {
     });
     group.bench_function("ms_hbm_rayleigh", |b| {
         timed(b, "frd/ms_hbm_rayleigh", || {
-            continuation("frd/ms_hbm_rayleigh", &mut ms_hbm(&rayleigh), 1e-10, 20_000)
+            continuation(
+                "frd/ms_hbm_rayleigh",
+                &rayleigh,
+                &MethodSettings::redistributed(HARMONICS),
+                1e-10,
+                20_000,
+            )
         })
     });
     group.bench_function("time_integration_rayleigh", |b| {

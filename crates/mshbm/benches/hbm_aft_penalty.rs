@@ -20,12 +20,11 @@ use std::time::Duration;
 
 use common::{hz, median, show, timed};
 use criterion::Criterion;
-use mshbm::continuation::arclength::{trace_branch, ContinuationOptions, Event, StopReason};
+use mshbm::continuation::arclength::StopReason;
 use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
+use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty, Quadrature};
-use mshbm::method::redistributed::quadrature::Quadrature as MsQuadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::problem::PeriodicProblem;
+use mshbm::method::settings::MethodSettings;
 use mshbm::{MassKind, Model};
 
 const FROM_HZ: f64 = 55e3;
@@ -39,31 +38,23 @@ fn model() -> Model {
     common::example("clamped_bar_gap0.toml", &["damping.first_mode_ratio=0.01"])
 }
 
-fn hbm_aft(model: &Model, kp: f64, quadrature: Quadrature) -> HbmAft {
-    HbmAft::new(
-        model,
-        &HbmAftOptions {
-            harmonics: HARMONICS,
-            samples: None,
-            mass: MassKind::Consistent,
-            penalty: Penalty::Stiffness(kp),
-            quadrature,
-        },
-    )
-    .expect("HBM-AFT")
+fn hbm_aft_options(kp: f64, quadrature: Quadrature) -> HbmAftOptions {
+    HbmAftOptions {
+        harmonics: HARMONICS,
+        samples: None,
+        mass: MassKind::Consistent,
+        penalty: Penalty::Stiffness(kp),
+        quadrature,
+    }
 }
 
-fn ms_hbm(model: &Model) -> RedistributedMsHbm {
-    RedistributedMsHbm::new(
-        model,
-        &RedistributedOptions {
-            harmonics: HARMONICS,
-            samples: None,
-            quadrature: MsQuadrature::Exact,
-        },
-    )
-    .expect("MS-HBM")
+fn hbm_aft(model: &Model, kp: f64, quadrature: Quadrature) -> HbmAft {
+    HbmAft::new(model, &hbm_aft_options(kp, quadrature)).expect("HBM-AFT")
 }
+
+/// Observes nothing: the counts come from the returned branch.
+struct NoObserver;
+impl FrdObserver for NoObserver {}
 
 /// What one FRD cost.
 #[derive(Clone, Debug)]
@@ -77,16 +68,19 @@ struct FrdCount {
 /// Counts of the FRDs run, by benchmark id (the last run; all runs of one id are identical).
 static COUNTS: Mutex<BTreeMap<String, FrdCount>> = Mutex::new(BTreeMap::new());
 
-fn frd(problem: &mut dyn PeriodicProblem) -> FrdCount {
-    let options = ContinuationOptions::new(hz(FROM_HZ), hz(TO_HZ));
-    let mut folds = 0;
-    let branch = trace_branch(problem, &options, |_, e| {
-        if let Event::Fold(_) = e {
-            folds += 1;
-        }
-        Ok(())
-    })
+/// The FRD of `method` as `mshbm frf` traces it (the library's [`trace_frd_branch`] with
+/// the CLI's defaults).
+fn frd(model: &Model, method: &MethodSettings) -> FrdCount {
+    let traced = trace_frd_branch(
+        model,
+        method,
+        &FrdSettings::new(FROM_HZ, TO_HZ),
+        false,
+        &mut NoObserver,
+    )
     .expect("continuation");
+    let folds = traced.folds.len();
+    let branch = traced.branch;
     let stop = match &branch.stop {
         StopReason::ReachedEnd => "reached 75 kHz".to_string(),
         StopReason::StepTooSmall { omega, .. } => {
@@ -102,8 +96,8 @@ fn frd(problem: &mut dyn PeriodicProblem) -> FrdCount {
     }
 }
 
-fn counted_frd(id: &str, problem: &mut dyn PeriodicProblem) {
-    let count = frd(problem);
+fn counted_frd(id: &str, model: &Model, method: &MethodSettings) {
+    let count = frd(model, method);
     COUNTS.lock().expect("counts").insert(id.to_string(), count);
 }
 
@@ -135,14 +129,22 @@ fn bench_penalty(c: &mut Criterion) {
     group.measurement_time(Duration::from_secs(5));
     group.bench_function("ms_hbm", |b| {
         timed(b, "penalty/ms_hbm", || {
-            counted_frd("penalty/ms_hbm", &mut ms_hbm(&m))
+            counted_frd(
+                "penalty/ms_hbm",
+                &m,
+                &MethodSettings::redistributed(HARMONICS),
+            )
         })
     });
     for kp in PENALTIES {
         let name = id(Quadrature::Exact, kp);
         group.bench_function(name.trim_start_matches("penalty/"), |b| {
             timed(b, &name, || {
-                counted_frd(&name, &mut hbm_aft(&m, kp, Quadrature::Exact))
+                counted_frd(
+                    &name,
+                    &m,
+                    &MethodSettings::HbmAft(hbm_aft_options(kp, Quadrature::Exact)),
+                )
             })
         });
     }
@@ -150,7 +152,11 @@ fn bench_penalty(c: &mut Criterion) {
         let name = id(Quadrature::Sampled, kp);
         group.bench_function(name.trim_start_matches("penalty/"), |b| {
             timed(b, &name, || {
-                counted_frd(&name, &mut hbm_aft(&m, kp, Quadrature::Sampled))
+                counted_frd(
+                    &name,
+                    &m,
+                    &MethodSettings::HbmAft(hbm_aft_options(kp, Quadrature::Sampled)),
+                )
             })
         });
     }
@@ -166,7 +172,8 @@ fn report(m: &Model) {
         for kp in PENALTIES.iter().filter(|kp| !SAMPLED_TIMED.contains(kp)) {
             counted_frd(
                 &id(Quadrature::Sampled, *kp),
-                &mut hbm_aft(m, *kp, Quadrature::Sampled),
+                m,
+                &MethodSettings::HbmAft(hbm_aft_options(*kp, Quadrature::Sampled)),
             );
         }
     }

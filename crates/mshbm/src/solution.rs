@@ -2,6 +2,43 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The periodic-solution methods (names as in `mshbm --method` and in every output).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum MethodKind {
+    /// The redistributed MS-HBM (paper Section 3): massless contact boundary, static
+    /// contact per sample, semi-analytical Jacobian.
+    #[serde(rename = "redistributed")]
+    Redistributed,
+    /// The general MS-HBM (paper Section 2): the nonlinear subsystem integrated over one
+    /// period by Moreau–Jean time stepping.
+    #[serde(rename = "mshbm")]
+    General,
+    /// The HBM-AFT baseline with penalty contact.
+    #[serde(rename = "hbm-aft")]
+    HbmAft,
+    /// A steady state found by time integration of the whole model (the reference).
+    #[serde(rename = "time-integration")]
+    TimeIntegration,
+}
+
+impl MethodKind {
+    /// The name used on the command line and in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodKind::Redistributed => "redistributed",
+            MethodKind::General => "mshbm",
+            MethodKind::HbmAft => "hbm-aft",
+            MethodKind::TimeIntegration => "time-integration",
+        }
+    }
+}
+
+impl std::fmt::Display for MethodKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Time series and harmonics of one contact.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct ContactSeries {
@@ -54,7 +91,7 @@ pub struct PeriodicSolution {
     pub harmonics: usize,
     pub samples: usize,
     pub quadrature: String,
-    pub method: String,
+    pub method: MethodKind,
     pub converged: bool,
     pub iterations: usize,
     /// `‖R‖_∞` relative to the problem's length scale.

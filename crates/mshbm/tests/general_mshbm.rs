@@ -8,10 +8,12 @@ use std::f64::consts::PI;
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
-use mshbm::continuation::arclength::{trace_branch, BranchPoint, ContinuationOptions};
+use mshbm::continuation::arclength::BranchPoint;
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
+use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
+use mshbm::method::settings::MethodSettings;
 use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
 use mshbm::model::file::load_model;
 use mshbm::model::{Damping, Friction, FrictionNormal};
@@ -764,13 +766,16 @@ fn friction_oscillator_frd_reaches_the_end_and_agrees_with_time_integration() {
         steps: Some(steps),
         ..GeneralOptions::new(harmonics)
     };
-    let mut problem = GeneralMsHbm::new(&model, &general_options).unwrap();
     let (from, to) = (6.0, 7.0);
-    let mut options = ContinuationOptions::new(2.0 * PI * from, 2.0 * PI * to);
-    options.newton.max_iterations = 50;
-    options.max_contraction = f64::INFINITY;
-    options.frequency_stepping = true;
-    let branch = trace_branch(&mut problem, &options, |_, _| Ok(())).unwrap();
+    // the diagram as `mshbm frf --method mshbm` traces it
+    let settings = FrdSettings::new(from, to);
+    struct Silent;
+    impl FrdObserver for Silent {}
+    let method = MethodSettings::General(general_options.clone());
+    let branch = trace_frd_branch(&model, &method, &settings, false, &mut Silent)
+        .unwrap()
+        .branch;
+    let options = settings.continuation();
     eprintln!(
         "{} points, {} by frequency stepping, stop {:?}",
         branch.points.len(),

@@ -591,7 +591,10 @@ fn steady_state_agrees_with_the_ms_hbm_at_30_and_90_khz() {
             "{f} Hz: not periodic, change {}",
             ti.period_change
         );
-        assert_eq!(ti.solution.method, "time-integration");
+        assert_eq!(
+            ti.solution.method,
+            mshbm::solution::MethodKind::TimeIntegration
+        );
         let c = &ti.solution.contacts[0];
         assert!(
             c.max <= 0.2 && c.max > 0.2 - 1e-12,

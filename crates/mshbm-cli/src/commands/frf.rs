@@ -8,13 +8,14 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use mshbm::continuation::arclength::{
-    trace_branch, Branch, ContinuationOptions, Event, StopReason,
+use mshbm::frd::{
+    trace_diagram, BranchInfo, BranchReport, FoldReport, FrdObserver, FrdPoint, FrdSettings,
 };
+use mshbm::method::settings::MethodSettings;
+use mshbm::solution::MethodKind;
 use mshbm::Model;
-use serde::Serialize;
 
-use super::solve::{Method, MethodArgs, Variant};
+use super::solve::{Method, MethodArgs};
 use super::ModelArgs;
 use crate::plot::{Figure, HLine, Series, Style};
 
@@ -88,136 +89,40 @@ pub struct FrfArgs {
     pub overlay_mshbm: bool,
 }
 
-/// One point of the diagram as reported.
-#[derive(Clone, Debug, Serialize)]
-pub struct FrdPoint {
-    pub frequency_hz: f64,
-    pub max_qn: f64,
-    pub min_qn: f64,
-    pub amplitude_h1: f64,
-    pub residual_norm: f64,
-    pub newton_iterations: usize,
-    pub fold: bool,
-    /// Stable (all Floquet multipliers inside the unit circle), when computed (--stability).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stable: Option<bool>,
-    /// Largest Floquet multiplier modulus, when computed.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_multiplier: Option<f64>,
-    /// hbm-aft: largest penetration `max(−g)` over the contacts and the AFT samples.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub max_penetration: Option<f64>,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct FoldReport {
-    pub harmonics: usize,
-    /// The branch's label (see [`BranchReport::label`]).
-    pub label: String,
-    pub frequency_hz: f64,
-    pub max_qn: f64,
-    pub min_qn: f64,
-    pub amplitude_h1: f64,
-    /// The branch turns at a kink of a nonsmooth residual rather than at a smooth fold.
-    pub at_kink: bool,
-}
-
-#[derive(Clone, Debug, Serialize)]
-pub struct BranchReport {
-    pub harmonics: usize,
-    /// "redistributed", "hbm-aft", …
-    pub method: String,
-    /// e.g. "H = 5", or "HBM-AFT kp = 1.000e7, H = 5" when several configurations run.
-    pub label: String,
-    /// hbm-aft: penalty stiffness of the (first) contact.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub penalty: Option<f64>,
-    pub points: Vec<FrdPoint>,
-    /// "reached end", or why the branch stopped.
-    pub stop: String,
-    pub completed: bool,
-    /// Points found by stepping in frequency where the arclength step failed (general
-    /// MS-HBM only): a fold between two of them would be jumped over.
-    pub frequency_steps: usize,
-}
-
-#[derive(Debug, Serialize)]
-struct FrdReport {
-    branches: Vec<BranchReport>,
-    folds: Vec<FoldReport>,
-    /// Stability changes between neighbouring points (with --stability).
-    bifurcations: Vec<BifurcationReport>,
-}
-
-/// What the branches found besides their points.
-#[derive(Default)]
-pub struct Found {
-    pub folds: Vec<FoldReport>,
-    pub bifurcations: Vec<BifurcationReport>,
-}
-
-/// A multiplier crossing the unit circle between two neighbouring points of a branch.
-#[derive(Clone, Debug, Serialize)]
-pub struct BifurcationReport {
-    pub harmonics: usize,
-    pub label: String,
-    /// "fold" (+1), "period-doubling" (−1) or "neimark-sacker" (complex pair).
-    pub kind: mshbm::stability::Crossing,
-    /// Where the largest multiplier modulus passes 1, interpolated between the two points.
-    pub frequency_hz: f64,
-    pub max_qn: f64,
-    pub min_qn: f64,
-}
-
 const CSV_HEADER: &str =
     "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
 /// Extra columns when hbm-aft runs (several methods or penalties share the file).
 const CSV_METHOD_COLUMNS: &str = ",method,penalty,max_penetration";
 
-fn stop_text(stop: &StopReason, to_hz: f64) -> String {
-    match stop {
-        StopReason::ReachedEnd => format!("reached {to_hz} Hz"),
-        StopReason::LeftRange => "the branch turned back past the start frequency without reaching the end (it may have retraced itself after a sharp turn)".into(),
-        StopReason::MaxPoints => "point limit reached".into(),
-        StopReason::StartFailed(why) => format!("no solution at the start frequency: {why}"),
-        StopReason::Retraced { omega } => format!(
-            "stopped at {:.3} Hz: the branch came back onto a fold it had passed (it retraces itself after a sharp turn it could not resolve)",
-            omega / (2.0 * std::f64::consts::PI)
-        ),
-        StopReason::StepTooSmall { omega, reason } => {
-            format!("stopped at {:.3} Hz: {reason}", omega / (2.0 * std::f64::consts::PI))
-        }
-    }
-}
-
-/// Receives the points of a branch as they are found (progress display).
-pub trait BranchObserver {
-    /// A new point of the branch `label`; `points` found so far (including this one) and
-    /// the arclength step that led to it.
-    fn point(&mut self, label: &str, point: &FrdPoint, points: usize, step: f64);
-    /// The branch has ended.
-    fn finish(&mut self) {}
-}
-
-/// `mshbm frf`'s progress: a bar on a terminal, nothing otherwise.
-struct TerminalBar {
+/// What `mshbm frf` does with a diagram as it is found: rows streamed to the CSV, a
+/// progress bar on a terminal, one summary line per branch on stderr.
+struct FrfOutput {
     from_hz: f64,
     to_hz: f64,
     bar: Option<ProgressBar>,
+    csv: Option<(PathBuf, BufWriter<File>)>,
+    /// The CSV rows carry the method columns (several methods or penalties).
+    method_columns: bool,
+    /// One summary line per branch on stderr (not with --json).
+    summaries: bool,
 }
 
-impl TerminalBar {
-    fn new(from_hz: f64, to_hz: f64) -> Self {
-        TerminalBar {
-            from_hz,
-            to_hz,
-            bar: None,
+impl FrdObserver for FrfOutput {
+    fn point(
+        &mut self,
+        branch: &BranchInfo,
+        point: &FrdPoint,
+        points: usize,
+        step: f64,
+    ) -> mshbm::Result<()> {
+        if let Some((path, w)) = self.csv.as_mut() {
+            let method = self
+                .method_columns
+                .then_some((branch.method.name(), branch.penalty));
+            writeln!(w, "{}", frd_csv_row(point, branch.harmonics, method))
+                .and_then(|_| w.flush())
+                .map_err(|e| mshbm::Error::io(path, format!("cannot write the CSV: {e}")))?;
         }
-    }
-}
-
-impl BranchObserver for TerminalBar {
-    fn point(&mut self, label: &str, point: &FrdPoint, points: usize, step: f64) {
         if self.bar.is_none() && std::io::stderr().is_terminal() {
             let bar = ProgressBar::new(1000);
             bar.set_style(
@@ -225,7 +130,7 @@ impl BranchObserver for TerminalBar {
                     .expect("valid template")
                     .progress_chars("=> "),
             );
-            bar.set_prefix(label.to_string());
+            bar.set_prefix(branch.label.clone());
             self.bar = Some(bar);
         }
         if let Some(bar) = &self.bar {
@@ -237,11 +142,28 @@ impl BranchObserver for TerminalBar {
                 point.frequency_hz
             ));
         }
+        Ok(())
     }
 
-    fn finish(&mut self) {
+    fn finish(&mut self, report: &BranchReport) {
         if let Some(bar) = self.bar.take() {
             bar.finish_and_clear();
+        }
+        if self.summaries {
+            let folds = report.points.iter().filter(|p| p.fold).count();
+            let iterations: usize = report.points.iter().map(|p| p.newton_iterations).sum();
+            let stepped = match report.frequency_steps {
+                0 => String::new(),
+                n => format!(
+                    " ({n} of them by stepping in frequency past corners of the branch, where a fold would be jumped over)"
+                ),
+            };
+            eprintln!(
+                "{}: {} points{stepped}, {iterations} Newton iterations, {folds} folds, {}",
+                report.label,
+                report.points.len(),
+                report.stop
+            );
         }
     }
 }
@@ -290,149 +212,6 @@ pub fn frd_csv_row(
             .map(|m| format!("{m:.9}"))
             .unwrap_or_default()
     )
-}
-
-/// Trace one branch, streaming rows to `csv` and reporting each point to `observer`.
-/// `several`: more than one configuration runs (labels name the method; CSV rows carry the
-/// method columns). Returns the branch with what it found (folds, stability changes).
-#[allow(clippy::too_many_arguments)]
-pub fn trace(
-    model: &Model,
-    args: &FrfArgs,
-    harmonics: usize,
-    variant: &Variant,
-    several: bool,
-    csv: &mut Option<BufWriter<File>>,
-    found: &mut Found,
-    observer: &mut dyn BranchObserver,
-) -> Result<(BranchReport, Branch)> {
-    let Found {
-        folds,
-        bifurcations,
-    } = found;
-    let mut previous: Option<(mshbm::stability::Floquet, f64)> = None;
-    let two_pi = 2.0 * std::f64::consts::PI;
-    let built = args.method.problem_for(model, harmonics, variant)?;
-    let mut problem = built.problem;
-    let method_name = match variant.method {
-        Method::Redistributed => "redistributed",
-        Method::Mshbm => "mshbm",
-        Method::HbmAft => "hbm-aft",
-    };
-    let label = if several {
-        format!("{}, H = {harmonics}", built.label)
-    } else {
-        format!("H = {harmonics}")
-    };
-    let method_columns = several || variant.method == Method::HbmAft;
-    let dof = args.method.response_dof(model)?;
-    let mut options = ContinuationOptions::new(two_pi * args.from_hz, two_pi * args.to_hz);
-    options.initial_step = args.step;
-    options.max_step = args.max_step;
-    options.min_step = args.min_step;
-    options.max_turn_deg = args.max_turn;
-    options.newton = args.method.newton()?;
-    if variant.method != Method::Redistributed {
-        // finite-difference Jacobian (mshbm) or stiff penalty (hbm-aft): Newton is not
-        // quadratic, so the corrector's contraction is not a sign of a jump
-        options.max_contraction = f64::INFINITY;
-    }
-    // the general MS-HBM's branches are staircases of step-wide corners (method::shooting)
-    options.frequency_stepping = variant.method == Method::Mshbm;
-
-    let mut points = Vec::new();
-    let mut row_error: Option<anyhow::Error> = None;
-    let branch = trace_branch(problem.as_mut(), &options, |p, event| {
-        let (x, omega, fold, iterations, residual, step) = match &event {
-            Event::Point(pt) => (
-                &pt.x,
-                pt.omega,
-                false,
-                pt.iterations,
-                pt.residual_norm,
-                pt.step,
-            ),
-            Event::Fold(f) => (&f.x, f.omega, true, 0, 0.0, 0.0),
-        };
-        let s = p.solution(x, omega, dof)?;
-        let floquet = if args.stability {
-            p.floquet(x, omega)?
-        } else {
-            None
-        };
-        if let (Some(now), false) = (&floquet, fold) {
-            let hz = omega / (2.0 * std::f64::consts::PI);
-            if let Some((before, hz_before)) = &previous {
-                for kind in mshbm::stability::crossings(before, now) {
-                    let (m0, m1) = (before.max_multiplier - 1.0, now.max_multiplier - 1.0);
-                    let t = if m0 * m1 < 0.0 { m0 / (m0 - m1) } else { 0.5 };
-                    bifurcations.push(BifurcationReport {
-                        harmonics,
-                        label: label.clone(),
-                        kind,
-                        frequency_hz: hz_before + t * (hz - hz_before),
-                        max_qn: s.response.max,
-                        min_qn: s.response.min,
-                    });
-                }
-            }
-            previous = Some((now.clone(), hz));
-        }
-        let point = FrdPoint {
-            frequency_hz: s.frequency_hz,
-            max_qn: s.response.max,
-            min_qn: s.response.min,
-            amplitude_h1: s.response.amplitude_h1(),
-            residual_norm: if fold { s.residual_norm } else { residual },
-            newton_iterations: iterations,
-            fold,
-            stable: floquet.as_ref().map(|f| f.stable),
-            max_multiplier: floquet.as_ref().map(|f| f.max_multiplier),
-            max_penetration: (s.method == "hbm-aft").then(|| {
-                s.contacts
-                    .iter()
-                    .flat_map(|c| c.gap.iter())
-                    .fold(f64::NEG_INFINITY, |m, g| m.max(-g))
-            }),
-        };
-        if let Event::Fold(f) = &event {
-            folds.push(FoldReport {
-                harmonics,
-                label: label.clone(),
-                frequency_hz: point.frequency_hz,
-                max_qn: point.max_qn,
-                min_qn: point.min_qn,
-                amplitude_h1: point.amplitude_h1,
-                at_kink: f.at_kink,
-            });
-        }
-        if let Some(w) = csv.as_mut() {
-            let method = method_columns.then_some((method_name, built.penalty));
-            let r =
-                writeln!(w, "{}", frd_csv_row(&point, harmonics, method)).and_then(|_| w.flush());
-            if let Err(e) = r {
-                row_error.get_or_insert(anyhow::anyhow!("cannot write the CSV: {e}"));
-            }
-        }
-        observer.point(&label, &point, points.len() + 1, step);
-        points.push(point);
-        Ok(())
-    })?;
-    observer.finish();
-    if let Some(e) = row_error {
-        return Err(e);
-    }
-    let report = BranchReport {
-        harmonics,
-        method: method_name.to_string(),
-        label,
-        penalty: built.penalty,
-        points,
-        stop: stop_text(&branch.stop, args.to_hz),
-        completed: branch.stop.is_success(),
-        frequency_steps: branch.frequency_steps,
-    };
-    Ok((report, branch))
 }
 
 /// Fig. 9/11-style diagram: max and min of the response vs frequency per branch.
@@ -519,6 +298,38 @@ pub fn frd_figure(
     fig
 }
 
+/// The library's settings of `mshbm frf`.
+pub fn frd_settings(args: &FrfArgs, model: &Model) -> Result<FrdSettings> {
+    let mut settings = FrdSettings::new(args.from_hz, args.to_hz);
+    settings.initial_step = args.step;
+    settings.max_step = args.max_step;
+    settings.min_step = args.min_step;
+    settings.max_turn_deg = args.max_turn;
+    settings.newton = args.method.newton()?;
+    settings.stability = args.stability;
+    settings.response_dof = Some(args.method.response_dof(model)?);
+    Ok(settings)
+}
+
+/// The methods of `mshbm frf` (one per `--penalty`, the MS-HBM first with
+/// `--overlay-mshbm`), each with one `--harmonics` value that the diagram replaces per
+/// branch.
+pub fn frd_methods(args: &FrfArgs) -> Result<Vec<MethodSettings>> {
+    let h = args.harmonics.first().copied().unwrap_or(1);
+    let mut methods = args.method.methods(h)?;
+    if args.overlay_mshbm {
+        if args.method.method != Method::HbmAft {
+            bail!("--overlay-mshbm overlays the MS-HBM on --method hbm-aft; give --method hbm-aft");
+        }
+        let mut mshbm_args = args.method.clone();
+        mshbm_args.method = Method::Redistributed;
+        mshbm_args.penalty.clear();
+        mshbm_args.mass = None;
+        methods.insert(0, mshbm_args.single_method(h)?);
+    }
+    Ok(methods)
+}
+
 pub fn run(args: &FrfArgs) -> Result<()> {
     for (name, v) in [("--from", args.from_hz), ("--to", args.to_hz)] {
         if !(v.is_finite() && v > 0.0) {
@@ -534,92 +345,50 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     if !(args.min_step > 0.0 && args.min_step <= args.step && args.step <= args.max_step) {
         bail!("steps must satisfy 0 < --min-step <= --step <= --max-step");
     }
-    let mut variants = args.method.variants()?;
-    if args.overlay_mshbm {
-        if args.method.method != Method::HbmAft {
-            bail!("--overlay-mshbm overlays the MS-HBM on --method hbm-aft; give --method hbm-aft");
-        }
-        variants.insert(
-            0,
-            Variant {
-                method: Method::Redistributed,
-                penalty: None,
-            },
-        );
-    }
-    let several = variants.len() > 1;
-    let method_columns = variants.iter().any(|v| v.method == Method::HbmAft);
+    let methods = frd_methods(args)?;
     let model = args.model.load()?;
-    args.method.response_dof(&model)?;
-    let mut csv = match &args.output {
+    let settings = frd_settings(args, &model)?;
+    let method_columns = methods.iter().any(|m| m.kind() == MethodKind::HbmAft);
+    let csv = match &args.output {
         Some(path) => {
             let f =
                 File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
             let mut w = BufWriter::new(f);
             writeln!(w, "{}", frd_csv_header(method_columns))?;
             w.flush()?;
-            Some(w)
+            Some((path.clone(), w))
         }
         None => None,
     };
-    let mut branches = Vec::new();
-    let mut found = Found::default();
-    let mut failure: Option<String> = None;
-    for variant in &variants {
-        for &h in &args.harmonics {
-            let before = found.folds.len();
-            let mut bar = TerminalBar::new(args.from_hz, args.to_hz);
-            let (report, _) = trace(
-                &model, args, h, variant, several, &mut csv, &mut found, &mut bar,
-            )?;
-            if !report.completed && failure.is_none() {
-                failure = Some(format!("{}: {}", report.label, report.stop));
-            }
-            if !args.json {
-                let nfolds = found.folds.len() - before;
-                let iterations: usize = report.points.iter().map(|p| p.newton_iterations).sum();
-                let stepped = match report.frequency_steps {
-                    0 => String::new(),
-                    n => format!(
-                        " ({n} of them by stepping in frequency past corners of the branch, where a fold would be jumped over)"
-                    ),
-                };
-                eprintln!(
-                    "{}: {} points{stepped}, {iterations} Newton iterations, {nfolds} folds, {}",
-                    report.label,
-                    report.points.len(),
-                    report.stop
-                );
-            }
-            branches.push(report);
-        }
-    }
-    let Found {
-        folds,
-        bifurcations,
-    } = found;
+    let mut output = FrfOutput {
+        from_hz: args.from_hz,
+        to_hz: args.to_hz,
+        bar: None,
+        csv,
+        method_columns,
+        summaries: !args.json,
+    };
+    let report = trace_diagram(&model, &methods, &args.harmonics, &settings, &mut output)?;
+    let failure = report
+        .branches
+        .iter()
+        .find(|b| !b.completed)
+        .map(|b| format!("{}: {}", b.label, b.stop));
     if let Some(path) = &args.plot {
         let dof = args.method.response_dof(&model)?;
         let fig = frd_figure(
             &model,
-            &branches,
-            &folds,
+            &report.branches,
+            &report.folds,
             &format!("Frequency response — {}", model.name),
             &format!("displacement of DOF {dof} (max, min)"),
         );
         fig.save(path)?;
     }
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string(&FrdReport {
-                branches,
-                folds,
-                bifurcations
-            })?
-        );
+        println!("{}", serde_json::to_string(&report)?);
     } else {
-        for f in &folds {
+        for f in &report.folds {
             println!(
                 "fold ({}): {:.3} Hz, max {:.6e}{}",
                 f.label,
@@ -628,7 +397,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
                 if f.at_kink { " (at a kink)" } else { "" }
             );
         }
-        for b in &bifurcations {
+        for b in &report.bifurcations {
             println!(
                 "stability change ({}): {:?} near {:.3} Hz",
                 b.label, b.kind, b.frequency_hz

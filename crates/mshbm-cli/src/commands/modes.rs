@@ -5,9 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use mshbm::modes::eigenfrequencies_hz;
-use mshbm::MassKind;
-use serde::Serialize;
+use mshbm::modes::{compare_masses, MassComparison};
 
 use super::ModelArgs;
 use crate::plot::{Figure, Series, Style};
@@ -34,36 +32,8 @@ pub struct ModesArgs {
     pub plot: Option<PathBuf>,
 }
 
-/// Eigenfrequencies of the consistent and the redistributed model.
-#[derive(Serialize)]
-pub struct ModesReport {
-    pub original_hz: Vec<f64>,
-    pub redistributed_hz: Vec<f64>,
-    /// `f_redistributed / f_original − 1` per mode.
-    pub relative_error: Vec<f64>,
-}
-
-/// The `count` lowest eigenfrequencies of both masses (contacts open, Dirichlet DOFs fixed).
-pub fn compute(model: &mshbm::Model, count: usize) -> Result<ModesReport> {
-    let consistent = model.system(MassKind::Consistent)?;
-    let redistributed = model.system(MassKind::Redistributed)?;
-    let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, count)?;
-    let redistributed_hz =
-        eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, count)?;
-    let relative_error: Vec<f64> = original_hz
-        .iter()
-        .zip(&redistributed_hz)
-        .map(|(o, r)| r / o - 1.0)
-        .collect();
-    Ok(ModesReport {
-        original_hz,
-        redistributed_hz,
-        relative_error,
-    })
-}
-
 /// Fig. 8: relative error of the redistributed eigenfrequencies vs mode number.
-pub fn relative_error_figure(report: &ModesReport) -> Figure {
+pub fn relative_error_figure(report: &MassComparison) -> Figure {
     Figure {
         title: "Eigenfrequency shift by mass redistribution (Fig. 8)".into(),
         x_label: "mode number".into(),
@@ -85,7 +55,7 @@ pub fn relative_error_figure(report: &ModesReport) -> Figure {
 
 pub fn run(args: &ModesArgs) -> Result<()> {
     let model = args.model.load()?;
-    let report = compute(&model, args.count)?;
+    let report = compare_masses(&model, args.count)?;
     if let Some(path) = &args.plot {
         relative_error_figure(&report).save(path)?;
     }

@@ -10,13 +10,13 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::integrate::analytic::DroppedBarSolution;
-use mshbm::integrate::initial::state_from_harmonics;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::load_dropped_bar;
+use mshbm::simulation::{reference_period, state_from_solution, TransientStatistics};
 use mshbm::solution::PeriodicSolution;
-use mshbm::{MassKind, Model, System};
+use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
 use crate::plot::{Figure, HLine, Series, Style};
@@ -32,6 +32,11 @@ pub enum SchemeArg {
     /// never goes negative, energy is kept through impacts. The model the MS-HBM solves.
     Redistributed,
 }
+
+/// Default `--tolerance` of the steady state.
+pub const SIMULATE_TOLERANCE: f64 = 1e-6;
+/// Default `--harmonics` of the steady state's Fourier coefficients.
+pub const SIMULATE_HARMONICS: usize = 10;
 
 /// Arguments of `mshbm simulate`.
 #[derive(Args, Debug)]
@@ -88,11 +93,11 @@ pub struct SimulateArgs {
 
     /// Steady state: largest period-to-period change of the state, relative to the largest
     /// displacement amplitude (velocities divided by ω).
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = SIMULATE_TOLERANCE)]
     pub tolerance: f64,
 
     /// Steady state: number of harmonics H of the reported Fourier coefficients.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = SIMULATE_HARMONICS)]
     pub harmonics: usize,
 
     /// Steady state: model DOF whose response is reported (default: the first contact DOF).
@@ -182,20 +187,13 @@ impl CsvStream {
 /// Everything recorded per step.
 pub(crate) struct Recorder {
     csv: Option<CsvStream>,
-    /// Normalise the energy by this (free problems).
-    pub energy_norm: Option<f64>,
+    /// Extremes, contact fraction and energy range of the run.
+    pub stats: TransientStatistics,
     plot_every: u64,
     /// Every `plot_every`-th step: time, gap per contact, (normalised) energy.
     pub plot_time: Vec<f64>,
     pub plot_gaps: Vec<Vec<f64>>,
     pub plot_energy: Vec<f64>,
-    pub min_gap: Vec<f64>,
-    max_force: Vec<f64>,
-    /// Steps with a positive contact force, per contact.
-    pub closed_steps: Vec<u64>,
-    pub steps: u64,
-    energy_range: (f64, f64),
-    energy_last: f64,
     progress: ProgressBar,
 }
 
@@ -211,37 +209,20 @@ impl Recorder {
     ) -> Self {
         Recorder {
             csv,
-            energy_norm,
+            stats: TransientStatistics::new(contacts, energy_norm),
             plot_every: plot_every.max(1),
             plot_time: Vec::new(),
             plot_gaps: vec![Vec::new(); contacts],
             plot_energy: Vec::new(),
-            min_gap: vec![f64::INFINITY; contacts],
-            max_force: vec![0.0; contacts],
-            closed_steps: vec![0; contacts],
-            steps: 0,
-            energy_range: (f64::INFINITY, f64::NEG_INFINITY),
-            energy_last: 0.0,
             progress,
         }
     }
 
     fn record(&mut self, it: &Integrator) {
-        let e = it.energy();
-        let en = self.energy_norm.map(|e0| e / e0);
-        let shown = en.unwrap_or(e);
-        self.energy_range = (
-            self.energy_range.0.min(shown),
-            self.energy_range.1.max(shown),
-        );
-        self.energy_last = e;
-        for (c, (&g, &f)) in it.gaps().iter().zip(it.forces()).enumerate() {
-            self.min_gap[c] = self.min_gap[c].min(g);
-            self.max_force[c] = self.max_force[c].max(f);
-            if f > 0.0 {
-                self.closed_steps[c] += 1;
-            }
-        }
+        let step = self.stats.steps;
+        let shown = self.stats.record(it);
+        let e = self.stats.energy_last;
+        let en = self.stats.energy_norm.map(|e0| e / e0);
         if let Some(csv) = &mut self.csv {
             let mut line = std::mem::take(&mut csv.line);
             line.clear();
@@ -256,16 +237,15 @@ impl Recorder {
             csv.write_line(&line);
             csv.line = line;
         }
-        if self.steps % self.plot_every == 0 {
+        if step % self.plot_every == 0 {
             self.plot_time.push(it.time());
             for (c, &g) in it.gaps().iter().enumerate() {
                 self.plot_gaps[c].push(g);
             }
             self.plot_energy.push(shown);
         }
-        self.steps += 1;
-        if self.steps % 1024 == 0 {
-            self.progress.set_position(self.steps);
+        if self.stats.steps % 1024 == 0 {
+            self.progress.set_position(self.stats.steps);
         }
     }
 }
@@ -289,37 +269,6 @@ fn read_solution(path: &Path) -> Result<PeriodicSolution> {
     })
 }
 
-/// The initial state of `solution` for `system` (contact-DOF harmonics → all DOFs).
-fn initial_state(
-    system: &System,
-    model: &Model,
-    solution: &PeriodicSolution,
-    omega: f64,
-    path: &Path,
-) -> Result<(Vec<f64>, Vec<f64>)> {
-    let mut known = Vec::new();
-    for c in &solution.contacts {
-        if c.dof >= model.n_dofs() {
-            bail!(
-                "{}: contact DOF {} does not exist in the model (DOFs 0..{})",
-                path.display(),
-                c.dof,
-                model.n_dofs() - 1
-            );
-        }
-        let Some(s) = system.system_dof(c.dof) else {
-            bail!(
-                "{}: contact DOF {} is a Dirichlet DOF of the model",
-                path.display(),
-                c.dof
-            );
-        };
-        known.push((s, c.coefficients.clone()));
-    }
-    state_from_harmonics(system, omega, &known)
-        .with_context(|| format!("{}: cannot start from this solution", path.display()))
-}
-
 /// The scheme and the mass it integrates: Moreau–Jean (default θ = ½, e_N = 0) on the
 /// consistent mass, or position-level Newmark on the redistributed mass.
 pub(crate) fn scheme_and_mass(
@@ -327,26 +276,11 @@ pub(crate) fn scheme_and_mass(
     restitution: Option<f64>,
     theta: Option<f64>,
 ) -> (Scheme, MassKind) {
-    match arg {
-        SchemeArg::Moreau => (
-            Scheme::MoreauJean {
-                theta: theta.unwrap_or(0.5),
-                restitution: restitution.unwrap_or(0.0),
-            },
-            MassKind::Consistent,
-        ),
-        SchemeArg::Redistributed => (Scheme::PositionNewmark, MassKind::Redistributed),
-    }
-}
-
-/// How a scheme is named in reports.
-pub(crate) fn scheme_description(scheme: Scheme) -> String {
-    match scheme {
-        Scheme::MoreauJean { theta, restitution } => {
-            format!("Moreau-Jean (theta = {theta}, e_N = {restitution}), consistent mass")
-        }
-        Scheme::PositionNewmark => "position-level Newmark, redistributed mass".to_string(),
-    }
+    let scheme = match arg {
+        SchemeArg::Moreau => Scheme::moreau_jean(theta, restitution),
+        SchemeArg::Redistributed => Scheme::PositionNewmark,
+    };
+    (scheme, scheme.mass_kind())
 }
 
 /// Integrate a free (unforced) problem for `steps` steps of `dt` from rest, recording every
@@ -475,17 +409,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let system = model.system(kind)?;
 
     // --- time grid ---
-    let period = match frequency {
-        Some(f) => Some(1.0 / f),
-        None => match (&analytic, &dropped) {
-            (Some(a), _) => Some(a.period()),
-            // not exactly periodic: the same formula still sets the time scale
-            (None, Some(p)) => Some(4.0 * (p.kappa() + 1.0) * p.length / p.wave_speed()),
-            (None, None) => mshbm::modes::first_angular_frequency(&system.mass, &system.stiffness)
-                .ok()
-                .map(|w| 2.0 * std::f64::consts::PI / w),
-        },
-    };
+    let period = reference_period(&system, frequency, dropped.as_ref());
     let dt = match (args.dt, period) {
         (Some(dt), _) => dt,
         (None, Some(t)) => {
@@ -531,7 +455,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     )?;
     if let Some((path, solution)) = &start {
         let w = omega.expect("frequency of the solution");
-        let (q, v) = initial_state(&system, &model, solution, w, path)?;
+        let (q, v) = state_from_solution(&system, &model, solution, w, path)?;
         integrator.set_state(0.0, &q, &v)?;
     }
     let response_dof = match args.dof {
@@ -615,7 +539,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     }
 
     // --- report ---
-    let scheme_name = scheme_description(scheme);
+    let scheme_name = scheme.description();
     match &steady {
         Some(s) => report_steady(args, &model, &scheme_name, s)?,
         None => report_transient(args, &model, &scheme_name, &rec, dt, e0, analytic.as_ref())?,
@@ -690,7 +614,8 @@ fn report_transient(
     e0: f64,
     analytic: Option<&DroppedBarSolution>,
 ) -> Result<()> {
-    let steps = rec.steps - 1;
+    let st = &rec.stats;
+    let steps = st.steps - 1;
     let t_end = rec
         .plot_time
         .last()
@@ -698,14 +623,14 @@ fn report_transient(
         .unwrap_or(0.0)
         .max(steps as f64 * dt);
     if args.json {
-        let contacts: Vec<serde_json::Value> = (0..rec.min_gap.len())
+        let contacts: Vec<serde_json::Value> = (0..st.min_gap.len())
             .map(|c| {
                 serde_json::json!({
                     "contact": c,
                     "dof": model.contacts[c].dofs[0],
-                    "min_gap": rec.min_gap[c],
-                    "max_force": rec.max_force[c],
-                    "closed_fraction": rec.closed_steps[c] as f64 / rec.steps as f64,
+                    "min_gap": st.min_gap[c],
+                    "max_force": st.max_force[c],
+                    "closed_fraction": st.closed_fraction(c),
                 })
             })
             .collect();
@@ -717,11 +642,11 @@ fn report_transient(
             "duration_s": steps as f64 * dt,
             "contacts": contacts,
             "energy_initial": e0,
-            "energy_final": rec.energy_last,
+            "energy_final": st.energy_last,
         });
-        if rec.energy_norm.is_some() {
-            v["energy_normalized_min"] = rec.energy_range.0.into();
-            v["energy_normalized_max"] = rec.energy_range.1.into();
+        if st.energy_norm.is_some() {
+            v["energy_normalized_min"] = st.energy_range.0.into();
+            v["energy_normalized_max"] = st.energy_range.1.into();
         }
         if let Some(a) = analytic {
             v["analytic_period_s"] = a.period().into();
@@ -734,21 +659,21 @@ fn report_transient(
         "{}: {scheme}, dt = {dt:.4e} s, {steps} steps, t = 0 .. {t_end:.6e} s",
         model.name
     );
-    for c in 0..rec.min_gap.len() {
+    for c in 0..st.min_gap.len() {
         println!(
             "contact {c} (DOF {}): min gap {:.6e}, max force {:.6e}, closed in {:.1}% of the steps",
             model.contacts[c].dofs[0],
-            rec.min_gap[c],
-            rec.max_force[c],
-            100.0 * rec.closed_steps[c] as f64 / rec.steps as f64
+            st.min_gap[c],
+            st.max_force[c],
+            100.0 * st.closed_fraction(c)
         );
     }
-    match rec.energy_norm {
+    match st.energy_norm {
         Some(_) => println!(
             "energy: initial {e0:.6e}, final {:.6e}; normalised energy in [{:.6}, {:.6}]",
-            rec.energy_last, rec.energy_range.0, rec.energy_range.1
+            st.energy_last, st.energy_range.0, st.energy_range.1
         ),
-        None => println!("energy: initial {e0:.6e}, final {:.6e}", rec.energy_last),
+        None => println!("energy: initial {e0:.6e}, final {:.6e}", st.energy_last),
     }
     if let Some(a) = analytic {
         println!(
@@ -810,7 +735,7 @@ pub(crate) fn transient_figures(
         label: "support (gap = 0)".into(),
         y: 0.0,
     });
-    let normalised = first.energy_norm.is_some();
+    let normalised = first.stats.energy_norm.is_some();
     let mut energy = Figure {
         title: if normalised {
             "Total energy, normalised by its initial value".into()

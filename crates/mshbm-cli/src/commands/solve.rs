@@ -5,12 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions, NewtonOutcome};
-use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
+use mshbm::continuation::newton::NewtonOptions;
+use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
 use mshbm::method::redistributed::quadrature::Quadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::problem::PeriodicProblem;
-use mshbm::solution::PeriodicSolution;
+use mshbm::method::redistributed::RedistributedOptions;
+use mshbm::method::settings::MethodSettings;
+use mshbm::method::shooting::GeneralOptions;
+use mshbm::solution::{MethodKind, PeriodicSolution};
+use mshbm::solve::{solve_periodic, SolveSettings, Solved};
 use mshbm::stability::StabilityOptions;
 use mshbm::{MassKind, Model};
 
@@ -47,22 +49,6 @@ pub enum MassArg {
     Consistent,
     /// The redistributed mass with a massless contact boundary, as the MS-HBM uses.
     Redistributed,
-}
-
-/// One configuration to run: a method and, for hbm-aft, one penalty.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Variant {
-    pub method: Method,
-    pub penalty: Option<Penalty>,
-}
-
-/// A method built for one model and number of harmonics.
-pub struct Built {
-    pub problem: Box<dyn PeriodicProblem>,
-    /// e.g. "MS-HBM" or "HBM-AFT kp = 1.05e8".
-    pub label: String,
-    /// Penalty stiffness of the (first) contact, hbm-aft only.
-    pub penalty: Option<f64>,
 }
 
 /// `--penalty` value: a stiffness (`1e8`) or a multiple of the contact stiffness (`100x`).
@@ -180,9 +166,9 @@ impl MethodArgs {
         self.penalty.iter().map(|s| parse_penalty(s)).collect()
     }
 
-    /// Check the combination of options and list the configurations to run: one per
-    /// `--penalty` value for hbm-aft, one otherwise.
-    pub fn variants(&self) -> Result<Vec<Variant>> {
+    /// The methods to run for `harmonics`, from the combination of options (checked): one
+    /// per `--penalty` value for hbm-aft, one otherwise.
+    pub fn methods(&self, harmonics: usize) -> Result<Vec<MethodSettings>> {
         match self.stability_modes {
             Some(0) => bail!("--stability-modes must be at least 1"),
             Some(_) if self.method != Method::Redistributed => {
@@ -190,13 +176,25 @@ impl MethodArgs {
             }
             _ => {}
         }
+        let quadrature = |default| match self.quadrature.unwrap_or(default) {
+            QuadratureArg::Exact => Quadrature::Exact,
+            QuadratureArg::Sampled => Quadrature::Sampled,
+        };
         if self.method == Method::HbmAft {
             return Ok(self
                 .penalties()?
                 .into_iter()
-                .map(|p| Variant {
-                    method: Method::HbmAft,
-                    penalty: Some(p),
+                .map(|penalty| {
+                    MethodSettings::HbmAft(HbmAftOptions {
+                        harmonics,
+                        samples: self.samples,
+                        mass: match self.mass.unwrap_or(MassArg::Consistent) {
+                            MassArg::Consistent => MassKind::Consistent,
+                            MassArg::Redistributed => MassKind::Redistributed,
+                        },
+                        penalty,
+                        quadrature: quadrature(QuadratureArg::Sampled),
+                    })
                 })
                 .collect());
         }
@@ -206,88 +204,32 @@ impl MethodArgs {
         if self.mass.is_some() {
             bail!("--mass applies to --method hbm-aft only (the MS-HBM methods fix their mass)");
         }
-        Ok(vec![Variant {
-            method: self.method,
-            penalty: None,
+        Ok(vec![match self.method {
+            Method::Redistributed => MethodSettings::Redistributed {
+                options: RedistributedOptions {
+                    harmonics,
+                    samples: self.samples,
+                    quadrature: quadrature(QuadratureArg::Exact),
+                },
+                stability: StabilityOptions {
+                    modes: self.stability_modes,
+                },
+            },
+            Method::Mshbm => MethodSettings::General(GeneralOptions {
+                steps: self.samples,
+                ..GeneralOptions::new(harmonics)
+            }),
+            Method::HbmAft => unreachable!("returned above"),
         }])
     }
 
-    /// Build `variant` for `harmonics`, with its label.
-    pub fn problem_for(&self, model: &Model, harmonics: usize, variant: &Variant) -> Result<Built> {
-        if variant.method != Method::HbmAft {
-            let mut args = self.clone();
-            args.method = variant.method;
-            args.penalty.clear();
-            args.mass = None;
-            return Ok(Built {
-                problem: args.problem(model, harmonics)?,
-                label: match variant.method {
-                    Method::Redistributed => "MS-HBM".to_string(),
-                    Method::Mshbm => "general MS-HBM".to_string(),
-                    Method::HbmAft => unreachable!(),
-                },
-                penalty: None,
-            });
+    /// The one method to run for `harmonics` (hbm-aft: with one `--penalty` value).
+    pub fn single_method(&self, harmonics: usize) -> Result<MethodSettings> {
+        let mut methods = self.methods(harmonics)?;
+        if methods.len() > 1 {
+            bail!("solve takes one --penalty value (frf traces one branch per value)");
         }
-        let quadrature = match self.quadrature.unwrap_or(QuadratureArg::Sampled) {
-            QuadratureArg::Exact => Quadrature::Exact,
-            QuadratureArg::Sampled => Quadrature::Sampled,
-        };
-        let options = HbmAftOptions {
-            harmonics,
-            samples: self.samples,
-            mass: match self.mass.unwrap_or(MassArg::Consistent) {
-                MassArg::Consistent => MassKind::Consistent,
-                MassArg::Redistributed => MassKind::Redistributed,
-            },
-            penalty: variant.penalty.unwrap_or_default(),
-            quadrature,
-        };
-        let problem = HbmAft::new(model, &options)?;
-        let kp = problem.penalties()[0];
-        Ok(Built {
-            label: format!("HBM-AFT kp = {kp:.3e}"),
-            penalty: Some(kp),
-            problem: Box::new(problem),
-        })
-    }
-
-    /// Build the method for `harmonics` (hbm-aft: with the one `--penalty` value).
-    pub fn problem(&self, model: &Model, harmonics: usize) -> Result<Box<dyn PeriodicProblem>> {
-        match self.method {
-            Method::HbmAft => {
-                let variants = self.variants()?;
-                if variants.len() > 1 {
-                    bail!("give one --penalty value here (frf traces one branch per value)");
-                }
-                Ok(self.problem_for(model, harmonics, &variants[0])?.problem)
-            }
-            Method::Redistributed => {
-                let quadrature = match self.quadrature.unwrap_or(QuadratureArg::Exact) {
-                    QuadratureArg::Exact => Quadrature::Exact,
-                    QuadratureArg::Sampled => Quadrature::Sampled,
-                };
-                let options = RedistributedOptions {
-                    harmonics,
-                    samples: self.samples,
-                    quadrature,
-                };
-                let mut problem = RedistributedMsHbm::new(model, &options)?;
-                problem.set_stability_options(StabilityOptions {
-                    modes: self.stability_modes,
-                })?;
-                Ok(Box::new(problem))
-            }
-            Method::Mshbm => {
-                let options = mshbm::method::shooting::GeneralOptions {
-                    steps: self.samples,
-                    ..mshbm::method::shooting::GeneralOptions::new(harmonics)
-                };
-                Ok(Box::new(mshbm::method::shooting::GeneralMsHbm::new(
-                    model, &options,
-                )?))
-            }
-        }
+        Ok(methods.remove(0))
     }
 
     /// The response DOF (model numbering).
@@ -406,29 +348,13 @@ pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
     fig
 }
 
-/// Solve `variant` at `args.frequency` from the contact-free linear response by Newton,
-/// with the Floquet multipliers unless `--no-stability`: the computation of `mshbm solve`.
-/// Returns the solution, the method's label and Newton's outcome (not converged is not an
-/// error here).
-pub fn solve_periodic(
-    model: &Model,
-    args: &SolveArgs,
-    variant: &Variant,
-) -> Result<(PeriodicSolution, String, NewtonOutcome)> {
-    let dof = args.method.response_dof(model)?;
-    let newton = args.method.newton()?;
-    let Built {
-        mut problem, label, ..
-    } = args.method.problem_for(model, args.harmonics, variant)?;
-    let omega = 2.0 * std::f64::consts::PI * args.frequency;
-    let (mut solution, outcome) = solve_at_frequency(problem.as_mut(), omega, dof, &newton)?;
-    if outcome.converged && !args.no_stability {
-        match problem.floquet(&outcome.x, omega) {
-            Ok(st) => solution.stability = st,
-            Err(e) => eprintln!("note: stability not computed: {e}"),
-        }
-    }
-    Ok((solution, label, outcome))
+/// The library's settings of `mshbm solve`.
+pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> {
+    Ok(SolveSettings {
+        newton: args.method.newton()?,
+        stability: !args.no_stability,
+        response_dof: Some(args.method.response_dof(model)?),
+    })
 }
 
 pub fn run(args: &SolveArgs) -> Result<()> {
@@ -450,12 +376,22 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             );
         }
     }
-    let variants = args.method.variants()?;
-    if variants.len() > 1 {
-        bail!("solve takes one --penalty value (frf traces one branch per value)");
-    }
+    let method = args.method.single_method(args.harmonics)?;
     let model = args.model.load()?;
-    let (solution, label, outcome) = solve_periodic(&model, args, &variants[0])?;
+    let Solved {
+        solution,
+        label,
+        outcome,
+        stability_error,
+    } = solve_periodic(
+        &model,
+        &method,
+        args.frequency,
+        &solve_settings(args, &model)?,
+    )?;
+    if let Some(e) = stability_error {
+        eprintln!("note: stability not computed: {e}");
+    }
     if let Some(path) = &args.output {
         write_atomic(path, time_series_csv(&solution).as_bytes())?;
     }
@@ -488,7 +424,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
                 c.min,
                 c.force.iter().fold(0.0f64, |m, v| m.max(*v))
             );
-            if solution.method == "hbm-aft" {
+            if solution.method == MethodKind::HbmAft {
                 println!(
                     "  penalty contact: max penetration −g {:.6e} (at the samples)",
                     c.gap.iter().fold(f64::NEG_INFINITY, |m, g| m.max(-g))

@@ -64,7 +64,7 @@ use faer::Mat;
 
 use crate::error::{Error, Result};
 use crate::method::redistributed::static_contact::StaticContact;
-use crate::model::{Model, System};
+use crate::model::{MassKind, Model, System};
 use crate::modes::massless_dofs;
 use crate::sparse::SparseMatrix;
 
@@ -80,6 +80,34 @@ pub enum Scheme {
 }
 
 impl Scheme {
+    /// The Moreau–Jean scheme with the defaults θ = ½ (no numerical damping) and `e_N = 0`
+    /// where not given.
+    pub fn moreau_jean(theta: Option<f64>, restitution: Option<f64>) -> Self {
+        Scheme::MoreauJean {
+            theta: theta.unwrap_or(0.5),
+            restitution: restitution.unwrap_or(0.0),
+        }
+    }
+
+    /// The mass matrix the scheme integrates: the consistent mass for Moreau–Jean, the
+    /// redistributed mass (massless contact boundary) for the position-level Newmark scheme.
+    pub fn mass_kind(&self) -> MassKind {
+        match self {
+            Scheme::MoreauJean { .. } => MassKind::Consistent,
+            Scheme::PositionNewmark => MassKind::Redistributed,
+        }
+    }
+
+    /// The scheme and its mass, in words for reports.
+    pub fn description(&self) -> String {
+        match *self {
+            Scheme::MoreauJean { theta, restitution } => {
+                format!("Moreau-Jean (theta = {theta}, e_N = {restitution}), consistent mass")
+            }
+            Scheme::PositionNewmark => "position-level Newmark, redistributed mass".to_string(),
+        }
+    }
+
     /// Short name for reports (`"moreau-jean"`, `"position-newmark"`).
     pub fn name(&self) -> &'static str {
         match self {

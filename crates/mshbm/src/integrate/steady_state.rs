@@ -267,7 +267,7 @@ pub fn simulate_to_steady_state(
             harmonics: h,
             samples: n,
             quadrature: "sampled".into(),
-            method: "time-integration".into(),
+            method: crate::solution::MethodKind::TimeIntegration,
             converged: periodic,
             iterations: p,
             residual_norm: change,

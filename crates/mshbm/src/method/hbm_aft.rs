@@ -946,7 +946,7 @@ impl PeriodicProblem for HbmAft {
             &self.partition,
             omega,
             SolutionParts {
-                method: "hbm-aft",
+                method: crate::solution::MethodKind::HbmAft,
                 quadrature: self.quadrature.name(),
                 harmonics: h,
                 taus: &self.sampling.taus,

@@ -3,6 +3,7 @@
 pub mod hbm_aft;
 pub(crate) mod partition;
 pub mod redistributed;
+pub mod settings;
 pub mod shooting;
 
 use faer::c64;
@@ -10,7 +11,7 @@ use faer::c64;
 use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
 use crate::model::System;
-use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, MethodKind, PeriodicSolution};
 use partition::Partition;
 
 /// Check the settings every method shares: at least one harmonic, and enough samples
@@ -59,8 +60,7 @@ pub(crate) fn check_frequency(omega: f64) -> Result<()> {
 /// The method-specific parts of a [`PeriodicSolution`]; [`periodic_solution`] adds what the
 /// methods share.
 pub(crate) struct SolutionParts<'a> {
-    /// The method's name as reported (`"redistributed"`, `"mshbm"`, `"hbm-aft"`).
-    pub method: &'static str,
+    pub method: MethodKind,
     /// The quadrature of the Fourier coefficients (`"exact"`, `"sampled"`).
     pub quadrature: &'static str,
     pub harmonics: usize,
@@ -87,7 +87,7 @@ pub(crate) fn periodic_solution(
         harmonics: parts.harmonics,
         samples: parts.taus.len(),
         quadrature: parts.quadrature.to_string(),
-        method: parts.method.to_string(),
+        method: parts.method,
         converged: false,
         iterations: 0,
         residual_norm: parts.residual.iter().fold(0.0f64, |m, v| m.max(v.abs()))

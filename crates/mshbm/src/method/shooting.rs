@@ -983,7 +983,7 @@ impl PeriodicProblem for GeneralMsHbm {
             &self.partition,
             omega,
             SolutionParts {
-                method: "mshbm",
+                method: crate::solution::MethodKind::General,
                 quadrature: "sampled",
                 harmonics: h,
                 taus: &sampling.taus,

@@ -77,6 +77,7 @@ use crate::error::{Error, Result};
 use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
 use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::matrix_market::read_matrix;
+use crate::model::overrides::apply_override;
 use crate::model::{Contact, Damping, Friction, FrictionNormal, Model};
 
 #[derive(Deserialize, Default)]
@@ -605,61 +606,4 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
     };
     model.validate()?;
     Ok(model)
-}
-
-/// Apply one `key=value` override to a parsed model file. The key is a dotted path
-/// (`contact.gap`, `damping.alpha`, `contacts.0.gap` for the first element of an array);
-/// the value is parsed as a TOML value (number, boolean, array, quoted string) and taken
-/// as a bare string otherwise. Missing tables on the path are created; a key that the
-/// model does not know is then reported when the model is read.
-pub fn apply_override(root: &mut toml::Value, assignment: &str) -> Result<()> {
-    let err = |message: &str| Error::Override {
-        assignment: assignment.to_string(),
-        message: message.to_string(),
-    };
-    let (key, raw) = assignment
-        .split_once('=')
-        .ok_or_else(|| err("expected key=value"))?;
-    let key = key.trim();
-    let raw = raw.trim();
-    if key.is_empty() || key.split('.').any(str::is_empty) {
-        return Err(err("the key must be a dotted path such as `contact.gap`"));
-    }
-    let value = toml::from_str::<toml::Table>(&format!("v = {raw}"))
-        .ok()
-        .and_then(|mut t| t.remove("v"))
-        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
-    let parts: Vec<&str> = key.split('.').collect();
-    let mut node = root;
-    for (k, part) in parts.iter().enumerate() {
-        let last = k + 1 == parts.len();
-        node = match node {
-            toml::Value::Table(t) => {
-                if last {
-                    t.insert(part.to_string(), value);
-                    return Ok(());
-                }
-                t.entry(part.to_string())
-                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-            }
-            toml::Value::Array(a) => {
-                let i: usize = part
-                    .parse()
-                    .map_err(|_| err(&format!("`{part}` is not an array index")))?;
-                let len = a.len();
-                let slot = a.get_mut(i).ok_or_else(|| {
-                    err(&format!(
-                        "index {i} out of range (array has {len} elements)"
-                    ))
-                })?;
-                if last {
-                    *slot = value;
-                    return Ok(());
-                }
-                slot
-            }
-            _ => return Err(err(&format!("`{}` is not a table", parts[..k].join(".")))),
-        };
-    }
-    Ok(())
 }

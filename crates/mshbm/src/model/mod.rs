@@ -15,6 +15,7 @@ pub mod export;
 pub mod file;
 pub mod lattice;
 pub mod matrix_market;
+pub mod overrides;
 mod system;
 
 pub use system::{MassKind, System, SystemContact, SystemFriction};

@@ -7,8 +7,11 @@ use std::fmt::Write as _;
 use anyhow::{bail, Result};
 
 use super::run::{Job, Output};
-use super::{models, parse_args, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
-use crate::commands::solve::{period_figure, solve_periodic, time_series_csv, SolveArgs};
+use mshbm::method::settings::MethodSettings;
+use mshbm::solve::{solve_periodic, SolveSettings, Solved};
+
+use super::{models, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
+use crate::commands::solve::{period_figure, time_series_csv};
 use crate::output::write_atomic;
 
 pub const FREQUENCY_HZ: f64 = 60_000.0;
@@ -37,14 +40,19 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
             DAMPING_OVERRIDE.into(),
         ];
         commands.push(format!("mshbm {}", argv.join(" ")));
-        let args: SolveArgs = parse_args(&argv)?;
         let m = models::load(
             models::CLAMPED_BAR,
             models::CLAMPED_BAR_PATH,
-            &args.model.overrides,
+            &[DAMPING_OVERRIDE.to_string()],
         )?;
-        let variant = args.method.variants()?[0];
-        let (solution, _, outcome) = solve_periodic(&m, &args, &variant)?;
+        let Solved {
+            solution, outcome, ..
+        } = solve_periodic(
+            &m,
+            &MethodSettings::redistributed(h),
+            FREQUENCY_HZ,
+            &SolveSettings::default(),
+        )?;
         if !outcome.converged {
             bail!(
                 "H = {h}: Newton did not converge at {FREQUENCY_HZ} Hz: {}",

@@ -10,11 +10,15 @@ use std::time::Instant;
 use anyhow::Result;
 
 use super::run::{Job, Output, Progress};
-use super::{models, parse_args, percent, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
-use crate::commands::frf::{
-    frd_csv_header, frd_csv_row, frd_figure, trace, BranchReport, FoldReport, Found, FrdPoint,
-    FrfArgs,
-};
+use mshbm::frd::{trace_frd_branch, BranchReport, FoldReport, FrdPoint, FrdSettings, TracedBranch};
+use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
+use mshbm::method::redistributed::quadrature::Quadrature;
+use mshbm::method::redistributed::RedistributedOptions;
+use mshbm::method::settings::MethodSettings;
+use mshbm::stability::StabilityOptions;
+
+use super::{models, percent, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
+use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
 use crate::output::write_atomic;
 
 const HARMONICS: usize = 5;
@@ -32,7 +36,8 @@ pub(crate) struct Traced11 {
 pub(crate) struct Plan {
     from_hz: f64,
     to_hz: f64,
-    penalties: Vec<&'static str>,
+    /// Penalty stiffnesses of the HBM-AFT branches [N/mm].
+    penalties: Vec<f64>,
 }
 
 impl Plan {
@@ -40,11 +45,30 @@ impl Plan {
         Ok(Plan {
             from_hz: 20_000.0,
             to_hz: if setup.quick { 25_000.0 } else { 100_000.0 },
-            penalties: vec!["1e6", "1e7", "1e8"],
+            penalties: vec![1e6, 1e7, 1e8],
         })
     }
 
-    /// The arguments of branch `index` (0: MS-HBM; k ≥ 1: HBM-AFT with penalty k−1).
+    /// The method of branch `index` (0: MS-HBM; k ≥ 1: HBM-AFT with penalty k−1), both
+    /// with exact quadrature.
+    fn method(&self, index: usize) -> MethodSettings {
+        if index == 0 {
+            return MethodSettings::Redistributed {
+                options: RedistributedOptions {
+                    quadrature: Quadrature::Exact,
+                    ..RedistributedOptions::new(HARMONICS)
+                },
+                stability: StabilityOptions::default(),
+            };
+        }
+        MethodSettings::HbmAft(HbmAftOptions {
+            penalty: Penalty::Stiffness(self.penalties[index - 1]),
+            quadrature: Quadrature::Exact,
+            ..HbmAftOptions::new(HARMONICS)
+        })
+    }
+
+    /// The command line that computes branch `index` (for the summary).
     fn argv(&self, index: usize) -> Vec<String> {
         let mut argv: Vec<String> = [
             "frf",
@@ -68,7 +92,7 @@ impl Plan {
                     "--method",
                     "hbm-aft",
                     "--penalty",
-                    self.penalties[index - 1],
+                    &format!("{:e}", self.penalties[index - 1]),
                 ]
                 .map(String::from),
             );
@@ -80,7 +104,10 @@ impl Plan {
         if index == 0 {
             "Fig. 11 branch MS-HBM".into()
         } else {
-            format!("Fig. 11 branch HBM-AFT kp = {}", self.penalties[index - 1])
+            format!(
+                "Fig. 11 branch HBM-AFT kp = {:e}",
+                self.penalties[index - 1]
+            )
         }
     }
 
@@ -92,23 +119,17 @@ impl Plan {
                 name: self.name(index),
                 work: Box::new(move || {
                     let t0 = Instant::now();
-                    let args: FrfArgs = parse_args(&self.argv(index))?;
                     let model = models::load(
                         models::CLAMPED_BAR_GAP0,
                         models::CLAMPED_BAR_GAP0_PATH,
-                        &args.model.overrides,
+                        &[DAMPING_OVERRIDE.to_string()],
                     )?;
-                    let variant = args.method.variants()?[0];
-                    let mut found = Found::default();
                     let mut observer = progress.branch(self.name(index));
-                    let (report, _) = trace(
+                    let TracedBranch { report, folds, .. } = trace_frd_branch(
                         &model,
-                        &args,
-                        HARMONICS,
-                        &variant,
+                        &self.method(index),
+                        &FrdSettings::new(self.from_hz, self.to_hz),
                         true,
-                        &mut None,
-                        &mut found,
                         &mut observer,
                     )?;
                     progress.line(
@@ -119,7 +140,7 @@ impl Plan {
                         index,
                         iterations: report.points.iter().map(|p| p.newton_iterations).sum(),
                         report,
-                        folds: found.folds,
+                        folds,
                         seconds: t0.elapsed().as_secs_f64(),
                     }))
                 }),
@@ -167,7 +188,7 @@ impl Plan {
         csv.push('\n');
         for t in &traced {
             for p in &t.report.points {
-                let method = Some((t.report.method.as_str(), t.report.penalty));
+                let method = Some((t.report.method.name(), t.report.penalty));
                 csv.push_str(&frd_csv_row(p, HARMONICS, method));
                 csv.push('\n');
             }
@@ -225,7 +246,12 @@ impl Plan {
             hdr = frd_csv_header(true),
             from = self.from_hz,
             to = self.to_hz,
-            kps = self.penalties.join(", "),
+            kps = self
+                .penalties
+                .iter()
+                .map(|k| format!("{k:e}"))
+                .collect::<Vec<_>>()
+                .join(", "),
         );
         for index in 0..=self.penalties.len() {
             let _ = writeln!(s, "mshbm {}", self.argv(index).join(" "));
@@ -282,7 +308,7 @@ impl Plan {
                         .filter_map(|p| p.max_penetration)
                         .fold(0.0f64, f64::max);
                     (
-                        self.penalties[t.index - 1].to_string(),
+                        format!("{:e}", self.penalties[t.index - 1]),
                         (peak(&t.report.points).0 / ra - 1.0).abs(),
                         penetration,
                     )

@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use anyhow::{bail, Result};
 use mshbm::integrate::analytic::DroppedBarSolution;
 use mshbm::model::dropped_bar::DroppedBarParameters;
+use mshbm::simulation::contact_intervals;
 
 use super::run::{Job, Output};
 use super::{models, FigureReport, Setup};
@@ -40,33 +41,6 @@ const RUNS: [(&str, &str, SchemeArg, Option<f64>); 3] = [
 
 /// CSV header of fig5_dropped_bar.csv.
 pub const CSV_HEADER: &str = "time_s,gap_closed_form,gap_e0,gap_e1,gap_mred,energy_normalized_e0,energy_normalized_e1,energy_normalized_mred";
-
-/// Contact phases found in a gap history: (start, duration) of each maximal run of samples
-/// with `gap <= tolerance`, and the total closed time.
-fn closed_intervals(time: &[f64], gap: &[f64], tolerance: f64) -> (Vec<(f64, f64)>, f64) {
-    let dt = if time.len() > 1 {
-        time[1] - time[0]
-    } else {
-        0.0
-    };
-    let mut runs = Vec::new();
-    let mut start: Option<usize> = None;
-    for (i, &g) in gap.iter().enumerate() {
-        match (g <= tolerance, start) {
-            (true, None) => start = Some(i),
-            (false, Some(s)) => {
-                runs.push((time[s], (i - s) as f64 * dt));
-                start = None;
-            }
-            _ => {}
-        }
-    }
-    if let Some(s) = start {
-        runs.push((time[s], (gap.len() - s) as f64 * dt));
-    }
-    let total = runs.iter().map(|r| r.1).sum();
-    (runs, total)
-}
 
 pub(crate) fn job(setup: &Setup) -> Job<'_> {
     Job {
@@ -143,7 +117,7 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
         2.0 * contact
     );
     for ((name, description, _, _), r) in RUNS.iter().zip(&recs) {
-        let (intervals, total) = closed_intervals(time, &r.plot_gaps[0], tolerance);
+        let (intervals, total) = contact_intervals(time, &r.plot_gaps[0], tolerance);
         let first = intervals
             .first()
             .map(|(s, d)| format!("{s:.4}, {d:.4}"))
@@ -192,18 +166,4 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
         files: vec![setup.image_name(image), csv_name.into()],
         problems: vec![],
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::closed_intervals;
-
-    #[test]
-    fn closed_intervals_of_a_square_wave() {
-        let time: Vec<f64> = (0..10).map(|i| i as f64 * 0.5).collect();
-        let gap = [1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 0.0];
-        let (runs, total) = closed_intervals(&time, &gap, 1e-12);
-        assert_eq!(runs, vec![(0.5, 1.5), (3.0, 0.5), (4.0, 1.0)]);
-        assert_eq!(total, 3.0);
-    }
 }

@@ -19,12 +19,17 @@ use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOption
 use mshbm::integrate::{Integrator, Settings};
 
 use super::run::{Job, Output, Progress};
-use super::{models, parse_args, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
-use crate::commands::frf::{
-    frd_csv_header, frd_csv_row, frd_figure, trace, BifurcationReport, BranchReport, FoldReport,
-    Found, FrdPoint, FrfArgs,
+use mshbm::frd::{
+    branch_values_at, trace_frd_branch, BifurcationReport, BranchReport, FoldReport, FrdPoint,
+    FrdSettings, TracedBranch,
 };
-use crate::commands::simulate::{scheme_and_mass, SchemeArg, SimulateArgs};
+use mshbm::method::settings::MethodSettings;
+
+use super::{models, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
+use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
+use crate::commands::simulate::{
+    scheme_and_mass, SchemeArg, SIMULATE_HARMONICS, SIMULATE_TOLERANCE,
+};
 use crate::output::write_atomic;
 use crate::plot::{Series, Style};
 
@@ -143,23 +148,24 @@ impl Plan {
                 name: format!("Fig. 9 branch H = {h}"),
                 work: Box::new(move || {
                     let t0 = Instant::now();
-                    let args: FrfArgs = parse_args(&self.frf_argv(h))?;
                     let model = models::load(
                         models::CLAMPED_BAR,
                         models::CLAMPED_BAR_PATH,
-                        &args.model.overrides,
+                        &[DAMPING_OVERRIDE.to_string()],
                     )?;
-                    let variant = args.method.variants()?[0];
-                    let mut found = Found::default();
+                    let mut settings = FrdSettings::new(self.from_hz, self.to_hz);
+                    settings.stability = true;
                     let mut observer = progress.branch(format!("Fig. 9 branch H = {h}"));
-                    let (report, _) = trace(
+                    let TracedBranch {
+                        report,
+                        folds,
+                        bifurcations,
+                        ..
+                    } = trace_frd_branch(
                         &model,
-                        &args,
-                        h,
-                        &variant,
+                        &MethodSettings::redistributed(h),
+                        &settings,
                         false,
-                        &mut None,
-                        &mut found,
                         &mut observer,
                     )?;
                     progress.line(
@@ -169,8 +175,8 @@ impl Plan {
                     Ok(Output::Branch9(Traced9 {
                         harmonics: h,
                         report,
-                        folds: found.folds,
-                        bifurcations: found.bifurcations,
+                        folds,
+                        bifurcations,
                         seconds: t0.elapsed().as_secs_f64(),
                     }))
                 }),
@@ -198,20 +204,16 @@ impl Plan {
     /// --steady-state`), recording the extremes of the contact DOF per period.
     fn integrate(&self, frequency_hz: f64, progress: &Progress, part: &str) -> Result<Integration> {
         let t0 = Instant::now();
-        let args: SimulateArgs = parse_args(&self.simulate_argv(frequency_hz))?;
         let model = models::load(
             models::CLAMPED_BAR,
             models::CLAMPED_BAR_PATH,
-            &args.model.overrides,
+            &[DAMPING_OVERRIDE.to_string()],
         )?;
-        let (scheme, kind) = scheme_and_mass(
-            args.scheme.unwrap_or(SchemeArg::Moreau),
-            args.restitution,
-            args.theta,
-        );
+        // the simulate command's Moreau-Jean scheme with e_N = 0 (simulate_argv)
+        let (scheme, kind) = scheme_and_mass(SchemeArg::Moreau, Some(0.0), None);
         let system = model.system(kind)?;
         let omega = 2.0 * std::f64::consts::PI * frequency_hz;
-        let n = args.steps_per_period.unwrap_or(self.steps_per_period);
+        let n = self.steps_per_period;
         let mut integrator = Integrator::new(
             &system,
             &Settings {
@@ -224,9 +226,9 @@ impl Plan {
         let contact = integrator.contact_first_dofs()[0];
         let options = SteadyStateOptions {
             steps_per_period: n,
-            max_periods: args.periods.map_or(self.max_periods, |p| p as usize),
-            tolerance: args.tolerance,
-            harmonics: args.harmonics,
+            max_periods: self.max_periods,
+            tolerance: SIMULATE_TOLERANCE,
+            harmonics: SIMULATE_HARMONICS,
             response_dof: contact.0,
         };
         // extremes of the contact DOF in the running period, and per finished period
@@ -524,7 +526,7 @@ impl Plan {
                 sim.seconds
             );
             for t in &traced {
-                match values_at(&t.report.points, sim.frequency_hz, sim.min) {
+                match branch_values_at(&t.report.points, sim.frequency_hz, sim.min) {
                     Some(v) => {
                         let _ = write!(
                             s,
@@ -546,7 +548,8 @@ impl Plan {
         // the MS-HBM solution of the largest H that reaches each frequency
         let reference_at = |sim: &Integration| {
             traced.iter().rev().find_map(|t| {
-                values_at(&t.report.points, sim.frequency_hz, sim.min).map(|v| (t.harmonics, v))
+                branch_values_at(&t.report.points, sim.frequency_hz, sim.min)
+                    .map(|v| (t.harmonics, v))
             })
         };
         let unstable_where_wandering = sims
@@ -617,38 +620,4 @@ impl Plan {
             problems,
         })
     }
-}
-
-/// A branch's values at one frequency.
-#[derive(Clone, Copy, Debug)]
-struct BranchValue {
-    max: f64,
-    min: f64,
-    /// Stability of the nearer neighbouring point, when computed.
-    stable: Option<bool>,
-}
-
-/// The (max, min) of a branch at `frequency_hz`, linearly interpolated between
-/// neighbouring points; where the branch passes the frequency several times, the crossing
-/// whose min is closest to `near_min`.
-fn values_at(points: &[FrdPoint], frequency_hz: f64, near_min: f64) -> Option<BranchValue> {
-    let pts: Vec<&FrdPoint> = points.iter().filter(|p| !p.fold).collect();
-    let mut best: Option<BranchValue> = None;
-    for w in pts.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let (fa, fb) = (a.frequency_hz, b.frequency_hz);
-        if (fa - frequency_hz) * (fb - frequency_hz) > 0.0 || fa == fb {
-            continue;
-        }
-        let t = (frequency_hz - fa) / (fb - fa);
-        let v = BranchValue {
-            max: a.max_qn + t * (b.max_qn - a.max_qn),
-            min: a.min_qn + t * (b.min_qn - a.min_qn),
-            stable: if t < 0.5 { a.stable } else { b.stable },
-        };
-        if best.is_none_or(|m| (v.min - near_min).abs() < (m.min - near_min).abs()) {
-            best = Some(v);
-        }
-    }
-    best
 }

@@ -310,16 +310,6 @@ fn summary_text(
     s
 }
 
-/// Parse the argument list of a single command (`argv[0]` is the command's name) with
-/// that command's own parser, so that every default is the command's.
-pub(crate) fn parse_args<A: clap::Args>(argv: &[String]) -> Result<A> {
-    let command = A::augment_args(clap::Command::new("mshbm"));
-    let matches = command
-        .try_get_matches_from(argv)
-        .with_context(|| format!("internal: invalid arguments {argv:?}"))?;
-    Ok(A::from_arg_matches(&matches)?)
-}
-
 /// Format a relative number as a percentage with sign.
 pub(crate) fn percent(x: f64) -> String {
     format!("{:+.3} %", 100.0 * x)

@@ -11,7 +11,7 @@ use anyhow::{anyhow, Result};
 use super::fig11::Traced11;
 use super::fig9::{Integration, Traced9};
 use super::FigureReport;
-use crate::commands::frf::{BranchObserver, FrdPoint};
+use mshbm::frd::{BranchInfo, FrdObserver, FrdPoint};
 
 /// What a job produces: a finished figure (its number and report), or a part of Fig. 9 or
 /// Fig. 11 that is assembled when all parts are done.
@@ -106,8 +106,14 @@ pub(crate) struct BranchLines<'a> {
     every: Duration,
 }
 
-impl BranchObserver for BranchLines<'_> {
-    fn point(&mut self, _label: &str, point: &FrdPoint, points: usize, _step: f64) {
+impl FrdObserver for BranchLines<'_> {
+    fn point(
+        &mut self,
+        _branch: &BranchInfo,
+        point: &FrdPoint,
+        points: usize,
+        _step: f64,
+    ) -> mshbm::Result<()> {
         if self.last.elapsed() >= self.every {
             self.last = Instant::now();
             self.progress.line(
@@ -118,6 +124,7 @@ impl BranchObserver for BranchLines<'_> {
                 ),
             );
         }
+        Ok(())
     }
 }
 

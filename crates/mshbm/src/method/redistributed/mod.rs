@@ -59,6 +59,17 @@ pub struct RedistributedOptions {
     pub quadrature: Quadrature,
 }
 
+impl RedistributedOptions {
+    /// `H` harmonics, default samples, exact quadrature.
+    pub fn new(harmonics: usize) -> Self {
+        RedistributedOptions {
+            harmonics,
+            samples: None,
+            quadrature: Quadrature::Exact,
+        }
+    }
+}
+
 struct FrequencyData {
     omega: f64,
     factors: HarmonicFactors,
@@ -551,7 +562,7 @@ impl PeriodicProblem for RedistributedMsHbm {
             &self.partition,
             omega,
             SolutionParts {
-                method: "redistributed",
+                method: crate::solution::MethodKind::Redistributed,
                 quadrature: self.quadrature.name(),
                 harmonics: h,
                 taus: &taus,

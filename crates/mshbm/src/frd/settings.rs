@@ -1,0 +1,139 @@
+//! Settings of a frequency response diagram, validated, with documented defaults.
+
+use crate::continuation::arclength::ContinuationOptions;
+use crate::continuation::newton::NewtonOptions;
+use crate::error::{Error, Result};
+use crate::model::Model;
+
+/// What to trace and how finely. Step sizes are in the continuation's scaled arclength
+/// (unknowns divided by the model's length scale, frequency as `ln(ω/ω_start)`).
+#[derive(Clone, Debug)]
+pub struct FrdSettings {
+    /// Start frequency [Hz]: the branch starts from the contact-free response there.
+    pub from_hz: f64,
+    /// End frequency [Hz]; below `from_hz` for a downward sweep.
+    pub to_hz: f64,
+    /// First arclength step (default 0.01).
+    pub initial_step: f64,
+    /// Smallest arclength step (default 1e-12): below it the branch stops and says why.
+    /// Grazing contacts turn a branch within very short arcs, so this is small.
+    pub min_step: f64,
+    /// Largest arclength step (default 0.1).
+    pub max_step: f64,
+    /// Largest turn of the tangent between two points, degrees (default 20).
+    pub max_turn_deg: f64,
+    /// Newton of the first point and of every corrector (default: tolerance 1e-10 relative
+    /// to the length scale, 50 iterations).
+    pub newton: NewtonOptions,
+    /// Compute the Floquet multipliers of every point (default `false`), for the methods
+    /// that provide them: stable/unstable parts and stability changes.
+    pub stability: bool,
+    /// The model DOF whose extremes the points report (`None`: the first DOF of the first
+    /// contact, or of the first friction element).
+    pub response_dof: Option<usize>,
+    /// Most points per branch (default 20 000): a safety limit.
+    pub max_points: usize,
+}
+
+impl FrdSettings {
+    /// The defaults for a sweep from `from_hz` to `to_hz`.
+    pub fn new(from_hz: f64, to_hz: f64) -> Self {
+        FrdSettings {
+            from_hz,
+            to_hz,
+            initial_step: 0.01,
+            min_step: 1e-12,
+            max_step: 0.1,
+            max_turn_deg: 20.0,
+            newton: NewtonOptions::default(),
+            stability: false,
+            response_dof: None,
+            max_points: 20_000,
+        }
+    }
+
+    /// Refuse settings that cannot describe a sweep.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [("from", self.from_hz), ("to", self.to_hz)] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::argument(
+                    name,
+                    format!("must be a positive number of Hz, got {v}"),
+                ));
+            }
+        }
+        if self.from_hz == self.to_hz {
+            return Err(Error::argument("from/to", "the frequencies must differ"));
+        }
+        if !(self.min_step > 0.0
+            && self.min_step <= self.initial_step
+            && self.initial_step <= self.max_step
+            && self.max_step.is_finite())
+        {
+            return Err(Error::argument(
+                "steps",
+                "must satisfy 0 < min_step <= initial_step <= max_step",
+            ));
+        }
+        if !(self.max_turn_deg > 0.0 && self.max_turn_deg < 180.0) {
+            return Err(Error::argument(
+                "max_turn_deg",
+                format!("must lie in (0, 180), got {}", self.max_turn_deg),
+            ));
+        }
+        if !(self.newton.tolerance.is_finite() && self.newton.tolerance > 0.0) {
+            return Err(Error::argument(
+                "tolerance",
+                format!("must be positive, got {}", self.newton.tolerance),
+            ));
+        }
+        if self.max_points == 0 {
+            return Err(Error::argument("max_points", "must be at least 1"));
+        }
+        if self.newton.max_iterations == 0 {
+            return Err(Error::argument("max_iterations", "must be at least 1"));
+        }
+        Ok(())
+    }
+
+    /// The continuation settings of one branch.
+    pub fn continuation(&self) -> ContinuationOptions {
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let mut options = ContinuationOptions::new(two_pi * self.from_hz, two_pi * self.to_hz);
+        options.initial_step = self.initial_step;
+        options.max_step = self.max_step;
+        options.min_step = self.min_step;
+        options.max_turn_deg = self.max_turn_deg;
+        options.newton = self.newton.clone();
+        options.max_points = self.max_points;
+        options
+    }
+}
+
+/// The response DOF of `model` (model numbering): `requested`, or the first DOF of the
+/// first contact (else of the first friction element).
+pub fn response_dof(model: &Model, requested: Option<usize>) -> Result<usize> {
+    let dof = match requested {
+        Some(d) => d,
+        None => match (model.contacts.first(), model.frictions.first()) {
+            (Some(c), _) => c.dofs[0],
+            (None, Some(f)) => f.dofs[0],
+            (None, None) => {
+                return Err(Error::argument(
+                    "dof",
+                    "the model has no contact and no friction element: name the response DOF",
+                ))
+            }
+        },
+    };
+    if dof >= model.n_dofs() {
+        return Err(Error::argument(
+            "dof",
+            format!(
+                "DOF {dof} does not exist (the model has DOFs 0..{})",
+                model.n_dofs() - 1
+            ),
+        ));
+    }
+    Ok(dof)
+}

@@ -1,0 +1,234 @@
+//! Tracing the branches of a frequency response diagram and reporting what they find.
+
+use super::report::{
+    describe_stop, BifurcationReport, BranchReport, FoldReport, FrdPoint, FrdReport,
+};
+use super::settings::{response_dof, FrdSettings};
+use crate::continuation::arclength::{trace_branch, Branch, Event};
+use crate::error::Result;
+use crate::method::settings::MethodSettings;
+use crate::model::Model;
+use crate::solution::{MethodKind, PeriodicSolution};
+use crate::stability::{crossings, Floquet};
+
+/// Which branch an observer is told about.
+#[derive(Clone, Debug)]
+pub struct BranchInfo {
+    pub harmonics: usize,
+    pub method: MethodKind,
+    /// See [`BranchReport::label`].
+    pub label: String,
+    /// HBM-AFT: penalty stiffness of the (first) contact.
+    pub penalty: Option<f64>,
+}
+
+/// Receives what a diagram finds, as it is found. Every method has a default that does
+/// nothing.
+pub trait FrdObserver {
+    /// A branch starts (its method is built).
+    fn start(&mut self, _branch: &BranchInfo) {}
+    /// A point of the branch — a continuation point, or a located fold (`point.fold`);
+    /// `points`: the branch's points so far, this one included; `step`: the arclength step
+    /// that led to it (0 for folds). An error stops the diagram at once and is returned.
+    fn point(
+        &mut self,
+        _branch: &BranchInfo,
+        _point: &FrdPoint,
+        _points: usize,
+        _step: f64,
+    ) -> Result<()> {
+        Ok(())
+    }
+    /// A fold was located (after its point was reported).
+    fn fold(&mut self, _branch: &BranchInfo, _fold: &FoldReport) {}
+    /// A multiplier crossed the unit circle between the last two points.
+    fn stability_change(&mut self, _branch: &BranchInfo, _change: &BifurcationReport) {}
+    /// The branch has ended (reached the end or stopped, [`BranchReport::stop`]).
+    fn finish(&mut self, _branch: &BranchReport) {}
+}
+
+/// A traced branch: its report, what it found, and the continuation's own record (the
+/// unknowns of every point).
+pub struct TracedBranch {
+    pub report: BranchReport,
+    pub folds: Vec<FoldReport>,
+    pub bifurcations: Vec<BifurcationReport>,
+    pub branch: Branch,
+}
+
+/// Trace every method of `methods` for every number of harmonics of `harmonics` (methods
+/// outer), in that order. With more than one method the labels name the method
+/// ("HBM-AFT kp = 1.000e7, H = 5"), otherwise only `H`. A branch that stops early does not
+/// stop the diagram ([`FrdReport::completed`]); an error (bad settings, a method that
+/// cannot be built for the model, an observer's error) does.
+pub fn trace_diagram(
+    model: &Model,
+    methods: &[MethodSettings],
+    harmonics: &[usize],
+    settings: &FrdSettings,
+    observer: &mut dyn FrdObserver,
+) -> Result<FrdReport> {
+    let several = methods.len() > 1;
+    let mut report = FrdReport::default();
+    for method in methods {
+        for &h in harmonics {
+            let traced = trace_frd_branch(
+                model,
+                &method.with_harmonics(h),
+                settings,
+                several,
+                observer,
+            )?;
+            report.folds.extend(traced.folds);
+            report.bifurcations.extend(traced.bifurcations);
+            report.branches.push(traced.report);
+        }
+    }
+    Ok(report)
+}
+
+/// Trace one branch of `method` from `settings.from_hz` to `settings.to_hz`; `name_method`:
+/// the label names the method (several methods share the diagram).
+pub fn trace_frd_branch(
+    model: &Model,
+    method: &MethodSettings,
+    settings: &FrdSettings,
+    name_method: bool,
+    observer: &mut dyn FrdObserver,
+) -> Result<TracedBranch> {
+    settings.validate()?;
+    let dof = response_dof(model, settings.response_dof)?;
+    let built = method.build(model)?;
+    let harmonics = method.harmonics();
+    let info = BranchInfo {
+        harmonics,
+        method: method.kind(),
+        label: if name_method {
+            format!("{}, H = {harmonics}", built.label)
+        } else {
+            format!("H = {harmonics}")
+        },
+        penalty: built.penalty,
+    };
+    observer.start(&info);
+    let mut problem = built.problem;
+    let mut options = settings.continuation();
+    if method.kind() != MethodKind::Redistributed {
+        // finite-difference Jacobian (general MS-HBM) or stiff penalty (HBM-AFT): Newton is
+        // not quadratic, so the corrector's contraction is not a sign of a jump
+        options.max_contraction = f64::INFINITY;
+    }
+    // the general MS-HBM's branches are staircases of step-wide corners
+    options.frequency_stepping = method.kind() == MethodKind::General;
+
+    let mut points: Vec<FrdPoint> = Vec::new();
+    let mut folds = Vec::new();
+    let mut bifurcations = Vec::new();
+    // the last point's multipliers and frequency [Hz], for stability changes
+    let mut previous: Option<(Floquet, f64)> = None;
+    let branch = trace_branch(problem.as_mut(), &options, |p, event| {
+        let (x, omega, iterations, residual, step) = match &event {
+            Event::Point(pt) => (&pt.x, pt.omega, pt.iterations, pt.residual_norm, pt.step),
+            Event::Fold(f) => (&f.x, f.omega, 0, 0.0, 0.0),
+        };
+        let fold = matches!(event, Event::Fold(_));
+        let s = p.solution(x, omega, dof)?;
+        let floquet = if settings.stability {
+            p.floquet(x, omega)?
+        } else {
+            None
+        };
+        if let (Some(now), false) = (&floquet, fold) {
+            let hz = omega / (2.0 * std::f64::consts::PI);
+            if let Some((before, hz_before)) = &previous {
+                for change in stability_changes(&info, before, *hz_before, now, hz, &s) {
+                    observer.stability_change(&info, &change);
+                    bifurcations.push(change);
+                }
+            }
+            previous = Some((now.clone(), hz));
+        }
+        let point = FrdPoint {
+            frequency_hz: s.frequency_hz,
+            max_qn: s.response.max,
+            min_qn: s.response.min,
+            amplitude_h1: s.response.amplitude_h1(),
+            residual_norm: if fold { s.residual_norm } else { residual },
+            newton_iterations: iterations,
+            fold,
+            stable: floquet.as_ref().map(|f| f.stable),
+            max_multiplier: floquet.as_ref().map(|f| f.max_multiplier),
+            max_penetration: (s.method == MethodKind::HbmAft).then(|| max_penetration(&s)),
+        };
+        observer.point(&info, &point, points.len() + 1, step)?;
+        if let Event::Fold(f) = &event {
+            let report = FoldReport {
+                harmonics,
+                label: info.label.clone(),
+                frequency_hz: point.frequency_hz,
+                max_qn: point.max_qn,
+                min_qn: point.min_qn,
+                amplitude_h1: point.amplitude_h1,
+                at_kink: f.at_kink,
+            };
+            observer.fold(&info, &report);
+            folds.push(report);
+        }
+        points.push(point);
+        Ok(())
+    })?;
+    let report = BranchReport {
+        harmonics,
+        method: info.method,
+        label: info.label.clone(),
+        penalty: info.penalty,
+        points,
+        stop: describe_stop(&branch.stop, settings.to_hz),
+        completed: branch.stop.is_success(),
+        frequency_steps: branch.frequency_steps,
+        stop_reason: branch.stop.clone(),
+    };
+    observer.finish(&report);
+    Ok(TracedBranch {
+        report,
+        folds,
+        bifurcations,
+        branch,
+    })
+}
+
+/// The crossings of the unit circle between the point at `hz_before` (multipliers
+/// `before`) and the solution `now` at `hz`, located where the largest multiplier modulus
+/// passes 1 (linear interpolation in frequency; the midpoint when it does not pass 1).
+fn stability_changes(
+    info: &BranchInfo,
+    before: &Floquet,
+    hz_before: f64,
+    now: &Floquet,
+    hz: f64,
+    solution: &PeriodicSolution,
+) -> Vec<BifurcationReport> {
+    crossings(before, now)
+        .into_iter()
+        .map(|kind| {
+            let (m0, m1) = (before.max_multiplier - 1.0, now.max_multiplier - 1.0);
+            let t = if m0 * m1 < 0.0 { m0 / (m0 - m1) } else { 0.5 };
+            BifurcationReport {
+                harmonics: info.harmonics,
+                label: info.label.clone(),
+                kind,
+                frequency_hz: hz_before + t * (hz - hz_before),
+                max_qn: solution.response.max,
+                min_qn: solution.response.min,
+            }
+        })
+        .collect()
+}
+
+/// The largest penetration `max(−g)` over the contacts and the time samples of `s`.
+fn max_penetration(s: &PeriodicSolution) -> f64 {
+    s.contacts
+        .iter()
+        .flat_map(|c| c.gap.iter())
+        .fold(f64::NEG_INFINITY, |m, g| m.max(-g))
+}
