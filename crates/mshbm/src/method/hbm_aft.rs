@@ -11,8 +11,8 @@
 //! `A_k = K − (kω)² M + i kω C` (complex form of eq. 8, `z = a − i b` for
 //! `a cos kτ + b sin kτ`) is split into the blocks `LL, LN, NL, NN`. With the consistent
 //! mass `M_NL`, `M_NN` (and with mass-proportional damping `C_NL`, `C_NN`) are nonzero, so
-//! every block is frequency dependent. Per frequency, `A_LL,k` is factored once
-//! ([`LinearPart`]) and
+//! every block is frequency dependent. Per frequency ([`crate::linear::ExactCondensation`]
+//! with [`crate::linear::LinearResponse::Stored`]), `A_LL,k` is factored once and
 //!
 //! ```text
 //! Y_k = A_LL,k⁻¹ A_LN,k,   u_k = A_LL,k⁻¹ F_L,k,

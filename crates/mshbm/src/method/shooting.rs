@@ -16,8 +16,8 @@
 //!
 //! **Residual** (eq. 12), per evaluation:
 //! 1. eq. (6): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex per-harmonic dynamic
-//!    stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` ([`LinearPart::factor`], once per
-//!    frequency) and `z_k = a_k − i b_k`. The load of eq. (10) on `N` is affine in `x`:
+//!    stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` (factored once per
+//!    frequency, [`crate::linear::ExactCondensation`]) and `z_k = a_k − i b_k`. The load of eq. (10) on `N` is affine in `x`:
 //!    `F_k = f_N,k − H_NL,k q̂_L,k = f_N,k − u0_k + G_k z_k`,
 //!    `G_k = H_NL,k A_k⁻¹ H_LN,k`, `u0_k = H_NL,k A_k⁻¹ f_L,k` (precomputed per frequency;
 //!    this contains `M_NL q̈_L + C_NL q̇_L + K_NL q_L` with the derivatives of `q_L` taken

@@ -7,8 +7,8 @@
 //! `A_k = K_LL − (kω)² M̄_LL + i kω C_LL` is factored once, and the affine map from `x` to the
 //! load on the contact subsystem `b(τ) = −K_NL q_L(τ) + f_N(τ)` is precomputed: with the
 //! complex amplitude `z_k = a_k − i b_k` of harmonic `k` of `x`,
-//! `K_NL q̂_L,k = u0_k − G_k z_k`, `G_k = K_NL A_k⁻¹ K_LN`, `u0_k = K_NL A_k⁻¹ f_L,k`.
-//! No factorization happens inside the per-sample loop.
+//! `K_NL q̂_L,k = u0_k − G_k z_k`, `G_k = K_NL A_k⁻¹ K_LN`, `u0_k = K_NL A_k⁻¹ f_L,k`
+//! ([`crate::linear::ExactCondensation`]). No factorization happens inside the per-sample loop.
 //!
 //! Per evaluation: the static contact problem (eqs. 26–29) is solved per sample or per
 //! interval ([`quadrature`]), giving `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`. The
