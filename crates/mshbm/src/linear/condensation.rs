@@ -281,7 +281,7 @@ impl Condensation for ExactCondensation {
             factors: Some(factors),
             g,
             u0,
-            stored: store.then_some((ys, us)),
+            stored: store.then_some(StoredResponse { y: ys, u: us }),
         }))
     }
 }
@@ -294,8 +294,14 @@ struct ExactFrequency {
     factors: Option<HarmonicFactors>,
     g: Vec<Vec<c64>>,
     u0: Vec<Vec<c64>>,
-    /// `Y_k = A_LL,k⁻¹ A_LN,k` and `u_k = A_LL,k⁻¹ f_L,k` ([`LinearResponse::Stored`]).
-    stored: Option<(Vec<Mat<c64>>, Vec<Vec<c64>>)>,
+    /// [`LinearResponse::Stored`]: `Y_k` and `u_k`.
+    stored: Option<StoredResponse>,
+}
+
+/// `Y_k = A_LL,k⁻¹ A_LN,k` (`n_L × n_N`) and `u_k = A_LL,k⁻¹ f_L,k` (`n_L`), `k = 0..=H`.
+struct StoredResponse {
+    y: Vec<Mat<c64>>,
+    u: Vec<Vec<c64>>,
 }
 
 impl ExactFrequency {
@@ -330,7 +336,7 @@ impl CondensedFrequency for ExactFrequency {
     }
 
     fn linear_amplitudes(&self, k: usize, z: &[c64]) -> Result<Vec<c64>> {
-        if let Some((y, u)) = &self.stored {
+        if let Some(StoredResponse { y, u }) = &self.stored {
             // u_k − Y_k z_k
             let y = &y[k];
             return Ok((0..y.nrows())
