@@ -13,7 +13,7 @@ use faer::{c64, Mat};
 
 use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
-use crate::linear::LinearPart;
+use crate::linear::{LinearPart, StructuralBlock};
 use crate::model::System;
 
 /// `(q(0), v(0))` (system numbering) of the harmonic solution whose DOFs `known` (pairs of
@@ -89,11 +89,13 @@ pub fn state_from_harmonics(
     if uu.is_empty() {
         return Ok((q0, v0));
     }
-    let part = LinearPart::new(
-        system.mass.submatrix(&uu, &uu),
-        system.damping.submatrix(&uu, &uu),
-        system.stiffness.submatrix(&uu, &uu),
-    )?;
+    let part = LinearPart::new(StructuralBlock::of(
+        &system.stiffness,
+        &system.mass,
+        &system.damping,
+        &uu,
+        &uu,
+    ))?;
     let factors = part.factor(omega, h)?;
     let m_uk = system.mass.submatrix(&uu, &kk);
     let c_uk = system.damping.submatrix(&uu, &kk);

@@ -11,8 +11,8 @@
 //! `A_k = K − (kω)² M + i kω C` (complex form of eq. 8, `z = a − i b` for
 //! `a cos kτ + b sin kτ`) is split into the blocks `LL, LN, NL, NN`. With the consistent
 //! mass `M_NL`, `M_NN` (and with mass-proportional damping `C_NL`, `C_NN`) are nonzero, so
-//! every block is frequency dependent. Per frequency, `A_LL,k` is factored once
-//! ([`LinearPart`]) and
+//! every block is frequency dependent. Per frequency ([`crate::linear::ExactCondensation`]
+//! with [`crate::linear::LinearResponse::Stored`]), `A_LL,k` is factored once and
 //!
 //! ```text
 //! Y_k = A_LL,k⁻¹ A_LN,k,   u_k = A_LL,k⁻¹ F_L,k,
@@ -90,13 +90,13 @@ use crate::error::{Error, Result};
 use crate::harmonic::{
     add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Sampling,
 };
-use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
+use crate::linear::PartitionedSystem;
+use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::method::redistributed::default_samples;
 pub use crate::method::redistributed::quadrature::Quadrature;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
-use crate::sparse::SparseMatrix;
 
 /// Default penalty stiffness as a multiple of the contact's own stiffness
 /// (`k_p = 100 k_c`; see the module docs).
@@ -156,72 +156,12 @@ impl HbmAftOptions {
     }
 }
 
-/// `K`, `M`, `C` of one block of the partition.
-struct Block {
-    k: SparseMatrix,
-    m: SparseMatrix,
-    c: SparseMatrix,
-}
-
-impl Block {
-    fn new(system: &System, rows: &[usize], cols: &[usize]) -> Self {
-        Block {
-            k: system.stiffness.submatrix(rows, cols),
-            m: system.mass.submatrix(rows, cols),
-            c: system.damping.submatrix(rows, cols),
-        }
-    }
-
-    /// `out += A(kω) x`, `A = K − (kω)² M + i kω C`.
-    fn apply(&self, kw: f64, x: &[c64], out: &mut [c64]) {
-        for (i, j, v) in self.k.iter() {
-            out[i] += x[j] * v;
-        }
-        for (i, j, v) in self.m.iter() {
-            out[i] -= x[j] * (kw * kw * v);
-        }
-        for (i, j, v) in self.c.iter() {
-            out[i] += x[j] * c64::new(0.0, kw * v);
-        }
-    }
-
-    /// `out += ∂A/∂ω x = (−2k²ω M + i k C) x`.
-    fn apply_derivative(&self, k: usize, omega: f64, x: &[c64], out: &mut [c64]) {
-        let kf = k as f64;
-        for (i, j, v) in self.m.iter() {
-            out[i] -= x[j] * (2.0 * kf * kf * omega * v);
-        }
-        for (i, j, v) in self.c.iter() {
-            out[i] += x[j] * c64::new(0.0, kf * v);
-        }
-    }
-
-    /// `A(kω)` as a dense complex matrix.
-    fn dense(&self, kw: f64) -> Mat<c64> {
-        let mut a = Mat::<c64>::zeros(self.k.nrows(), self.k.ncols());
-        for (i, j, v) in self.k.iter() {
-            a[(i, j)] += c64::new(v, 0.0);
-        }
-        for (i, j, v) in self.m.iter() {
-            a[(i, j)] -= c64::new(kw * kw * v, 0.0);
-        }
-        for (i, j, v) in self.c.iter() {
-            a[(i, j)] += c64::new(0.0, kw * v);
-        }
-        a
-    }
-}
-
+/// The condensation at one frequency with the condensed blocks the residual uses.
 struct FrequencyData {
-    omega: f64,
-    factors: HarmonicFactors,
-    /// `Y_k = A_LL,k⁻¹ A_LN,k` (`n_L × n`).
-    y: Vec<Mat<c64>>,
-    /// `u_k = A_LL,k⁻¹ F_L,k` (`n_L`).
-    u: Vec<Vec<c64>>,
-    /// `H̃_k` (`n × n`).
+    condensed: Box<dyn CondensedFrequency>,
+    /// `H̃_k = A_NN,k − G_k` (`n × n`).
     htilde: Vec<Mat<c64>>,
-    /// `F̃_k` (`n`).
+    /// `F̃_k = F_N,k − u0_k` (`n`).
     ftilde: Vec<Vec<c64>>,
 }
 
@@ -251,11 +191,9 @@ pub struct HbmAft {
     harmonics: usize,
     sampling: Sampling,
     quadrature: Quadrature,
-    linear: LinearPart,
-    ln: Block,
-    nl: Block,
-    nn: Block,
-    /// `L | N` partition, split loads and length scale.
+    /// The linear part condensed onto the contact-node DOFs (`H̃_k`, `F̃_k`).
+    condensation: Box<dyn Condensation>,
+    /// `L | N` partition and length scale.
     partition: Partition,
     /// `W` (`n × n_c`, row-major).
     w: Vec<f64>,
@@ -301,7 +239,7 @@ impl HbmAft {
             ));
         }
         let system = model.system(options.mass)?;
-        let (nl_dofs, ll_dofs) = (&system.nonlinear_dofs, &system.linear_dofs);
+        let nl_dofs = &system.nonlinear_dofs;
         let n = nl_dofs.len();
         let nc = system.contacts.len();
         let w = contact_directions(&system);
@@ -328,22 +266,16 @@ impl HbmAft {
             Penalty::Relative(f) => contact_stiffness.iter().map(|k| f * k).collect(),
         };
         let reference_stiffness = (0..n).fold(0.0f64, |m, i| m.max(k_nn.get(i, i)));
-        let linear = LinearPart::new(
-            system.mass.submatrix(ll_dofs, ll_dofs),
-            system.damping.submatrix(ll_dofs, ll_dofs),
-            system.stiffness.submatrix(ll_dofs, ll_dofs),
-        )?;
+        let condensation =
+            ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Stored)?;
         // the same length scale as the redistributed MS-HBM, so that tolerances mean the same
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         Ok(HbmAft {
-            ln: Block::new(&system, ll_dofs, nl_dofs),
-            nl: Block::new(&system, nl_dofs, ll_dofs),
-            nn: Block::new(&system, nl_dofs, nl_dofs),
+            condensation: Box::new(condensation),
             partition,
             harmonics: h,
             sampling: Sampling::new(h, samples),
             quadrature: options.quadrature,
-            linear,
             w,
             gap,
             penalty,
@@ -398,62 +330,25 @@ impl HbmAft {
     }
 
     fn prepare(&mut self, omega: f64) -> Result<()> {
-        if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
+        if self
+            .frequency
+            .as_ref()
+            .is_some_and(|f| f.condensed.omega() == omega)
+        {
             return Ok(());
         }
         super::check_frequency(omega)?;
-        let factors = self.linear.factor(omega, self.harmonics)?;
-        let n = self.n();
-        let nl = self.linear.n_dofs();
-        let h = self.harmonics;
-        let (mut ys, mut us, mut hs, mut fs) = (
-            Vec::with_capacity(h + 1),
-            Vec::with_capacity(h + 1),
-            Vec::with_capacity(h + 1),
-            Vec::with_capacity(h + 1),
-        );
-        for k in 0..=h {
-            let kw = k as f64 * omega;
-            let mut y = self.ln.dense(kw);
-            factors.solve_in_place(k, &mut y)?;
-            let u = match self.partition.load_l.complex(k) {
-                Some(f) => {
-                    let mut u = Mat::<c64>::from_fn(nl, 1, |i, _| f[i]);
-                    factors.solve_in_place(k, &mut u)?;
-                    (0..nl).map(|i| u[(i, 0)]).collect()
-                }
-                None => vec![zero(); nl],
-            };
-            // H̃ = A_NN − A_NL Y (column by column), F̃ = F_N − A_NL u
-            let mut ht = self.nn.dense(kw);
-            let mut col_in = vec![zero(); nl];
-            let mut col_out = vec![zero(); n];
-            for j in 0..n {
-                (0..nl).for_each(|i| col_in[i] = y[(i, j)]);
-                col_out.iter_mut().for_each(|v| *v = zero());
-                self.nl.apply(kw, &col_in, &mut col_out);
-                (0..n).for_each(|i| ht[(i, j)] -= col_out[i]);
-            }
-            let mut ft = self
-                .partition
-                .load_n
-                .complex(k)
-                .unwrap_or_else(|| vec![zero(); n]);
-            let mut au = vec![zero(); n];
-            self.nl.apply(kw, &u, &mut au);
-            ft.iter_mut().zip(&au).for_each(|(f, a)| *f -= *a);
-            ys.push(y);
-            us.push(u);
-            hs.push(ht);
-            fs.push(ft);
-        }
+        let condensed = self.condensation.at(omega, self.harmonics)?;
+        let htilde = (0..=self.harmonics)
+            .map(|k| condensed.condensed_dynamic_stiffness(k))
+            .collect();
+        let ftilde = (0..=self.harmonics)
+            .map(|k| condensed.condensed_load(k))
+            .collect();
         self.frequency = Some(FrequencyData {
-            omega,
-            factors,
-            y: ys,
-            u: us,
-            htilde: hs,
-            ftilde: fs,
+            condensed,
+            htilde,
+            ftilde,
         });
         Ok(())
     }
@@ -705,34 +600,19 @@ impl HbmAft {
         jac
     }
 
-    /// `q̂_L,k = u_k − Y_k z_k` for harmonic `k` (all L DOFs).
-    fn linear_harmonic(&self, x: &[f64], k: usize) -> Vec<c64> {
-        let f = self.frequency.as_ref().expect("prepared");
-        let z = complex_harmonic(x, self.n(), k);
-        let yz = mat_vec(&f.y[k], &z);
-        f.u[k].iter().zip(&yz).map(|(u, v)| *u - *v).collect()
-    }
-
-    /// `∂R/∂ω` at `x` (one sparse solve per harmonic).
+    /// `∂R/∂ω` at `x`: `∂R_k/∂ω = (∂A_NN,k/∂ω z_k + ∂(A_NL,k q̂_L,k)/∂ω) / k_ref` (one
+    /// sparse solve per harmonic).
     fn frequency_derivative(&self, x: &[f64]) -> Result<Vec<f64>> {
-        let f = self.frequency.as_ref().expect("prepared");
-        let omega = f.omega;
+        let f = &self.frequency.as_ref().expect("prepared").condensed;
+        let omega = f.omega();
         let n = self.n();
+        let nn = &self.condensation.system().nn;
         let mut dr = vec![0.0; x.len()];
         for k in 1..=self.harmonics {
-            let kw = k as f64 * omega;
             let z = complex_harmonic(x, n, k);
-            let ql = self.linear_harmonic(x, k);
-            // ∂q̂_L = −A_LL⁻¹ (∂A_LL q̂_L + ∂A_LN z)
-            let mut v = dynamic_stiffness_derivative_times(&self.linear, k, omega, &ql);
-            self.ln.apply_derivative(k, omega, &z, &mut v);
-            let mut dq = Mat::<c64>::from_fn(v.len(), 1, |i, _| -v[i]);
-            f.factors.solve_in_place(k, &mut dq)?;
-            let dq: Vec<c64> = (0..v.len()).map(|i| dq[(i, 0)]).collect();
             let mut d = vec![zero(); n];
-            self.nn.apply_derivative(k, omega, &z, &mut d);
-            self.nl.apply_derivative(k, omega, &ql, &mut d);
-            self.nl.apply(kw, &dq, &mut d);
+            nn.add_derivative_times(k, omega, &z, &mut d);
+            f.add_coupling_force_derivative(k, &z, &mut d)?;
             store_harmonic(&d, n, k, &mut dr);
         }
         let s = 1.0 / self.reference_stiffness;
@@ -927,14 +807,12 @@ impl PeriodicProblem for HbmAft {
             // a Dirichlet DOF does not move
             DofLocation::Fixed => vec![0.0; nc],
             DofLocation::Nonlinear(i) => n_dof_coefficients(x, n, h, i),
-            DofLocation::Linear(l) => {
-                let mut out = vec![0.0; nc];
-                for k in 0..=h {
-                    let q = self.linear_harmonic(x, k)[l];
-                    store_harmonic(&[q], 1, k, &mut out);
-                }
-                out
-            }
+            DofLocation::Linear(l) => self
+                .frequency
+                .as_ref()
+                .expect("prepared")
+                .condensed
+                .linear_dof_coefficients(x, l)?,
         };
         let (max, min) = if coefficients.iter().all(|&v| v == 0.0) {
             (0.0, 0.0)

@@ -14,6 +14,8 @@ use crate::model::System;
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, MethodKind, PeriodicSolution};
 use partition::Partition;
 
+pub(crate) use crate::linear::{complex_harmonic, store_harmonic};
+
 /// Check the settings every method shares: at least one harmonic, and enough samples
 /// (`what`: "samples" or "steps per period") to resolve them (`≥ 2H + 1`).
 pub(crate) fn check_resolution(harmonics: usize, samples: usize, what: &str) -> Result<()> {
@@ -126,32 +128,6 @@ pub(crate) fn n_dof_coefficients(x: &[f64], n: usize, harmonics: usize, i: usize
 /// The complex zero.
 pub(crate) fn zero() -> c64 {
     c64::new(0.0, 0.0)
-}
-
-/// Complex amplitude `z_k = a_k − i b_k` of harmonic `k` of the harmonic-major coefficients
-/// `x` of `n` DOFs (METHODS §0; `z_0 = a_0`).
-pub(crate) fn complex_harmonic(x: &[f64], n: usize, k: usize) -> Vec<c64> {
-    if k == 0 {
-        x[..n].iter().map(|&v| c64::new(v, 0.0)).collect()
-    } else {
-        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-        (0..n).map(|i| c64::new(x[ci + i], -x[si + i])).collect()
-    }
-}
-
-/// Write the complex amplitude `v` of harmonic `k` of `n` DOFs into the harmonic-major real
-/// coefficients `out` (`a = Re`, `b = −Im`; the mean takes the real part), the inverse of
-/// [`complex_harmonic`].
-pub(crate) fn store_harmonic(v: &[c64], n: usize, k: usize, out: &mut [f64]) {
-    if k == 0 {
-        (0..n).for_each(|i| out[i] = v[i].re);
-    } else {
-        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-        for i in 0..n {
-            out[ci + i] = v[i].re;
-            out[si + i] = -v[i].im;
-        }
-    }
 }
 
 /// The unknowns `x` must have the problem's dimension.

@@ -1,55 +1,17 @@
 //! The `L | N` partition as the periodic-solution methods use it (METHODS §0, paper eqs. 3
 //! and 23): where each system DOF sits in `N` (the DOFs the set-valued laws act on) or `L`,
-//! the loads restricted to both parts, the contact directions `W` in `N` numbering, and the
-//! length scale that Newton's tolerance and the continuation's scaling are relative to
-//! ([`crate::problem::PeriodicProblem::length_scale`]). One piece of code for the
-//! redistributed MS-HBM, the general MS-HBM and the HBM-AFT, so that their unknowns,
-//! tolerances and reported DOFs mean the same.
+//! the contact directions `W` in `N` numbering, and the length scale that Newton's
+//! tolerance and the continuation's scaling are relative to
+//! ([`crate::problem::PeriodicProblem::length_scale`]); the blocks and loads of both parts
+//! are [`crate::linear::PartitionedSystem`]. One piece of code for the redistributed
+//! MS-HBM, the general MS-HBM and the HBM-AFT, so that their unknowns, tolerances and
+//! reported DOFs mean the same.
 
 use faer::linalg::solvers::Solve;
-use faer::{c64, Mat};
+use faer::Mat;
 
 use crate::error::{Error, Result};
 use crate::model::System;
-
-/// The constant and `cos ωt` load amplitudes restricted to one part (`L` or `N`) of the
-/// partition, in that part's numbering.
-#[derive(Clone, Debug)]
-pub(crate) struct PartLoad {
-    /// Constant load (harmonic 0).
-    pub constant: Vec<f64>,
-    /// Cosine amplitude of the harmonic load (harmonic 1).
-    pub harmonic: Vec<f64>,
-}
-
-impl PartLoad {
-    fn restrict(system: &System, dofs: &[usize]) -> Self {
-        let pick = |v: &[f64]| -> Vec<f64> { dofs.iter().map(|&i| v[i]).collect() };
-        PartLoad {
-            constant: pick(&system.constant_load),
-            harmonic: pick(&system.harmonic_load),
-        }
-    }
-
-    /// The real amplitude of harmonic `k` (cosine part; the loads have no sine part), `None`
-    /// for `k ≥ 2`.
-    pub fn real(&self, k: usize) -> Option<&[f64]> {
-        match k {
-            0 => Some(&self.constant),
-            1 => Some(&self.harmonic),
-            _ => None,
-        }
-    }
-
-    /// The complex amplitude `f_k` of harmonic `k` (`z = a − i b`, METHODS §0), `None` when
-    /// it is zero.
-    pub fn complex(&self, k: usize) -> Option<Vec<c64>> {
-        let v = self.real(k)?;
-        v.iter()
-            .any(|&x| x != 0.0)
-            .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
-    }
-}
 
 /// Where a model DOF sits in the partition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,17 +33,13 @@ pub(crate) enum SingularStiffness {
     Ignore,
 }
 
-/// The `L | N` partition of a [`System`] with its split loads and its length scale.
+/// The `L | N` partition of a [`System`] with its length scale.
 #[derive(Clone, Debug)]
 pub(crate) struct Partition {
     /// Index in `N` of each system DOF (`None` for an `L` DOF).
     n_index: Vec<Option<usize>>,
     /// Index in `L` of each system DOF (`None` for an `N` DOF).
     l_index: Vec<Option<usize>>,
-    /// Loads on `L`.
-    pub load_l: PartLoad,
-    /// Loads on `N`.
-    pub load_n: PartLoad,
     length_scale: f64,
 }
 
@@ -103,8 +61,6 @@ impl Partition {
         Ok(Partition {
             n_index: index_of(&system.nonlinear_dofs),
             l_index: index_of(&system.linear_dofs),
-            load_l: PartLoad::restrict(system, &system.linear_dofs),
-            load_n: PartLoad::restrict(system, &system.nonlinear_dofs),
             length_scale: length_scale(system, static_deflection),
         })
     }

@@ -16,8 +16,8 @@
 //!
 //! **Residual** (eq. 12), per evaluation:
 //! 1. eq. (6): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex per-harmonic dynamic
-//!    stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` ([`LinearPart::factor`], once per
-//!    frequency) and `z_k = a_k − i b_k`. The load of eq. (10) on `N` is affine in `x`:
+//!    stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` (factored once per
+//!    frequency, [`crate::linear::ExactCondensation`]) and `z_k = a_k − i b_k`. The load of eq. (10) on `N` is affine in `x`:
 //!    `F_k = f_N,k − H_NL,k q̂_L,k = f_N,k − u0_k + G_k z_k`,
 //!    `G_k = H_NL,k A_k⁻¹ H_LN,k`, `u0_k = H_NL,k A_k⁻¹ f_L,k` (precomputed per frequency;
 //!    this contains `M_NL q̈_L + C_NL q̇_L + K_NL q_L` with the derivatives of `q_L` taken
@@ -109,11 +109,12 @@ use rayon::prelude::*;
 
 use super::partition::{DofLocation, Partition, SingularStiffness};
 use super::{check_dimension, complex_harmonic, fixed_response, n_dof_coefficients};
-use super::{periodic_solution, store_harmonic, zero, SolutionParts};
+use super::{periodic_solution, store_harmonic, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::integrate::{Integrator, Scheme, Settings};
-use crate::linear::{HarmonicFactors, LinearPart};
+use crate::linear::PartitionedSystem;
+use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::model::{FrictionNormal, MassKind, Model, System, SystemContact, SystemFriction};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
@@ -171,16 +172,6 @@ impl GeneralOptions {
     }
 }
 
-/// Per-frequency data: the affine map `x ↦ F_k` (see the module docs).
-struct FrequencyData {
-    omega: f64,
-    factors: Option<HarmonicFactors>,
-    /// `G_k` (`n × n`, row-major) for `k = 0..=H`.
-    g: Vec<Vec<c64>>,
-    /// `u0_k` (`n`).
-    u0: Vec<Vec<c64>>,
-}
-
 /// The time history of the nonlinear subsystem over one period for given unknowns.
 #[derive(Clone, Debug)]
 pub struct Trajectory {
@@ -200,27 +191,6 @@ pub struct Trajectory {
     pub end_v: Vec<f64>,
 }
 
-/// Linear combination `K + s_m M + s_c C` of three sparse matrices with complex `s_c`
-/// applied to a complex vector: `y = (K − (kω)² M + i kω C) x`.
-fn dyn_times(
-    k: &SparseMatrix,
-    m: &SparseMatrix,
-    c: &SparseMatrix,
-    kw: f64,
-    x: &[c64],
-    y: &mut [c64],
-) {
-    for (i, j, v) in k.iter() {
-        y[i] += x[j] * v;
-    }
-    for (i, j, v) in m.iter() {
-        y[i] += x[j] * (-kw * kw * v);
-    }
-    for (i, j, v) in c.iter() {
-        y[i] += x[j] * c64::new(0.0, kw * v);
-    }
-}
-
 /// The general MS-HBM for one model.
 pub struct GeneralMsHbm {
     system: System,
@@ -233,15 +203,12 @@ pub struct GeneralMsHbm {
     project: bool,
     /// The N-subsystem as a system of its own (N numbering, no loads).
     subsystem: System,
-    linear: Option<LinearPart>,
-    /// Couplings `(K, M, C)_NL` and `_LN`.
-    nl: [SparseMatrix; 3],
-    ln: [SparseMatrix; 3],
-    /// `(K, M, C)_NN`.
-    nn: [SparseMatrix; 3],
-    /// `L | N` partition, split loads and length scale.
+    /// The linear part condensed onto N: the affine map `x ↦ F_k` (see the module docs).
+    condensation: Box<dyn Condensation>,
+    /// `L | N` partition and length scale.
     partition: Partition,
-    frequency: Option<FrequencyData>,
+    /// The condensation at the last frequency.
+    frequency: Option<Box<dyn CondensedFrequency>>,
     /// Diagonal of `K_NN` (N numbering).
     stiffness_nn_diagonal: Vec<f64>,
 }
@@ -266,7 +233,7 @@ impl GeneralMsHbm {
             ));
         }
         let system = model.system(MassKind::Consistent)?;
-        let (nl_dofs, ll) = (&system.nonlinear_dofs, &system.linear_dofs);
+        let nl_dofs = &system.nonlinear_dofs;
         let n = nl_dofs.len();
         // the N-subsystem is integrated with its mass: a free structure (singular K) is
         // fine, the gaps alone then set the length scale
@@ -279,8 +246,6 @@ impl GeneralMsHbm {
         let sub = |a: &SparseMatrix, r: &[usize], c: &[usize]| a.submatrix(r, c);
         let mats = [&system.stiffness, &system.mass, &system.damping];
         let nn = mats.map(|a| sub(a, nl_dofs, nl_dofs));
-        let nl = mats.map(|a| sub(a, nl_dofs, ll));
-        let ln = mats.map(|a| sub(a, ll, nl_dofs));
         if nn[1]
             .to_dense()
             .partial_piv_lu()
@@ -325,15 +290,8 @@ impl GeneralMsHbm {
             alpha: system.alpha,
             beta: system.beta,
         };
-        let linear = if ll.is_empty() {
-            None
-        } else {
-            Some(LinearPart::new(
-                system.mass.submatrix(ll, ll),
-                system.damping.submatrix(ll, ll),
-                system.stiffness.submatrix(ll, ll),
-            )?)
-        };
+        let condensation =
+            ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
         Ok(GeneralMsHbm {
             partition,
             harmonics: h,
@@ -344,10 +302,7 @@ impl GeneralMsHbm {
             anticipate: options.anticipate_contacts,
             project: options.project_contacts,
             subsystem,
-            linear,
-            nl,
-            ln,
-            nn: nn.clone(),
+            condensation: Box::new(condensation),
             frequency: None,
             stiffness_nn_diagonal: {
                 let mut d = vec![0.0; n];
@@ -384,69 +339,14 @@ impl GeneralMsHbm {
         self.subsystem.n_dofs()
     }
 
-    fn load_l(&self, k: usize) -> Option<Vec<c64>> {
-        self.partition.load_l.complex(k)
-    }
-
-    fn frequency_data(&self, omega: f64) -> Result<FrequencyData> {
+    /// The condensation at `ω`.
+    fn frequency_data(&self, omega: f64) -> Result<Box<dyn CondensedFrequency>> {
         super::check_frequency(omega)?;
-        let n = self.n();
-        let hh = self.harmonics;
-        let Some(linear) = &self.linear else {
-            return Ok(FrequencyData {
-                omega,
-                factors: None,
-                g: vec![vec![zero(); n * n]; hh + 1],
-                u0: vec![vec![zero(); n]; hh + 1],
-            });
-        };
-        let factors = linear.factor(omega, hh)?;
-        let nlin = linear.n_dofs();
-        let mut g = Vec::with_capacity(hh + 1);
-        let mut u0 = Vec::with_capacity(hh + 1);
-        for k in 0..=hh {
-            let kw = k as f64 * omega;
-            // Y = A⁻¹ H_LN (columns), then G = H_NL Y
-            let mut y = Mat::<c64>::zeros(nlin, n);
-            for j in 0..n {
-                let mut e = vec![zero(); n];
-                e[j] = c64::new(1.0, 0.0);
-                let mut col = vec![zero(); nlin];
-                dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &e, &mut col);
-                for (i, v) in col.into_iter().enumerate() {
-                    y[(i, j)] = v;
-                }
-            }
-            factors.solve_in_place(k, &mut y)?;
-            let mut gk = vec![zero(); n * n];
-            for j in 0..n {
-                let yj: Vec<c64> = (0..nlin).map(|i| y[(i, j)]).collect();
-                let mut out = vec![zero(); n];
-                dyn_times(&self.nl[0], &self.nl[1], &self.nl[2], kw, &yj, &mut out);
-                for i in 0..n {
-                    gk[i * n + j] = out[i];
-                }
-            }
-            g.push(gk);
-            let mut uk = vec![zero(); n];
-            if let Some(f) = self.load_l(k) {
-                let mut y = Mat::<c64>::from_fn(nlin, 1, |i, _| f[i]);
-                factors.solve_in_place(k, &mut y)?;
-                let yv: Vec<c64> = (0..nlin).map(|i| y[(i, 0)]).collect();
-                dyn_times(&self.nl[0], &self.nl[1], &self.nl[2], kw, &yv, &mut uk);
-            }
-            u0.push(uk);
-        }
-        Ok(FrequencyData {
-            omega,
-            factors: Some(factors),
-            g,
-            u0,
-        })
+        self.condensation.at(omega, self.harmonics)
     }
 
     fn prepare(&mut self, omega: f64) -> Result<()> {
-        if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
+        if self.frequency.as_ref().is_some_and(|f| f.omega() == omega) {
             return Ok(());
         }
         self.frequency = Some(self.frequency_data(omega)?);
@@ -454,14 +354,8 @@ impl GeneralMsHbm {
     }
 
     /// Coefficients (harmonic-major) of the load `F(t)` of eq. (10) on N for `q̂_N`.
-    fn load_coefficients(&self, fd: &FrequencyData, x: &[f64]) -> Vec<f64> {
-        crate::linear::interface_load_coefficients(
-            &fd.g,
-            &fd.u0,
-            &self.partition.load_n.constant,
-            &self.partition.load_n.harmonic,
-            x,
-        )
+    fn load_coefficients(&self, fd: &dyn CondensedFrequency, x: &[f64]) -> Vec<f64> {
+        fd.interface_load_coefficients(x)
     }
 
     fn check_x(&self, x: &[f64]) -> Result<()> {
@@ -469,10 +363,10 @@ impl GeneralMsHbm {
     }
 
     /// Integrate the nonlinear subsystem over one period (eq. 10) from the state in `x`.
-    fn integrate(&self, fd: &FrequencyData, x: &[f64]) -> Result<Trajectory> {
+    fn integrate(&self, fd: &dyn CondensedFrequency, x: &[f64]) -> Result<Trajectory> {
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
-        let omega = fd.omega;
+        let omega = fd.omega();
         let period = 2.0 * std::f64::consts::PI / omega;
         let ns = self.steps;
         let mut it = Integrator::new(
@@ -519,7 +413,11 @@ impl GeneralMsHbm {
         Ok(tr)
     }
 
-    fn residual_with(&self, fd: &FrequencyData, x: &[f64]) -> Result<(Vec<f64>, Trajectory)> {
+    fn residual_with(
+        &self,
+        fd: &dyn CondensedFrequency,
+        x: &[f64],
+    ) -> Result<(Vec<f64>, Trajectory)> {
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let tr = self.integrate(fd, x)?;
@@ -532,7 +430,7 @@ impl GeneralMsHbm {
                 r[c * n + i] = x[c * n + i] - dft[c];
             }
             r[nc * n + i] = tr.end_q[i] - x[nc * n + i];
-            r[(nc + 1) * n + i] = tr.end_v[i] / fd.omega - x[(nc + 1) * n + i];
+            r[(nc + 1) * n + i] = tr.end_v[i] / fd.omega() - x[(nc + 1) * n + i];
         }
         for (f, i) in self.stuck_frictions(&tr) {
             // a continuum of periodic solutions (any stuck position): select the one with
@@ -585,22 +483,15 @@ impl GeneralMsHbm {
 
     /// Complex amplitudes `z_k` (`q_L(t) = Re Σ_k z_k e^{ikωt}`) of all L DOFs, `k = 0..=H`
     /// (eq. 6).
-    fn linear_part_amplitudes(&self, fd: &FrequencyData, x: &[f64]) -> Result<Vec<Mat<c64>>> {
-        let factors = fd.factors.as_ref().expect("L is not empty");
+    fn linear_part_amplitudes(
+        &self,
+        fd: &dyn CondensedFrequency,
+        x: &[f64],
+    ) -> Result<Vec<Vec<c64>>> {
         let n = self.n();
-        let nlin = self.linear.as_ref().expect("L is not empty").n_dofs();
-        let mut out = Vec::with_capacity(self.harmonics + 1);
-        for k in 0..=self.harmonics {
-            let kw = k as f64 * fd.omega;
-            let z = complex_harmonic(x, n, k);
-            let mut hz = vec![zero(); nlin];
-            dyn_times(&self.ln[0], &self.ln[1], &self.ln[2], kw, &z, &mut hz);
-            let f = self.load_l(k).unwrap_or_else(|| vec![zero(); nlin]);
-            let mut q = Mat::<c64>::from_fn(nlin, 1, |i, _| f[i] - hz[i]);
-            factors.solve_in_place(k, &mut q)?;
-            out.push(q);
-        }
-        Ok(out)
+        (0..=self.harmonics)
+            .map(|k| fd.linear_amplitudes(k, &complex_harmonic(x, n, k)))
+            .collect()
     }
 
     /// State `(q, q̇)` of the whole system (system numbering) at `t = 0` of the solution
@@ -608,26 +499,28 @@ impl GeneralMsHbm {
     pub fn initial_state(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Vec<f64>)> {
         self.check_x(x)?;
         self.prepare(omega)?;
-        let fd = self.frequency.as_ref().expect("prepared");
+        let fd = self.frequency.as_deref().expect("prepared");
         self.full_initial_state(fd, x)
     }
 
-    fn full_initial_state(&self, fd: &FrequencyData, x: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+    fn full_initial_state(
+        &self,
+        fd: &dyn CondensedFrequency,
+        x: &[f64],
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let mut q = vec![0.0; self.system.n_dofs()];
         let mut v = vec![0.0; self.system.n_dofs()];
         for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
             q[d] = x[nc * n + i];
-            v[d] = x[(nc + 1) * n + i] * fd.omega;
+            v[d] = x[(nc + 1) * n + i] * fd.omega();
         }
-        if self.linear.is_some() {
-            let z = self.linear_part_amplitudes(fd, x)?;
-            for (l, &d) in self.system.linear_dofs.iter().enumerate() {
-                for (k, zk) in z.iter().enumerate() {
-                    q[d] += zk[(l, 0)].re;
-                    v[d] -= k as f64 * fd.omega * zk[(l, 0)].im;
-                }
+        let z = self.linear_part_amplitudes(fd, x)?;
+        for (l, &d) in self.system.linear_dofs.iter().enumerate() {
+            for (k, zk) in z.iter().enumerate() {
+                q[d] += zk[l].re;
+                v[d] -= k as f64 * fd.omega() * zk[l].im;
             }
         }
         Ok((q, v))
@@ -638,7 +531,7 @@ impl GeneralMsHbm {
     pub fn trajectory(&mut self, x: &[f64], omega: f64) -> Result<Trajectory> {
         self.check_x(x)?;
         self.prepare(omega)?;
-        let fd = self.frequency.as_ref().expect("prepared");
+        let fd = self.frequency.as_deref().expect("prepared");
         self.integrate(fd, x)
     }
 
@@ -659,27 +552,15 @@ impl GeneralMsHbm {
     /// f_N,k − u0_k` per harmonic.
     pub fn linear_response(&mut self, omega: f64) -> Result<Vec<f64>> {
         self.prepare(omega)?;
-        let fd = self.frequency.as_ref().expect("prepared");
+        let fd = self.frequency.as_deref().expect("prepared");
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let mut x = vec![0.0; n * (nc + 2)];
         for k in 0..=self.harmonics {
             let kw = k as f64 * omega;
-            let mut a = Mat::<c64>::zeros(n, n);
-            for j in 0..n {
-                let mut e = vec![zero(); n];
-                e[j] = c64::new(1.0, 0.0);
-                let mut col = vec![zero(); n];
-                dyn_times(&self.nn[0], &self.nn[1], &self.nn[2], kw, &e, &mut col);
-                for i in 0..n {
-                    a[(i, j)] = col[i] - fd.g[k][i * n + j];
-                }
-            }
-            let f: Vec<f64> = match self.partition.load_n.real(k) {
-                Some(f) => f.to_vec(),
-                None => vec![0.0; n],
-            };
-            let rhs = Mat::<c64>::from_fn(n, 1, |i, _| c64::new(f[i], 0.0) - fd.u0[k][i]);
+            let a = fd.condensed_dynamic_stiffness(k);
+            let f = fd.condensed_load(k);
+            let rhs = Mat::<c64>::from_fn(n, 1, |i, _| f[i]);
             let z = a.partial_piv_lu().solve(&rhs);
             let z: Vec<c64> = (0..n).map(|i| z[(i, 0)]).collect();
             if z.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
@@ -704,17 +585,6 @@ impl GeneralMsHbm {
         Ok(x)
     }
 
-    /// `q̂_L` of L-index `l` (coefficients `[a0, a1, b1, …]`).
-    fn linear_dof_coefficients(&self, x: &[f64], l: usize) -> Result<Vec<f64>> {
-        let fd = self.frequency.as_ref().expect("prepared");
-        let z = self.linear_part_amplitudes(fd, x)?;
-        let mut out = vec![0.0; n_coefficients(self.harmonics)];
-        for (k, zk) in z.iter().enumerate() {
-            store_harmonic(&[zk[(l, 0)]], 1, k, &mut out);
-        }
-        Ok(out)
-    }
-
     /// The monodromy matrix used by [`PeriodicProblem::floquet`] (see there): forward
     /// differences of the whole system's Moreau–Jean period map at the solution's initial
     /// state, in the scaled state `(q, q̇/ω)` of the DOFs with mass (system numbering),
@@ -730,7 +600,7 @@ impl GeneralMsHbm {
             ));
         }
         let this = &*self;
-        let fd = this.frequency.as_ref().expect("prepared");
+        let fd = this.frequency.as_deref().expect("prepared");
         let (q0, v0) = this.full_initial_state(fd, x)?;
         let steps = this.steps;
         let settings = Settings {
@@ -818,7 +688,7 @@ impl PeriodicProblem for GeneralMsHbm {
     fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
         self.check_x(x)?;
         self.prepare(omega)?;
-        let fd = self.frequency.as_ref().expect("prepared");
+        let fd = self.frequency.as_deref().expect("prepared");
         Ok(self.residual_with(fd, x)?.0)
     }
 
@@ -826,7 +696,7 @@ impl PeriodicProblem for GeneralMsHbm {
         self.check_x(x)?;
         self.prepare(omega)?;
         let this = &*self;
-        let fd = this.frequency.as_ref().expect("prepared");
+        let fd = this.frequency.as_deref().expect("prepared");
         let residual = this.residual_with(fd, x)?.0;
         let dim = this.dimension();
         let columns: Vec<Result<Vec<f64>>> = (0..dim)
@@ -849,7 +719,7 @@ impl PeriodicProblem for GeneralMsHbm {
         let dw = 0.1 * this.fd_step * omega;
         let fdp = this.frequency_data(omega + dw)?;
         let dw = (omega + dw) - omega;
-        let rp = this.residual_with(&fdp, x)?.0;
+        let rp = this.residual_with(&*fdp, x)?.0;
         let d_omega = rp
             .iter()
             .zip(&residual)
@@ -902,7 +772,7 @@ impl PeriodicProblem for GeneralMsHbm {
         let location = self.partition.locate_response(&self.system, response_dof)?;
         self.check_x(x)?;
         self.prepare(omega)?;
-        let fd = self.frequency.as_ref().expect("prepared");
+        let fd = self.frequency.as_deref().expect("prepared");
         let (residual, tr) = self.residual_with(fd, x)?;
         let n = self.n();
         let h = self.harmonics;
@@ -959,7 +829,7 @@ impl PeriodicProblem for GeneralMsHbm {
                 }
             }
             DofLocation::Linear(l) => {
-                let coefficients = self.linear_dof_coefficients(x, l)?;
+                let coefficients = fd.linear_dof_coefficients(x, l)?;
                 // the truncated series on a grid 4× finer than the steps
                 let fine: Vec<f64> = (0..4 * ns)
                     .map(|j| {

@@ -7,8 +7,8 @@
 //! `A_k = K_LL − (kω)² M̄_LL + i kω C_LL` is factored once, and the affine map from `x` to the
 //! load on the contact subsystem `b(τ) = −K_NL q_L(τ) + f_N(τ)` is precomputed: with the
 //! complex amplitude `z_k = a_k − i b_k` of harmonic `k` of `x`,
-//! `K_NL q̂_L,k = u0_k − G_k z_k`, `G_k = K_NL A_k⁻¹ K_LN`, `u0_k = K_NL A_k⁻¹ f_L,k`.
-//! No factorization happens inside the per-sample loop.
+//! `K_NL q̂_L,k = u0_k − G_k z_k`, `G_k = K_NL A_k⁻¹ K_LN`, `u0_k = K_NL A_k⁻¹ f_L,k`
+//! ([`crate::linear::ExactCondensation`]). No factorization happens inside the per-sample loop.
 //!
 //! Per evaluation: the static contact problem (eqs. 26–29) is solved per sample or per
 //! interval ([`quadrature`]), giving `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`. The
@@ -23,18 +23,18 @@ pub mod static_contact;
 
 use std::rc::Rc;
 
-use faer::{c64, Mat};
+use faer::Mat;
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{check_dimension, complex_harmonic, fixed_response, n_dof_coefficients};
-use super::{periodic_solution, store_harmonic, zero, SolutionParts};
+use super::{check_dimension, fixed_response, n_dof_coefficients};
+use super::{periodic_solution, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Sampling};
-use crate::linear::{dynamic_stiffness_derivative_times, HarmonicFactors, LinearPart};
+use crate::linear::PartitionedSystem;
+use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
-use crate::sparse::SparseMatrix;
 use crate::stability::{ReducedSystem, StabilityOptions};
 use quadrature::{integrate, load_at, Integration, Quadrature};
 use static_contact::StaticContact;
@@ -70,29 +70,19 @@ impl RedistributedOptions {
     }
 }
 
-struct FrequencyData {
-    omega: f64,
-    factors: HarmonicFactors,
-    /// `G_k` (`n × n`, row-major) for `k = 0..=H`.
-    g: Vec<Vec<c64>>,
-    /// `u0_k` (`n`).
-    u0: Vec<Vec<c64>>,
-}
-
 /// The redistributed MS-HBM for one model.
 pub struct RedistributedMsHbm {
     system: System,
     harmonics: usize,
     sampling: Sampling,
     quadrature: Quadrature,
-    linear: LinearPart,
-    /// `K_NL` (`n_N × n_L`) and `K_LN`.
-    k_nl: SparseMatrix,
-    k_ln: SparseMatrix,
-    /// `L | N` partition, split loads and length scale.
+    /// The linear part condensed onto the contact DOFs (eq. 25; `M_NL = C_NL = 0`).
+    condensation: Box<dyn Condensation>,
+    /// `L | N` partition and length scale.
     partition: Partition,
     contact: StaticContact,
-    frequency: Option<FrequencyData>,
+    /// The condensation at the last frequency.
+    frequency: Option<Box<dyn CondensedFrequency>>,
     stability_options: StabilityOptions,
     /// The L-system of the Floquet analysis (full or reduced), built on first use.
     stability_system: Option<Rc<ReducedSystem>>,
@@ -115,7 +105,7 @@ impl RedistributedMsHbm {
             ));
         }
         let system = model.system(MassKind::Redistributed)?;
-        let (nl, ll) = (&system.nonlinear_dofs, &system.linear_dofs);
+        let nl = &system.nonlinear_dofs;
         let all: Vec<usize> = (0..system.n_dofs()).collect();
         if system
             .damping
@@ -134,21 +124,16 @@ impl RedistributedMsHbm {
         let k_nn = system.stiffness.submatrix(nl, nl);
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
         let contact = StaticContact::new(&k_nn, contact_directions(&system), gap)?;
-        let linear = LinearPart::new(
-            system.mass.submatrix(ll, ll),
-            system.damping.submatrix(ll, ll),
-            system.stiffness.submatrix(ll, ll),
-        )?;
+        let condensation =
+            ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         Ok(RedistributedMsHbm {
-            k_nl: system.stiffness.submatrix(nl, ll),
-            k_ln: system.stiffness.submatrix(ll, nl),
             partition,
             harmonics: h,
             sampling: Sampling::new(h, samples),
             quadrature: options.quadrature,
-            linear,
+            condensation: Box::new(condensation),
             contact,
             frequency: None,
             stability_options: StabilityOptions::default(),
@@ -175,94 +160,24 @@ impl RedistributedMsHbm {
         self.system.nonlinear_dofs.len()
     }
 
-    /// Complex load amplitude on L for harmonic k (`f_L,0` constant, `f_L,1` the harmonic load).
-    fn load_l(&self, k: usize) -> Option<Vec<c64>> {
-        self.partition.load_l.complex(k)
-    }
-
     fn prepare(&mut self, omega: f64) -> Result<()> {
-        if self.frequency.as_ref().is_some_and(|f| f.omega == omega) {
+        if self.frequency.as_ref().is_some_and(|f| f.omega() == omega) {
             return Ok(());
         }
         super::check_frequency(omega)?;
-        let factors = self.linear.factor(omega, self.harmonics)?;
-        let n = self.n();
-        let nl = self.linear.n_dofs();
-        let mut g = Vec::with_capacity(self.harmonics + 1);
-        let mut u0 = Vec::with_capacity(self.harmonics + 1);
-        let k_ln = self.k_ln.to_dense();
-        for k in 0..=self.harmonics {
-            let mut y = Mat::<c64>::from_fn(nl, n, |i, j| c64::new(k_ln[(i, j)], 0.0));
-            factors.solve_in_place(k, &mut y)?;
-            let mut gk = vec![zero(); n * n];
-            for (i, l, v) in self.k_nl.iter() {
-                for j in 0..n {
-                    gk[i * n + j] += y[(l, j)] * v;
-                }
-            }
-            g.push(gk);
-            let mut uk = vec![zero(); n];
-            if let Some(f) = self.load_l(k) {
-                let mut y = Mat::<c64>::from_fn(nl, 1, |i, _| f[i]);
-                factors.solve_in_place(k, &mut y)?;
-                for (i, l, v) in self.k_nl.iter() {
-                    uk[i] += y[(l, 0)] * v;
-                }
-            }
-            u0.push(uk);
-        }
-        self.frequency = Some(FrequencyData {
-            omega,
-            factors,
-            g,
-            u0,
-        });
+        self.frequency = Some(self.condensation.at(omega, self.harmonics)?);
         Ok(())
+    }
+
+    /// The condensation at the prepared frequency.
+    fn condensed(&self) -> &dyn CondensedFrequency {
+        self.frequency.as_deref().expect("prepared")
     }
 
     /// Coefficients `B` (harmonic-major, `c·n + i`) of the load `b(τ)` on the contact
     /// subsystem for the unknowns `x`.
     fn load_coefficients(&self, x: &[f64]) -> Vec<f64> {
-        let f = self.frequency.as_ref().expect("prepared");
-        crate::linear::interface_load_coefficients(
-            &f.g,
-            &f.u0,
-            &self.partition.load_n.constant,
-            &self.partition.load_n.harmonic,
-            x,
-        )
-    }
-
-    /// `∂B/∂ω` at `x` (two sparse solves per harmonic).
-    fn load_frequency_derivative(&self, x: &[f64]) -> Result<Vec<f64>> {
-        let f = self.frequency.as_ref().expect("prepared");
-        let n = self.n();
-        let nl = self.linear.n_dofs();
-        let mut db = vec![0.0; n * n_coefficients(self.harmonics)];
-        for k in 1..=self.harmonics {
-            let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-            // q̂_L,k = A⁻¹ (f_L,k − K_LN z_k)
-            let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
-            let z = complex_harmonic(x, n, k);
-            for (l, j, v) in self.k_ln.iter() {
-                rhs[l] -= z[j] * v;
-            }
-            let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
-            f.factors.solve_in_place(k, &mut q)?;
-            let qv: Vec<c64> = (0..nl).map(|i| q[(i, 0)]).collect();
-            let w = dynamic_stiffness_derivative_times(&self.linear, k, f.omega, &qv);
-            let mut v = Mat::<c64>::from_fn(nl, 1, |i, _| w[i]);
-            f.factors.solve_in_place(k, &mut v)?;
-            let mut du = vec![zero(); n];
-            for (i, l, kv) in self.k_nl.iter() {
-                du[i] -= v[(l, 0)] * kv;
-            }
-            for i in 0..n {
-                db[ci + i] = -du[i].re;
-                db[si + i] = du[i].im;
-            }
-        }
-        Ok(db)
+        self.condensed().interface_load_coefficients(x)
     }
 
     /// `Σ_A (P_A B Γ_Aᵀ + with_offset · s_A Γ_A[:,0]ᵀ)`.
@@ -312,7 +227,7 @@ impl RedistributedMsHbm {
 
     /// `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`.
     fn jacobian_matrix(&self, integration: &Integration) -> Mat<f64> {
-        let f = self.frequency.as_ref().expect("prepared");
+        let f = self.condensed();
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let dim = n * nc;
@@ -322,13 +237,14 @@ impl RedistributedMsHbm {
         for group in &integration.groups {
             let p = &group.set.compliance;
             for k in 0..=self.harmonics {
+                let g = f.interface_stiffness(k);
                 // P G_k (real and imaginary parts)
                 for i in 0..n {
                     for j in 0..n {
                         let (mut re, mut im) = (0.0, 0.0);
                         for l in 0..n {
-                            re += p[i * n + l] * f.g[k][l * n + j].re;
-                            im += p[i * n + l] * f.g[k][l * n + j].im;
+                            re += p[i * n + l] * g[l * n + j].re;
+                            im += p[i * n + l] * g[l * n + j].im;
                         }
                         pg_re[i * n + j] = re;
                         pg_im[i * n + j] = im;
@@ -411,8 +327,9 @@ impl RedistributedMsHbm {
         if let Some(s) = &self.stability_system {
             return Ok(s.clone());
         }
-        let nl = self.linear.n_dofs();
-        let lin = &self.linear;
+        let blocks = self.condensation.system();
+        let (lin, k_nl) = (&blocks.ll, &blocks.nl.stiffness);
+        let nl = blocks.n_linear();
         let system = match self.stability_options.modes_for(nl) {
             None if nl > MAX_DENSE_STABILITY_DOFS => {
                 return Err(Error::argument(
@@ -420,33 +337,12 @@ impl RedistributedMsHbm {
                     format!("the linear part has {nl} DOFs; the full-space monodromy is limited to {MAX_DENSE_STABILITY_DOFS}: use a reduced basis of fewer modes"),
                 ))
             }
-            None => ReducedSystem::full(&lin.mass, &lin.damping, &lin.stiffness, &self.k_nl)?,
-            Some(m) => {
-                ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, &self.k_nl, m)?
-            }
+            None => ReducedSystem::full(&lin.mass, &lin.damping, &lin.stiffness, k_nl)?,
+            Some(m) => ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, k_nl, m)?,
         };
         let system = Rc::new(system);
         self.stability_system = Some(system.clone());
         Ok(system)
-    }
-
-    /// `q̂_L,k` for the model DOF at L-index `l` (coefficients `[a0, a1, b1, …]`).
-    fn linear_dof_coefficients(&self, x: &[f64], l: usize) -> Result<Vec<f64>> {
-        let f = self.frequency.as_ref().expect("prepared");
-        let n = self.n();
-        let nl = self.linear.n_dofs();
-        let mut out = vec![0.0; n_coefficients(self.harmonics)];
-        for k in 0..=self.harmonics {
-            let mut rhs = self.load_l(k).unwrap_or_else(|| vec![zero(); nl]);
-            let z = complex_harmonic(x, n, k);
-            for (r, j, v) in self.k_ln.iter() {
-                rhs[r] -= z[j] * v;
-            }
-            let mut q = Mat::<c64>::from_fn(nl, 1, |i, _| rhs[i]);
-            f.factors.solve_in_place(k, &mut q)?;
-            store_harmonic(&[q[(l, 0)]], 1, k, &mut out);
-        }
-        Ok(out)
     }
 }
 
@@ -470,7 +366,7 @@ impl PeriodicProblem for RedistributedMsHbm {
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
         let (residual, integration, _) = self.evaluate(x, omega)?;
         let jacobian = self.jacobian_matrix(&integration);
-        let db = self.load_frequency_derivative(x)?;
+        let db = self.condensed().interface_load_frequency_derivative(x)?;
         let dq = self.assemble_coefficients(&integration, &db, false);
         let d_omega = dq.iter().map(|v| -v).collect();
         Ok(Linearization {
@@ -545,7 +441,7 @@ impl PeriodicProblem for RedistributedMsHbm {
                 }
             }
             DofLocation::Linear(l) => {
-                let coefficients = self.linear_dof_coefficients(x, l)?;
+                let coefficients = self.condensed().linear_dof_coefficients(x, l)?;
                 let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
                 let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
                 let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
