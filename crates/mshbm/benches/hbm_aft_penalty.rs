@@ -22,8 +22,8 @@ use common::{hz, median, show, timed};
 use criterion::Criterion;
 use mshbm::continuation::arclength::{trace_branch, ContinuationOptions, Event, StopReason};
 use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
-use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty, Quadrature};
-use mshbm::method::redistributed::quadrature::Quadrature as MsQuadrature;
+use mshbm::harmonic::Quadrature;
+use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::{MassKind, Model};
@@ -59,7 +59,7 @@ fn ms_hbm(model: &Model) -> RedistributedMsHbm {
         &RedistributedOptions {
             harmonics: HARMONICS,
             samples: None,
-            quadrature: MsQuadrature::Exact,
+            quadrature: Quadrature::Exact,
         },
     )
     .expect("MS-HBM")

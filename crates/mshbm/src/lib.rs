@@ -7,12 +7,14 @@
 //!
 //! The library does all numerics and never prints; the `mshbm` binary is in `mshbm-cli`.
 
+pub mod analytic;
 pub mod contact;
 pub mod dense;
 pub mod error;
 pub mod fe;
 pub mod model;
 pub mod modes;
+pub mod roots;
 pub mod sparse;
 pub mod stability;
 

@@ -188,7 +188,11 @@ fn upward_imports(sources: &BTreeMap<String, String>) -> Vec<(String, String, St
         }
         let room = room_of(file);
         let Some(own) = layer_of(room) else {
-            violations.push((file.clone(), room.to_string(), "(room not in the layer table)".into()));
+            violations.push((
+                file.clone(),
+                room.to_string(),
+                "(room not in the layer table)".into(),
+            ));
             continue;
         };
         for (imported, path) in crate_paths(code) {
@@ -211,17 +215,28 @@ fn upward_imports(sources: &BTreeMap<String, String>) -> Vec<(String, String, St
 #[test]
 fn every_room_is_in_the_layer_table() {
     let sources = library_sources();
-    assert!(sources.len() > 20, "found only {} source files", sources.len());
+    assert!(
+        sources.len() > 20,
+        "found only {} source files",
+        sources.len()
+    );
     let lib = &sources["lib.rs"];
     for room in crate_paths(lib).iter().map(|(room, _)| room.clone()).chain(
         lib.lines()
-            .filter_map(|l| l.trim().strip_prefix("pub mod ").or(l.trim().strip_prefix("mod ")))
+            .filter_map(|l| {
+                l.trim()
+                    .strip_prefix("pub mod ")
+                    .or(l.trim().strip_prefix("mod "))
+            })
             .map(|l| l.trim_end_matches(';').trim().to_string()),
     ) {
         if room == "error" || room == "model" {
             continue;
         }
-        assert!(layer_of(&room).is_some(), "lib.rs declares `{room}`, which the layer table lacks");
+        assert!(
+            layer_of(&room).is_some(),
+            "lib.rs declares `{room}`, which the layer table lacks"
+        );
     }
 }
 
@@ -249,7 +264,11 @@ fn no_module_imports_a_higher_layer() {
             )
         })
         .collect();
-    assert!(message.is_empty(), "upward imports:\n{}", message.join("\n"));
+    assert!(
+        message.is_empty(),
+        "upward imports:\n{}",
+        message.join("\n")
+    );
 }
 
 #[test]
@@ -258,16 +277,20 @@ fn the_library_never_prints() {
     for (file, code) in library_sources() {
         for (number, line) in code.lines().enumerate() {
             for mac in ["println!", "eprintln!", "print!", "eprint!", "dbg!"] {
-                let hit = line.match_indices(mac).any(|(i, _)| {
-                    !line[..i].chars().next_back().is_some_and(is_ident_char)
-                });
+                let hit = line
+                    .match_indices(mac)
+                    .any(|(i, _)| !line[..i].chars().next_back().is_some_and(is_ident_char));
                 if hit {
                     prints.push(format!("src/{file}:{}: {}", number + 1, line.trim()));
                 }
             }
         }
     }
-    assert!(prints.is_empty(), "the library prints:\n{}", prints.join("\n"));
+    assert!(
+        prints.is_empty(),
+        "the library prints:\n{}",
+        prints.join("\n")
+    );
 }
 
 #[test]
@@ -279,8 +302,14 @@ fn the_scanner_finds_imports_and_prints() {
     assert_eq!(rooms, ["error", "method", "harmonic"]);
     assert!(!code.contains("println!"));
     let mut sources = BTreeMap::new();
-    sources.insert("dense.rs".to_string(), "use crate::model::Model;".to_string());
-    sources.insert("model/a.rs".to_string(), "fn f() { crate::dense::x(); }".to_string());
+    sources.insert(
+        "dense.rs".to_string(),
+        "use crate::model::Model;".to_string(),
+    );
+    sources.insert(
+        "model/a.rs".to_string(),
+        "fn f() { crate::dense::x(); }".to_string(),
+    );
     let violations = upward_imports(&sources);
     assert_eq!(violations.len(), 1);
     assert_eq!(violations[0].0, "dense.rs");
