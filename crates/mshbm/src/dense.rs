@@ -34,6 +34,15 @@ pub fn solve_small_lu(
         return Err(SingularPivot { column: 0 });
     }
     let threshold = rel_tol * scale;
+    if n == 1 {
+        // one contact or constraint: the division itself (faer's LU multiplies by the
+        // reciprocal pivot, which is not exact: the gap of a closed contact would be 1e-17
+        // instead of 0, and every result would move at round-off level)
+        if !(a[0].abs() > threshold) {
+            return Err(SingularPivot { column: 0 });
+        }
+        return Ok(vec![b[0] / a[0]]);
+    }
     let lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]).partial_piv_lu();
     let u = lu.U();
     if let Some(column) = (0..n).find(|&k| !(u[(k, k)].abs() > threshold)) {
@@ -106,5 +115,49 @@ mod tests {
         let x = solve_small(&a, &[4.0, 3.0], 1e-14).unwrap();
         assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15);
         assert!(solve_small(&[1.0, 2.0, 2.0, 4.0], &[1.0, 1.0], 1e-12).is_none());
+    }
+
+    #[test]
+    fn reports_the_first_singular_column() {
+        // x = (1, −2, 3) of a well-conditioned 3×3 system
+        let a = [4.0, 1.0, 0.5, 1.0, 3.0, -1.0, 0.5, -1.0, 5.0];
+        let b = [4.0 - 2.0 + 1.5, 1.0 - 6.0 - 3.0, 0.5 + 2.0 + 15.0];
+        let x = solve_small_lu(&a, &b, 1e-14).unwrap();
+        for (xi, want) in x.iter().zip([1.0, -2.0, 3.0]) {
+            assert!((xi - want).abs() < 1e-14, "{x:?}");
+        }
+        // the second column repeats the first: elimination meets a zero pivot in column 1
+        let dependent = [1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let err = solve_small_lu(&dependent, &[1.0, 1.0, 1.0], 1e-14).unwrap_err();
+        assert_eq!(err.column, 1);
+        // a pivot just below the tolerance is singular, just above is not
+        let nearly = [1.0, 1.0, 1.0, 1.0 + 1e-10];
+        assert!(solve_small_lu(&nearly, &[1.0, 1.0], 1e-9).is_err());
+        assert!(solve_small_lu(&nearly, &[1.0, 1.0], 1e-11).is_ok());
+        // 1×1: the exact quotient, a zero is singular
+        assert_eq!(
+            solve_small_lu(&[3.0], &[1.0], 1e-14).unwrap(),
+            vec![1.0 / 3.0]
+        );
+        assert_eq!(solve_small_lu(&[0.0], &[1.0], 1e-14).unwrap_err().column, 0);
+        assert_eq!(
+            solve_small_lu(&[f64::NAN], &[1.0], 1e-14)
+                .unwrap_err()
+                .column,
+            0
+        );
+    }
+
+    #[test]
+    fn solve_lu_reports_singular_jacobians() {
+        let a = Mat::<f64>::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 3.0]][i][j]);
+        let x = solve_lu(&a, &[3.0, 4.0], "singular").unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 1.0).abs() < 1e-15);
+        let s = Mat::<f64>::zeros(2, 2);
+        let err = solve_lu(&s, &[1.0, 1.0], "the Jacobian is singular").unwrap_err();
+        assert!(
+            err.to_string().contains("the Jacobian is singular"),
+            "{err}"
+        );
     }
 }

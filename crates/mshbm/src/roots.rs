@@ -2,12 +2,15 @@
 //! in `[a, b]` is narrowed to two adjacent floating-point numbers (the switching times of
 //! the exact quadratures, paper eqs. 33–35, and the extrema of the gaps between them).
 //!
-//! Illinois (modified regula falsi) steps, safeguarded by bisection whenever two steps have
-//! not halved the bracket, so that it never needs more than about twice the steps of
-//! bisection and usually far fewer. The two classes of the bracket are `f < 0` and
-//! `f ≥ 0` (an exact zero is in the non-negative class), so the result does not depend on
-//! the path taken: wherever the computed `f` changes class only once in the bracket, the
-//! final bracket is the same pair of neighbouring numbers that bisection finds.
+//! Bisection, with the classes `f < 0` and `f ≥ 0` (an exact zero is in the non-negative
+//! class), until the midpoint of the bracket is one of its ends. Its result is the sign
+//! change that the computed `f` has, to the last bit, whatever the conditioning of the root,
+//! and it is reproducible: the exact quadratures' switching times are the ones they had with
+//! their own bisection. (An Illinois regula falsi needs fewer evaluations, ~10 instead of
+//! ~50, but where round-off makes the computed `f` change sign more than once within a few
+//! ulps it lands on another of those changes: tried here, it moved the converged MS-HBM
+//! solutions at round-off level, ~1e-13 of their scale and more for single samples next to
+//! a switch; the evaluations are a negligible part of a residual.)
 
 /// The final bracket of [`find_sign_change`]: `negative` and `non_negative` are adjacent
 /// floating-point numbers (or as close as 200 steps get), with `f(negative) < 0 ≤
@@ -55,59 +58,29 @@ pub fn find_sign_change(
         (fa < 0.0) != (fb < 0.0),
         "find_sign_change: f({a}) = {fa} and f({b}) = {fb} do not bracket a sign change"
     );
-    // lo < hi; the Illinois rule scales the retained end's working value
-    let (mut lo, mut hi, mut f_lo, mut f_hi) = if a < b {
-        (a, b, fa, fb)
+    let (mut negative, mut f_negative, mut non_negative, mut f_non_negative) = if fa < 0.0 {
+        (a, fa, b, fb)
     } else {
-        (b, a, fb, fa)
+        (b, fb, a, fa)
     };
-    let lo_negative = f_lo < 0.0;
-    let (mut true_lo, mut true_hi) = (f_lo, f_hi);
-    let mut side = 0i8;
-    // bracket widths before the last two steps (none yet)
-    let mut widths = [f64::INFINITY; 2];
     for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
+        let mid = 0.5 * (negative + non_negative);
+        let (lo, hi) = (negative.min(non_negative), negative.max(non_negative));
         if mid <= lo || mid >= hi {
             break;
         }
-        let falsi = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
-        // bisection when the falsi point is not inside or two steps have not halved the bracket
-        let x = if falsi > lo && falsi < hi && hi - lo <= 0.5 * widths[0] {
-            falsi
+        let f_mid = f(mid);
+        if f_mid < 0.0 {
+            (negative, f_negative) = (mid, f_mid);
         } else {
-            mid
-        };
-        widths = [widths[1], hi - lo];
-        let fx = f(x);
-        if (fx < 0.0) == lo_negative {
-            (lo, f_lo, true_lo) = (x, fx, fx);
-            if side == -1 {
-                f_hi *= 0.5;
-            }
-            side = -1;
-        } else {
-            (hi, f_hi, true_hi) = (x, fx, fx);
-            if side == 1 {
-                f_lo *= 0.5;
-            }
-            side = 1;
+            (non_negative, f_non_negative) = (mid, f_mid);
         }
     }
-    if lo_negative {
-        SignChange {
-            negative: lo,
-            f_negative: true_lo,
-            non_negative: hi,
-            f_non_negative: true_hi,
-        }
-    } else {
-        SignChange {
-            negative: hi,
-            f_negative: true_hi,
-            non_negative: lo,
-            f_non_negative: true_lo,
-        }
+    SignChange {
+        negative,
+        f_negative,
+        non_negative,
+        f_non_negative,
     }
 }
 
@@ -170,7 +143,7 @@ mod tests {
                                  // x² − 2: √2; a high-order root (x − 0.3)⁵ (slow for regula falsi)
         check(|x| x * x - 2.0, 0.0, 2.0, 2f64.sqrt());
         let calls = check(|x: f64| (x - 0.3).powi(5), 0.0, 1.0, 0.3);
-        assert!(calls <= 2 * 64, "{calls} evaluations");
+        assert!(calls <= 64, "{calls} evaluations");
     }
 
     #[test]
@@ -191,10 +164,7 @@ mod tests {
         );
         let two_thirds_pi = 2.0 * std::f64::consts::FRAC_PI_3;
         let calls = check(|t: f64| t.sin() + (2.0 * t).sin(), 1.0, 3.0, two_thirds_pi);
-        assert!(
-            calls < 20,
-            "Illinois converges superlinearly: {calls} evaluations"
-        );
+        assert!(calls <= 60, "{calls} evaluations");
         // a root at an end of the bracket: f(a) = 0 is the non-negative class
         let r = find_sign_change(|t: f64| -t.sin(), 0.0, 1.0, 0.0, -(1f64.sin()));
         assert_eq!(r.non_negative, 0.0);
