@@ -23,7 +23,8 @@ use criterion::Criterion;
 use mshbm::continuation::arclength::StopReason;
 use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
-use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty, Quadrature};
+use mshbm::harmonic::Quadrature;
+use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::settings::MethodSettings;
 use mshbm::{MassKind, Model};
 

@@ -15,7 +15,7 @@ mod common;
 use common::{hz, median, show, timed};
 use criterion::{BenchmarkId, Criterion};
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
-use mshbm::method::redistributed::quadrature::Quadrature;
+use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::problem::PeriodicProblem;
 

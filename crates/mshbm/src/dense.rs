@@ -1,61 +1,82 @@
-//! Small dense helpers for the tiny systems of the method (moment constraints, active
-//! contact blocks), where a singular matrix must be reported rather than produce NaNs.
+//! Dense helpers on faer: solves of the small systems of the methods (moment constraints,
+//! active contact blocks), where a singular matrix must be reported rather than produce
+//! NaNs, and the matrix exponential of the Floquet products.
 
-/// Solve `A x = b` for a small square `A` (row-major, `n × n`) by Gaussian elimination
-/// with partial pivoting. Returns `None` when a pivot is below `rel_tol` times the
-/// largest entry of `A` (numerically singular).
-pub fn solve_small(a: &[f64], b: &[f64], rel_tol: f64) -> Option<Vec<f64>> {
+use faer::linalg::solvers::Solve;
+use faer::Mat;
+
+use crate::error::{Error, Result};
+
+/// A numerically singular matrix met by [`solve_small_lu`]: the first column whose pivot
+/// `|U_kk|` of the partial-pivoting LU is at most the relative tolerance times the largest
+/// entry of `A` (or not a number).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SingularPivot {
+    pub column: usize,
+}
+
+/// Solve `A x = b` for a small square `A` (row-major, `n × n`) by faer's LU with partial
+/// pivoting. Fails with the first column whose pivot `|U_kk|` is at most `rel_tol` times
+/// the largest entry of `A` (numerically singular; a pivot that is not a number counts as
+/// singular), which is where Gaussian elimination with partial pivoting meets it.
+pub fn solve_small_lu(
+    a: &[f64],
+    b: &[f64],
+    rel_tol: f64,
+) -> std::result::Result<Vec<f64>, SingularPivot> {
     let n = b.len();
     assert_eq!(a.len(), n * n);
-    let mut m = a.to_vec();
-    let mut x = b.to_vec();
-    let scale = m.iter().fold(0.0f64, |s, v| s.max(v.abs()));
     if n == 0 {
-        return Some(x);
+        return Ok(Vec::new());
     }
+    let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
     if scale == 0.0 {
-        return None;
+        return Err(SingularPivot { column: 0 });
     }
-    for col in 0..n {
-        let piv = (col..n)
-            .max_by(|&i, &j| m[i * n + col].abs().total_cmp(&m[j * n + col].abs()))
-            .expect("non-empty range");
-        if m[piv * n + col].abs() <= rel_tol * scale {
-            return None;
+    let threshold = rel_tol * scale;
+    if n == 1 {
+        // one contact or constraint: the division itself (faer's LU multiplies by the
+        // reciprocal pivot, which is not exact: the gap of a closed contact would be 1e-17
+        // instead of 0, and every result would move at round-off level)
+        if !(a[0].abs() > threshold) {
+            return Err(SingularPivot { column: 0 });
         }
-        if piv != col {
-            for k in 0..n {
-                m.swap(piv * n + k, col * n + k);
-            }
-            x.swap(piv, col);
-        }
-        let p = m[col * n + col];
-        for i in col + 1..n {
-            let f = m[i * n + col] / p;
-            if f != 0.0 {
-                for k in col..n {
-                    m[i * n + k] -= f * m[col * n + k];
-                }
-                x[i] -= f * x[col];
-            }
-        }
+        return Ok(vec![b[0] / a[0]]);
     }
-    for col in (0..n).rev() {
-        let mut s = x[col];
-        for k in col + 1..n {
-            s -= m[col * n + k] * x[k];
-        }
-        x[col] = s / m[col * n + col];
+    let lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]).partial_piv_lu();
+    let u = lu.U();
+    if let Some(column) = (0..n).find(|&k| !(u[(k, k)].abs() > threshold)) {
+        return Err(SingularPivot { column });
     }
-    Some(x)
+    let x = lu.solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
+    Ok((0..n).map(|i| x[(i, 0)]).collect())
+}
+
+/// Solve `A x = b` for a small square `A` (row-major, `n × n`) by faer's LU with partial
+/// pivoting ([`solve_small_lu`]). Returns `None` when a pivot is below `rel_tol` times the
+/// largest entry of `A` (numerically singular).
+pub fn solve_small(a: &[f64], b: &[f64], rel_tol: f64) -> Option<Vec<f64>> {
+    solve_small_lu(a, b, rel_tol).ok()
+}
+
+/// Solve `A x = b` for a dense square `A` by faer's LU with partial pivoting; a result that
+/// is not finite means `A` is singular, reported as [`Error::Singular`] with `what` (e.g.
+/// "the Jacobian is singular").
+pub fn solve_lu(a: &Mat<f64>, b: &[f64], what: &str) -> Result<Vec<f64>> {
+    let n = b.len();
+    let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+    let x = a.partial_piv_lu().solve(&rhs);
+    let x: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
+    if x.iter().any(|v| !v.is_finite()) {
+        return Err(Error::Singular(what.into()));
+    }
+    Ok(x)
 }
 
 /// Matrix exponential `exp(A)` by scaling and squaring with the diagonal (6, 6) Padé
 /// approximant (Moler & Van Loan, "Nineteen dubious ways", method 3): relative accuracy
 /// near machine precision for the moderately scaled matrices of the Floquet products.
-pub fn expm(a: &faer::Mat<f64>) -> faer::Mat<f64> {
-    use faer::linalg::solvers::Solve;
-    use faer::Mat;
+pub fn expm(a: &Mat<f64>) -> Mat<f64> {
     let n = a.nrows();
     let norm1 = (0..n)
         .map(|j| (0..n).map(|i| a[(i, j)].abs()).sum::<f64>())
@@ -94,5 +115,49 @@ mod tests {
         let x = solve_small(&a, &[4.0, 3.0], 1e-14).unwrap();
         assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 2.0).abs() < 1e-15);
         assert!(solve_small(&[1.0, 2.0, 2.0, 4.0], &[1.0, 1.0], 1e-12).is_none());
+    }
+
+    #[test]
+    fn reports_the_first_singular_column() {
+        // x = (1, −2, 3) of a well-conditioned 3×3 system
+        let a = [4.0, 1.0, 0.5, 1.0, 3.0, -1.0, 0.5, -1.0, 5.0];
+        let b = [4.0 - 2.0 + 1.5, 1.0 - 6.0 - 3.0, 0.5 + 2.0 + 15.0];
+        let x = solve_small_lu(&a, &b, 1e-14).unwrap();
+        for (xi, want) in x.iter().zip([1.0, -2.0, 3.0]) {
+            assert!((xi - want).abs() < 1e-14, "{x:?}");
+        }
+        // the second column repeats the first: elimination meets a zero pivot in column 1
+        let dependent = [1.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+        let err = solve_small_lu(&dependent, &[1.0, 1.0, 1.0], 1e-14).unwrap_err();
+        assert_eq!(err.column, 1);
+        // a pivot just below the tolerance is singular, just above is not
+        let nearly = [1.0, 1.0, 1.0, 1.0 + 1e-10];
+        assert!(solve_small_lu(&nearly, &[1.0, 1.0], 1e-9).is_err());
+        assert!(solve_small_lu(&nearly, &[1.0, 1.0], 1e-11).is_ok());
+        // 1×1: the exact quotient, a zero is singular
+        assert_eq!(
+            solve_small_lu(&[3.0], &[1.0], 1e-14).unwrap(),
+            vec![1.0 / 3.0]
+        );
+        assert_eq!(solve_small_lu(&[0.0], &[1.0], 1e-14).unwrap_err().column, 0);
+        assert_eq!(
+            solve_small_lu(&[f64::NAN], &[1.0], 1e-14)
+                .unwrap_err()
+                .column,
+            0
+        );
+    }
+
+    #[test]
+    fn solve_lu_reports_singular_jacobians() {
+        let a = Mat::<f64>::from_fn(2, 2, |i, j| [[2.0, 1.0], [1.0, 3.0]][i][j]);
+        let x = solve_lu(&a, &[3.0, 4.0], "singular").unwrap();
+        assert!((x[0] - 1.0).abs() < 1e-15 && (x[1] - 1.0).abs() < 1e-15);
+        let s = Mat::<f64>::zeros(2, 2);
+        let err = solve_lu(&s, &[1.0, 1.0], "the Jacobian is singular").unwrap_err();
+        assert!(
+            err.to_string().contains("the Jacobian is singular"),
+            "{err}"
+        );
     }
 }

@@ -7,6 +7,7 @@
 //!
 //! The library does all numerics and never prints; the `mshbm` binary is in `mshbm-cli`.
 
+pub mod analytic;
 pub mod contact;
 pub mod dense;
 pub mod error;
@@ -14,6 +15,7 @@ pub mod fe;
 pub mod frd;
 pub mod model;
 pub mod modes;
+pub mod roots;
 pub mod sparse;
 pub mod stability;
 

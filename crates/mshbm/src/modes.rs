@@ -257,31 +257,11 @@ pub fn symmetric_eigen(a: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
 
 /// The lowest eigenfrequencies of a model with its consistent and with its redistributed
 /// mass (contacts open, Dirichlet DOFs fixed), and the shift that redistribution causes
-/// (the paper's Fig. 8).
+/// (the paper's Fig. 8; [`crate::model::Model::compare_masses`]).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct MassComparison {
     pub original_hz: Vec<f64>,
     pub redistributed_hz: Vec<f64>,
     /// `f_redistributed / f_original − 1` per mode.
     pub relative_error: Vec<f64>,
-}
-
-/// The `count` lowest eigenfrequencies of `model` with both masses.
-pub fn compare_masses(model: &crate::model::Model, count: usize) -> Result<MassComparison> {
-    use crate::model::MassKind;
-    let consistent = model.system(MassKind::Consistent)?;
-    let redistributed = model.system(MassKind::Redistributed)?;
-    let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, count)?;
-    let redistributed_hz =
-        eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, count)?;
-    let relative_error = original_hz
-        .iter()
-        .zip(&redistributed_hz)
-        .map(|(o, r)| r / o - 1.0)
-        .collect();
-    Ok(MassComparison {
-        original_hz,
-        redistributed_hz,
-        relative_error,
-    })
 }

@@ -9,6 +9,8 @@
 use faer::sparse::{SparseColMat, SymbolicSparseColMat};
 use faer::Mat;
 
+use crate::error::{Error, Result};
+
 /// Compressed sparse column matrix.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SparseMatrix {
@@ -126,6 +128,39 @@ impl SparseMatrix {
         y
     }
 
+    /// `y += alpha A x` without allocation (the time integrators' per-step products);
+    /// columns where `x` is zero are skipped.
+    pub fn mul_add(&self, alpha: f64, x: &[f64], y: &mut [f64]) {
+        assert_eq!(x.len(), self.ncols);
+        assert_eq!(y.len(), self.nrows);
+        for (j, &xj) in x.iter().enumerate() {
+            if xj == 0.0 {
+                continue;
+            }
+            let s = alpha * xj;
+            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
+                y[self.row_idx[k]] += self.values[k] * s;
+            }
+        }
+    }
+
+    /// The quadratic form `xᵀ A x` (e.g. twice a kinetic or strain energy).
+    pub fn quadratic_form(&self, x: &[f64]) -> f64 {
+        assert_eq!(x.len(), self.ncols);
+        let mut s = 0.0;
+        for (j, &xj) in x.iter().enumerate() {
+            if xj == 0.0 {
+                continue;
+            }
+            let mut col = 0.0;
+            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
+                col += self.values[k] * x[self.row_idx[k]];
+            }
+            s += col * xj;
+        }
+        s
+    }
+
     /// `alpha A + beta B` (patterns united).
     pub fn linear_combination(alpha: f64, a: &SparseMatrix, beta: f64, b: &SparseMatrix) -> Self {
         assert_eq!((a.nrows, a.ncols), (b.nrows, b.ncols));
@@ -216,6 +251,75 @@ impl SparseMatrix {
     }
 }
 
+/// A sparse symmetric positive definite matrix factored once by faer's sparse Cholesky
+/// (`L Lᵀ`), solved many times. Uses faer's low-level API so that a solve needs no
+/// allocation and runs sequentially (the per-step systems of the time integrators are small;
+/// thread start-up would dominate).
+pub(crate) struct SparseCholesky {
+    symbolic: faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
+    values: Vec<f64>,
+    buf: Mat<f64>,
+    mem: faer::dyn_stack::MemBuffer,
+}
+
+impl SparseCholesky {
+    /// Factor `a` (its lower triangle is used); `what` names it in the error when it is not
+    /// positive definite.
+    pub(crate) fn new(a: &SparseMatrix, what: &str) -> Result<Self> {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
+        let not_pd = || Error::Singular(format!("{what} is not positive definite"));
+        let m = a.to_faer();
+        let symbolic = factorize_symbolic_cholesky(
+            m.symbolic(),
+            faer::Side::Lower,
+            Default::default(),
+            Default::default(),
+        )
+        .map_err(|e| Error::Numerical(format!("sparse Cholesky analysis of {what}: {e:?}")))?;
+        let mut values = vec![0.0; symbolic.len_val()];
+        let par = faer::Par::Seq;
+        let mut mem =
+            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        symbolic
+            .factorize_numeric_llt::<f64>(
+                &mut values,
+                m.as_ref(),
+                faer::Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|_| not_pd())?;
+        let mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, par));
+        Ok(SparseCholesky {
+            symbolic,
+            values,
+            buf: Mat::zeros(a.nrows(), 1),
+            mem,
+        })
+    }
+
+    /// `x ← A⁻¹ x`.
+    pub(crate) fn solve(&mut self, x: &mut [f64]) {
+        use faer::dyn_stack::MemStack;
+        use faer::sparse::linalg::cholesky::LltRef;
+        for (i, v) in x.iter().enumerate() {
+            self.buf[(i, 0)] = *v;
+        }
+        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            faer::Conj::No,
+            self.buf.as_mut(),
+            faer::Par::Seq,
+            MemStack::new(&mut self.mem),
+        );
+        for (i, v) in x.iter_mut().enumerate() {
+            *v = self.buf[(i, 0)];
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -238,5 +342,59 @@ mod tests {
         assert_eq!(a.asymmetry(1e-12), Some((2, 1)));
         let f = a.to_faer();
         assert_eq!(f.to_dense()[(1, 2)], 5.0);
+    }
+
+    #[test]
+    fn products_without_allocation_match_mul_vec() {
+        let a = SparseMatrix::from_triplets(
+            3,
+            3,
+            &[
+                (0, 0, 2.0),
+                (1, 0, -1.0),
+                (0, 1, -1.0),
+                (1, 1, 2.0),
+                (2, 2, 0.0),
+                (2, 1, 3.0),
+            ],
+        );
+        let x = [1.0, -2.0, 0.5];
+        let mut y = vec![1.0, 1.0, 1.0];
+        a.mul_add(-2.0, &x, &mut y);
+        let ax = a.mul_vec(&x);
+        for i in 0..3 {
+            assert_eq!(y[i], 1.0 - 2.0 * ax[i]);
+        }
+        let xax: f64 = x.iter().zip(&ax).map(|(a, b)| a * b).sum();
+        assert!((a.quadratic_form(&x) - xax).abs() <= 1e-15 * xax.abs());
+    }
+
+    #[test]
+    fn sparse_cholesky_solves_and_refuses_indefinite() {
+        // the 1D Laplacian: A x = b with x = (1, 2, 3)
+        let a = SparseMatrix::from_triplets(
+            3,
+            3,
+            &[
+                (0, 0, 2.0),
+                (1, 0, -1.0),
+                (0, 1, -1.0),
+                (1, 1, 2.0),
+                (2, 1, -1.0),
+                (1, 2, -1.0),
+                (2, 2, 2.0),
+            ],
+        );
+        let mut x = a.mul_vec(&[1.0, 2.0, 3.0]);
+        SparseCholesky::new(&a, "A").unwrap().solve(&mut x);
+        for (xi, want) in x.iter().zip([1.0, 2.0, 3.0]) {
+            assert!((xi - want).abs() < 1e-14, "{x:?}");
+        }
+        let b = SparseMatrix::from_triplets(2, 2, &[(0, 0, 1.0), (1, 1, -1.0)]);
+        let err = SparseCholesky::new(&b, "B").err().expect("indefinite");
+        assert!(
+            err.to_string().contains("B is not positive definite"),
+            "{err}"
+        );
     }
 }

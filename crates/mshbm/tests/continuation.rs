@@ -10,7 +10,7 @@ use mshbm::continuation::arclength::{
     trace_branch, Branch, ContinuationOptions, Event, StopReason,
 };
 use mshbm::continuation::newton::{solve, NewtonOptions};
-use mshbm::method::redistributed::quadrature::Quadrature;
+use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::file::load_model;
 use mshbm::problem::PeriodicProblem;

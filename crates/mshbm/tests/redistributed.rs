@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
-use mshbm::method::redistributed::quadrature::Quadrature;
+use mshbm::harmonic::Quadrature;
 use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};

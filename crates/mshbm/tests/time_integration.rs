@@ -7,8 +7,8 @@ mod common;
 
 use std::f64::consts::PI;
 
+use mshbm::analytic::{BouncingBarSolution, DroppedBarSolution};
 use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
-use mshbm::integrate::analytic::{BouncingBarSolution, DroppedBarSolution};
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;

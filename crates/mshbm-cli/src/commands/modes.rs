@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use mshbm::modes::{compare_masses, MassComparison};
+use mshbm::modes::MassComparison;
 
 use super::ModelArgs;
 use crate::plot::{Figure, Series, Style};
@@ -55,7 +55,7 @@ pub fn relative_error_figure(report: &MassComparison) -> Figure {
 
 pub fn run(args: &ModesArgs) -> Result<()> {
     let model = args.model.load()?;
-    let report = compare_masses(&model, args.count)?;
+    let report = model.compare_masses(args.count)?;
     if let Some(path) = &args.plot {
         relative_error_figure(&report).save(path)?;
     }

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use mshbm::integrate::analytic::DroppedBarSolution;
+use mshbm::analytic::DroppedBarSolution;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;

@@ -253,9 +253,9 @@ struct Workspace {
     next_active: Vec<bool>,
     /// Indices of the active contacts, in increasing order.
     active_indices: Vec<usize>,
-    /// Principal block `D_AA`, row-major, overwritten by its elimination.
+    /// Principal block `D_AA`, row-major.
     block: Vec<f64>,
-    /// Right-hand side `−q_A`, overwritten by `λ_A`.
+    /// Right-hand side `−q_A`.
     block_rhs: Vec<f64>,
     /// Contact forces `λ` of the current active set.
     contact_force: Vec<f64>,
@@ -498,14 +498,14 @@ impl Workspace {
                 .extend(self.active_indices.iter().map(|&j| row[j]));
             self.block_rhs.push(-q[i]);
         }
-        eliminate_in_place(&mut self.block, &mut self.block_rhs).map_err(|column| {
-            LcpError::Singular {
-                block_size,
-                contact: self.active_indices[column],
-            }
-        })?;
+        let block_force =
+            crate::dense::solve_small_lu(&self.block, &self.block_rhs, SINGULAR_PIVOT_REL_TOL)
+                .map_err(|singular| LcpError::Singular {
+                    block_size,
+                    contact: self.active_indices[singular.column],
+                })?;
         self.contact_force.fill(0.0);
-        for (&i, &force) in self.active_indices.iter().zip(&self.block_rhs) {
+        for (&i, &force) in self.active_indices.iter().zip(&block_force) {
             self.contact_force[i] = force;
         }
         let term_scale = compute_gap(
@@ -520,61 +520,6 @@ impl Workspace {
             tolerance: residual_tolerance(term_scale),
         })
     }
-}
-
-/// Solves `A x = b` in place (`A` square, row-major, overwritten) by Gaussian elimination
-/// with partial pivoting; `b` is overwritten by `x`. Returns the column without a usable
-/// pivot when `A` is numerically singular.
-fn eliminate_in_place(a: &mut [f64], b: &mut [f64]) -> Result<(), usize> {
-    let m = b.len();
-    debug_assert_eq!(a.len(), m * m);
-    let magnitude = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
-    let threshold = SINGULAR_PIVOT_REL_TOL * magnitude;
-    for col in 0..m {
-        let mut pivot_row = col;
-        let mut pivot_abs = a[col * m + col].abs();
-        for row in col + 1..m {
-            let candidate = a[row * m + col].abs();
-            if candidate > pivot_abs {
-                pivot_row = row;
-                pivot_abs = candidate;
-            }
-        }
-        if pivot_abs.is_nan() || pivot_abs <= threshold {
-            return Err(col);
-        }
-        if pivot_row != col {
-            for k in col..m {
-                a.swap(pivot_row * m + k, col * m + k);
-            }
-            b.swap(pivot_row, col);
-        }
-        let (upper, lower) = a.split_at_mut((col + 1) * m);
-        let pivot_row_entries = &upper[col * m + col..];
-        let pivot = pivot_row_entries[0];
-        let pivot_rhs = b[col];
-        for (row_entries, rhs) in lower.chunks_exact_mut(m).zip(&mut b[col + 1..]) {
-            let factor = row_entries[col] / pivot;
-            if factor != 0.0 {
-                for (entry, &p) in row_entries[col + 1..]
-                    .iter_mut()
-                    .zip(&pivot_row_entries[1..])
-                {
-                    *entry -= factor * p;
-                }
-                *rhs -= factor * pivot_rhs;
-            }
-        }
-    }
-    for col in (0..m).rev() {
-        let row_entries = &a[col * m..(col + 1) * m];
-        let mut sum = b[col];
-        for (&entry, &x) in row_entries[col + 1..].iter().zip(&b[col + 1..]) {
-            sum -= entry * x;
-        }
-        b[col] = sum / row_entries[col];
-    }
-    Ok(())
 }
 
 /// `gap = D λ + q` using only the columns of the active contacts (`λ` is zero elsewhere).

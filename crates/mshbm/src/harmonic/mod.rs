@@ -230,6 +230,25 @@ pub fn polynomial_extremum(coef: &[f64], samples: usize, sign: f64) -> f64 {
     sign * best.max(refined)
 }
 
+/// How Fourier coefficients of a nonsmooth periodic signal (the contact displacement of the
+/// redistributed MS-HBM, paper eqs. 33–35, or the penalty force of HBM-AFT) are computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quadrature {
+    /// Closed-form integrals between located switching times.
+    Exact,
+    /// DFT over equidistant samples.
+    Sampled,
+}
+
+impl Quadrature {
+    pub fn name(self) -> &'static str {
+        match self {
+            Quadrature::Exact => "exact",
+            Quadrature::Sampled => "sampled",
+        }
+    }
+}
+
 /// Golden-section search for a maximum of `f` in the bracket `[a, d]` (60 reductions of the
 /// bracket, to `0.618⁶⁰` of its width): the larger of the two final interior values.
 pub(crate) fn golden_section_max(mut f: impl FnMut(f64) -> f64, mut a: f64, mut d: f64) -> f64 {

@@ -52,18 +52,15 @@
 //!
 //! [`steady_state`] integrates period by period until the state repeats;
 //! [`initial`] builds the initial state of a harmonic solution (e.g. from `mshbm solve`);
-//! [`analytic`] has the closed-form references.
+//! [`crate::analytic`] has the closed-form references.
 
-pub mod analytic;
 pub mod initial;
 mod moreau;
 mod newmark;
 pub mod steady_state;
 
-use faer::Mat;
-
+use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
-use crate::method::redistributed::static_contact::StaticContact;
 use crate::model::{MassKind, Model, System};
 use crate::modes::massless_dofs;
 use crate::sparse::SparseMatrix;
@@ -168,128 +165,6 @@ pub fn fall_energy(model: &Model, system: &System) -> f64 {
     distance * norm * d.iter().zip(&md).map(|(a, b)| a * b).sum::<f64>()
 }
 
-/// Compressed sparse columns for fast repeated products (`y += α A x`).
-#[derive(Clone, Debug)]
-pub(crate) struct Csc {
-    col_ptr: Vec<usize>,
-    row: Vec<usize>,
-    val: Vec<f64>,
-}
-
-impl Csc {
-    pub(crate) fn new(a: &SparseMatrix) -> Self {
-        let mut col_ptr = vec![0; a.ncols() + 1];
-        let mut row = Vec::with_capacity(a.nnz());
-        let mut val = Vec::with_capacity(a.nnz());
-        for (i, j, v) in a.iter() {
-            if v != 0.0 {
-                row.push(i);
-                val.push(v);
-                col_ptr[j + 1] += 1;
-            }
-        }
-        for j in 0..a.ncols() {
-            col_ptr[j + 1] += col_ptr[j];
-        }
-        Csc { col_ptr, row, val }
-    }
-
-    /// `y += alpha A x`.
-    pub(crate) fn mul_add(&self, alpha: f64, x: &[f64], y: &mut [f64]) {
-        for (j, &xj) in x.iter().enumerate() {
-            if xj == 0.0 {
-                continue;
-            }
-            let s = alpha * xj;
-            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
-                y[self.row[k]] += self.val[k] * s;
-            }
-        }
-    }
-
-    /// `xᵀ A x`.
-    pub(crate) fn quadratic_form(&self, x: &[f64]) -> f64 {
-        let mut s = 0.0;
-        for (j, &xj) in x.iter().enumerate() {
-            if xj == 0.0 {
-                continue;
-            }
-            let mut col = 0.0;
-            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
-                col += self.val[k] * x[self.row[k]];
-            }
-            s += col * xj;
-        }
-        s
-    }
-}
-
-/// A sparse symmetric positive definite matrix factored once (sparse Cholesky), solved many
-/// times. Uses faer's low-level API so that a solve needs no allocation and runs
-/// sequentially (the per-step systems are small; thread start-up would dominate).
-pub(crate) struct SpdSolver {
-    symbolic: faer::sparse::linalg::cholesky::SymbolicCholesky<usize>,
-    values: Vec<f64>,
-    buf: Mat<f64>,
-    mem: faer::dyn_stack::MemBuffer,
-}
-
-impl SpdSolver {
-    pub(crate) fn new(a: &SparseMatrix, what: &str) -> Result<Self> {
-        use faer::dyn_stack::{MemBuffer, MemStack};
-        use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
-        let not_pd = || Error::Singular(format!("{what} is not positive definite"));
-        let m = a.to_faer();
-        let symbolic = factorize_symbolic_cholesky(
-            m.symbolic(),
-            faer::Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| Error::Numerical(format!("sparse Cholesky analysis of {what}: {e:?}")))?;
-        let mut values = vec![0.0; symbolic.len_val()];
-        let par = faer::Par::Seq;
-        let mut mem =
-            MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
-        symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut values,
-                m.as_ref(),
-                faer::Side::Lower,
-                Default::default(),
-                par,
-                MemStack::new(&mut mem),
-                Default::default(),
-            )
-            .map_err(|_| not_pd())?;
-        let mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, par));
-        Ok(SpdSolver {
-            symbolic,
-            values,
-            buf: Mat::zeros(a.nrows(), 1),
-            mem,
-        })
-    }
-
-    /// `x ← A⁻¹ x`.
-    pub(crate) fn solve(&mut self, x: &mut [f64]) {
-        use faer::dyn_stack::MemStack;
-        use faer::sparse::linalg::cholesky::LltRef;
-        for (i, v) in x.iter().enumerate() {
-            self.buf[(i, 0)] = *v;
-        }
-        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
-            faer::Conj::No,
-            self.buf.as_mut(),
-            faer::Par::Seq,
-            MemStack::new(&mut self.mem),
-        );
-        for (i, v) in x.iter_mut().enumerate() {
-            *v = self.buf[(i, 0)];
-        }
-    }
-}
-
 /// Contacts in system numbering: `g = Σ w q + g0`.
 #[derive(Clone, Debug)]
 pub(crate) struct Contacts {
@@ -355,9 +230,9 @@ impl Frictions {
 pub(crate) struct Data {
     pub(crate) n: usize,
     pub(crate) dt: f64,
-    pub(crate) mass: Csc,
-    pub(crate) stiffness: Csc,
-    pub(crate) damping: Csc,
+    pub(crate) mass: SparseMatrix,
+    pub(crate) stiffness: SparseMatrix,
+    pub(crate) damping: SparseMatrix,
     pub(crate) constant_load: Vec<f64>,
     pub(crate) harmonic_load: Vec<f64>,
     pub(crate) omega: f64,
@@ -526,9 +401,9 @@ impl Integrator {
         let data = Data {
             n,
             dt,
-            mass: Csc::new(&system.mass),
-            stiffness: Csc::new(&system.stiffness),
-            damping: Csc::new(&system.damping),
+            mass: system.mass.clone(),
+            stiffness: system.stiffness.clone(),
+            damping: system.damping.clone(),
             constant_load: system.constant_load.clone(),
             harmonic_load: system.harmonic_load.clone(),
             omega,

@@ -41,16 +41,16 @@ use std::collections::HashMap;
 use crate::contact::lcp::{LcpMatrix, LcpSolver};
 use crate::error::{Error, Result};
 use crate::model::System;
-use crate::sparse::SparseMatrix;
+use crate::sparse::{SparseCholesky, SparseMatrix};
 
-use super::{Csc, Data, SpdSolver, State};
+use super::{Data, State};
 
 pub(crate) struct MoreauJean {
     theta: f64,
     restitution: f64,
-    mhat: SpdSolver,
+    mhat: SparseCholesky,
     /// `M − h(1−θ)C − h²θ(1−θ)K`.
-    explicit: Csc,
+    explicit: SparseMatrix,
     /// `M̂⁻¹ W_i` per contact.
     mw: Vec<Vec<f64>>,
     /// `D = Wᵀ M̂⁻¹ W` (row-major).
@@ -95,7 +95,7 @@ impl MoreauJean {
             -h * h * theta * (1.0 - theta),
             &system.stiffness,
         );
-        let mut mhat = SpdSolver::new(
+        let mut mhat = SparseCholesky::new(
             &mhat_m,
             "the Moreau-Jean iteration matrix M + h theta C + h^2 theta^2 K",
         )?;
@@ -147,7 +147,7 @@ impl MoreauJean {
             mhat,
             mwt,
             g_all,
-            explicit: Csc::new(&explicit),
+            explicit,
             mw,
             delassus,
             solvers: HashMap::new(),

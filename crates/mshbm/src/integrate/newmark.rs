@@ -20,14 +20,14 @@
 use crate::contact::lcp::{LcpMatrix, LcpSolver};
 use crate::error::{Error, Result};
 use crate::model::System;
-use crate::sparse::SparseMatrix;
+use crate::sparse::{SparseCholesky, SparseMatrix};
 
-use super::{Data, SpdSolver, State};
+use super::{Data, State};
 
 pub(crate) struct PositionNewmark {
-    ahat: SpdSolver,
+    ahat: SparseCholesky,
     /// Cholesky of the mass on the massive DOFs (initial accelerations).
-    mass_mm: Option<SpdSolver>,
+    mass_mm: Option<SparseCholesky>,
     /// `Â⁻¹ W_i` per contact.
     aw: Vec<Vec<f64>>,
     lcp: Option<LcpSolver>,
@@ -77,14 +77,14 @@ impl PositionNewmark {
             1.0,
             &system.stiffness,
         );
-        let mut ahat = SpdSolver::new(
+        let mut ahat = SparseCholesky::new(
             &ahat_m,
             "the Newmark iteration matrix (4/h^2) M + (2/h) C + K (the massless DOFs must be held by the stiffness)",
         )?;
         let mass_mm = if data.massive.is_empty() {
             None
         } else {
-            Some(SpdSolver::new(
+            Some(SparseCholesky::new(
                 &system.mass.submatrix(&data.massive, &data.massive),
                 "the mass matrix on the DOFs that carry mass",
             )?)

@@ -88,14 +88,15 @@ use super::{check_dimension, complex_harmonic, n_dof_coefficients, periodic_solu
 use super::{store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{
-    add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Sampling,
+    add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Quadrature,
+    Sampling,
 };
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
-use crate::method::redistributed::default_samples;
-pub use crate::method::redistributed::quadrature::Quadrature;
+use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
+use crate::roots::find_sign_change;
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 
 /// Default penalty stiffness as a multiple of the contact's own stiffness
@@ -842,35 +843,14 @@ impl PeriodicProblem for HbmAft {
     }
 }
 
-/// Root of `f` in `[a, b]` with `f(a) = fa`, `f(b) = fb` of opposite signs (Illinois).
-fn find_root(f: &impl Fn(f64) -> f64, mut a: f64, mut b: f64, mut fa: f64, mut fb: f64) -> f64 {
+/// Root of `f` in `[a, b]` with `f(a) = fa`, `f(b) = fb` of opposite signs, to round-off
+/// ([`find_sign_change`]).
+fn find_root(f: &impl Fn(f64) -> f64, a: f64, b: f64, fa: f64, fb: f64) -> f64 {
     if fa == 0.0 {
         return a;
     }
     if fb == 0.0 {
         return b;
     }
-    let mut side = 0;
-    for _ in 0..100 {
-        let m = (a * fb - b * fa) / (fb - fa);
-        let m = if m > a && m < b { m } else { 0.5 * (a + b) };
-        let fm = f(m);
-        if fm == 0.0 || (b - a) <= 4.0 * f64::EPSILON * b.abs().max(1.0) {
-            return m;
-        }
-        if (fm < 0.0) == (fa < 0.0) {
-            (a, fa) = (m, fm);
-            if side == -1 {
-                fb *= 0.5;
-            }
-            side = -1;
-        } else {
-            (b, fb) = (m, fm);
-            if side == 1 {
-                fa *= 0.5;
-            }
-            side = 1;
-        }
-    }
-    0.5 * (a + b)
+    find_sign_change(f, a, b, fa, fb).nearest()
 }

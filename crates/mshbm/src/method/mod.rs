@@ -45,6 +45,14 @@ pub(crate) fn default_resolution(
     (per_coefficient * n_coefficients(harmonics)).max(at_least)
 }
 
+/// Default number of samples per period of the harmonic-balance methods (the redistributed
+/// MS-HBM and HBM-AFT) for `H` harmonics: `max(256, 16 (2H + 1))`, enough to resolve the
+/// kinks of `q_N(t)` (sampled quadrature) and to locate the switching times (exact
+/// quadrature).
+pub fn default_samples(harmonics: usize) -> usize {
+    default_resolution(harmonics, 16, 256)
+}
+
 /// A frequency (rad/s) must be finite and positive; the message is in Hz.
 pub(crate) fn check_frequency(omega: f64) -> Result<()> {
     if omega.is_finite() && omega > 0.0 {

@@ -10,14 +10,14 @@
 //! time integrators' iteration matrices are nevertheless positive definite, but methods
 //! that need `K⁻¹` (the MS-HBM) refuse this model.
 //!
-//! The closed-form solution is [`crate::integrate::analytic::DroppedBarSolution`]
+//! The closed-form solution is [`crate::analytic::DroppedBarSolution`]
 //! ([`DroppedBarParameters::analytic`]).
 
 use std::path::Path;
 
+use crate::analytic::DroppedBarSolution;
 use crate::error::{Error, Result};
 use crate::fe::bar1d;
-use crate::integrate::analytic::DroppedBarSolution;
 use crate::model::bar::{check_positive, check_uniform_bar};
 use crate::model::{Contact, Damping, Model};
 

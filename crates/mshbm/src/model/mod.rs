@@ -23,6 +23,7 @@ pub use system::{MassKind, System, SystemContact, SystemFriction};
 use std::path::PathBuf;
 
 use crate::error::{Error, Result};
+use crate::modes::{eigenfrequencies_hz, MassComparison};
 use crate::sparse::SparseMatrix;
 
 /// A unilateral contact: gap `g = Σ_i w_i q_{dofs_i} + gap ≥ 0`, force `+w λ` on the
@@ -121,6 +122,26 @@ pub struct Model {
 }
 
 impl Model {
+    /// The `count` lowest eigenfrequencies with the consistent and with the redistributed
+    /// mass (contacts open, Dirichlet DOFs fixed), and the shift redistribution causes.
+    pub fn compare_masses(&self, count: usize) -> Result<MassComparison> {
+        let consistent = self.system(MassKind::Consistent)?;
+        let redistributed = self.system(MassKind::Redistributed)?;
+        let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, count)?;
+        let redistributed_hz =
+            eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, count)?;
+        let relative_error = original_hz
+            .iter()
+            .zip(&redistributed_hz)
+            .map(|(o, r)| r / o - 1.0)
+            .collect();
+        Ok(MassComparison {
+            original_hz,
+            redistributed_hz,
+            relative_error,
+        })
+    }
+
     /// Number of DOFs of the unconstrained mesh.
     pub fn n_dofs(&self) -> usize {
         self.stiffness.nrows()

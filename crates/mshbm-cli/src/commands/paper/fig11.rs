@@ -11,8 +11,8 @@ use anyhow::Result;
 
 use super::run::{Job, Output, Progress};
 use mshbm::frd::{trace_frd_branch, BranchReport, FoldReport, FrdPoint, FrdSettings, TracedBranch};
+use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
-use mshbm::method::redistributed::quadrature::Quadrature;
 use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
 use mshbm::stability::StabilityOptions;

@@ -7,7 +7,7 @@
 use std::fmt::Write as _;
 
 use anyhow::{bail, Result};
-use mshbm::integrate::analytic::DroppedBarSolution;
+use mshbm::analytic::DroppedBarSolution;
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::simulation::contact_intervals;
 

@@ -8,8 +8,6 @@ use anyhow::Result;
 
 use super::run::{Job, Output};
 use super::{models, percent, FigureReport, Setup};
-use mshbm::modes::compare_masses;
-
 use crate::commands::modes::relative_error_figure;
 use crate::output::write_atomic;
 use crate::plot::{Series, Style};
@@ -42,7 +40,7 @@ pub(crate) fn job(setup: &Setup) -> Job<'_> {
 fn figure(setup: &Setup) -> Result<FigureReport> {
     let count = 30;
     let model = models::load(models::CLAMPED_BAR, models::CLAMPED_BAR_PATH, &[])?;
-    let report = compare_masses(&model, count)?;
+    let report = model.compare_masses(count)?;
     let continuum: Vec<f64> = (1..=report.original_hz.len()).map(continuum_hz).collect();
     let mut csv = String::from(CSV_HEADER);
     csv.push('\n');

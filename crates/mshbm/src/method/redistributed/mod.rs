@@ -19,7 +19,6 @@
 //! `∂(K_NL q̂_L,k)/∂ω = −K_NL A_k⁻¹ (∂A_k/∂ω) q̂_L,k`.
 
 pub mod quadrature;
-pub mod static_contact;
 
 use std::rc::Rc;
 
@@ -28,26 +27,20 @@ use faer::Mat;
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
 use super::{check_dimension, fixed_response, n_dof_coefficients};
 use super::{periodic_solution, SolutionParts};
+use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
-use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Sampling};
+use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Quadrature, Sampling};
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
+use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 use crate::stability::{ReducedSystem, StabilityOptions};
-use quadrature::{integrate, load_at, Integration, Quadrature};
-use static_contact::StaticContact;
+use quadrature::{integrate, load_at, Integration};
 
 /// Largest linear part for which the dense monodromy matrix is formed.
 pub const MAX_DENSE_STABILITY_DOFS: usize = 1500;
-
-/// Default number of samples per period for `H` harmonics: `max(256, 16 (2H + 1))`, enough to
-/// resolve the kinks of `q_N(t)` (sampled quadrature) and to locate the switching times
-/// (exact quadrature).
-pub fn default_samples(harmonics: usize) -> usize {
-    super::default_resolution(harmonics, 16, 256)
-}
 
 /// Settings of the redistributed MS-HBM.
 #[derive(Clone, Debug)]
@@ -300,8 +293,8 @@ impl RedistributedMsHbm {
         let b = self.load_coefficients(&zero_x);
         let q0 = self.assemble_coefficients(&integration, &b, true);
         let jac = self.jacobian_matrix(&integration);
-        let r0: Vec<f64> = q0.iter().map(|v| -v).collect();
-        crate::continuation::newton::newton_direction(&jac, &r0)
+        // the Newton step from 0, `J d = −R(0) = q0`
+        crate::dense::solve_lu(&jac, &q0, "the Jacobian is singular")
     }
 
     /// Settings of the Floquet analysis ([`PeriodicProblem::floquet`]); the default is

@@ -20,27 +20,12 @@
 use std::collections::HashMap;
 use std::rc::Rc;
 
-use super::static_contact::{ActiveSet, StaticContact};
+use crate::contact::static_contact::{ActiveSet, StaticContact};
 use crate::error::Result;
-use crate::harmonic::{add_interval_gram, basis_into, evaluate, n_coefficients, Sampling};
-
-/// How the Fourier coefficients of `q_N(t)` are computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Quadrature {
-    /// Closed-form integrals between located switching times.
-    Exact,
-    /// DFT over equidistant samples.
-    Sampled,
-}
-
-impl Quadrature {
-    pub fn name(self) -> &'static str {
-        match self {
-            Quadrature::Exact => "exact",
-            Quadrature::Sampled => "sampled",
-        }
-    }
-}
+use crate::harmonic::{
+    add_interval_gram, basis_into, evaluate, n_coefficients, Quadrature, Sampling,
+};
+use crate::roots::find_sign_change;
 
 /// Samples sharing one active set, with their summed Gram block.
 pub struct Group {
@@ -133,20 +118,13 @@ fn derivative(coef: &[f64]) -> Vec<f64> {
     d
 }
 
-/// Bisection for a sign change of `f` on `[left, right]` where `f(left) ≥ 0 > f(right)`.
-fn bisect(coef: &[f64], mut left: f64, mut right: f64) -> f64 {
-    for _ in 0..200 {
-        let mid = 0.5 * (left + right);
-        if mid <= left || mid >= right {
-            break;
-        }
-        if evaluate(coef, mid) < 0.0 {
-            right = mid;
-        } else {
-            left = mid;
-        }
-    }
-    right
+/// The first time in `(left, right]` at which the trigonometric polynomial `coef` is
+/// negative, to round-off, given `coef(right) < 0`: the negative end of the final bracket of
+/// [`find_sign_change`]. `left` is where the active set was found valid, so it is taken as
+/// the non-negative end even when round-off makes `coef(left)` slightly negative there.
+fn first_negative_time(coef: &[f64], left: f64, right: f64, f_right: f64) -> f64 {
+    let f_left = evaluate(coef, left).max(0.0);
+    find_sign_change(|t| evaluate(coef, t), left, right, f_left, f_right).negative
 }
 
 /// First time in `(a, end]` at which the trigonometric polynomial `coef` becomes negative,
@@ -157,8 +135,9 @@ fn first_negative(coef: &[f64], a: f64, end: f64) -> Option<f64> {
     let mut left = a;
     for l in 1..=SCAN {
         let p = a + (end - a) * l as f64 / SCAN as f64;
-        if evaluate(coef, p) < 0.0 {
-            return Some(bisect(coef, left, p));
+        let value = evaluate(coef, p);
+        if value < 0.0 {
+            return Some(first_negative_time(coef, left, p, value));
         }
         left = p;
     }
@@ -170,22 +149,11 @@ fn first_negative(coef: &[f64], a: f64, end: f64) -> Option<f64> {
         let p = a + (end - a) * l as f64 / SCAN as f64;
         let dp = evaluate(&d, p);
         if dprev < 0.0 && dp > 0.0 {
-            // minimum in (prev, p): bisection on the derivative
-            let (mut lo, mut hi) = (prev, p);
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
-                    break;
-                }
-                if evaluate(&d, mid) < 0.0 {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            let tmin = 0.5 * (lo + hi);
-            if evaluate(coef, tmin) < 0.0 {
-                return Some(bisect(coef, prev, tmin));
+            // minimum in (prev, p): the root of the derivative
+            let tmin = find_sign_change(|t| evaluate(&d, t), prev, p, dprev, dp).midpoint();
+            let value = evaluate(coef, tmin);
+            if value < 0.0 {
+                return Some(first_negative_time(coef, prev, tmin, value));
             }
         }
         prev = p;

@@ -1,4 +1,5 @@
-//! Closed-form reference solutions for the time integrators (METHODS §2.3 and §2.6).
+//! Closed-form reference solutions of the continuum (METHODS §2.3 and §2.6): the
+//! references of the time integrators and of the models that carry them.
 //!
 //! * [`DroppedBarSolution`] — the elastic bar dropped under gravity onto a rigid support
 //!   (the paper's Figs. 3–5; Doyen, Ern & Piperno 2011): gap and contact force of the lower

@@ -1,0 +1,318 @@
+//! The layer rule of the library (docs/architecture.md): a module of `crates/mshbm/src` may
+//! use only modules of its own layer or of lower ones, and the library never prints.
+//!
+//! This test reads every source file, collects the `crate::ROOM` paths it uses (in `use`
+//! lines, grouped `use crate::{…}` imports and paths in code; comments are ignored), and
+//! fails naming the file and the import when `ROOM` is in a higher layer than the file's
+//! own room. The layer table below is the rule's one statement in code.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The rooms of the library, lowest layer first. A room may import rooms of its own layer
+/// and of the layers before it.
+const LAYERS: &[&[&str]] = &[
+    &["error", "sparse", "dense", "roots", "analytic"],
+    &["harmonic", "fe", "contact", "modes"],
+    &["model"],
+    &["linear", "stability", "integrate", "solution"],
+    &["problem"],
+    &["method"],
+    &["continuation"],
+    &["frd", "solve", "simulation"],
+];
+
+/// Imports that break the rule and are known, with the reason; each must be removed when
+/// its reason goes away (the test fails when a listed import no longer exists).
+const KNOWN_EXCEPTIONS: &[(&str, &str, &str)] = &[(
+    "method/hbm_aft.rs",
+    "continuation",
+    "HbmAft::penalty_homotopy (its initial guess) runs Newton, which lives in continuation/; \
+     it goes when Newton moves below `method`",
+)];
+
+fn layer_of(room: &str) -> Option<usize> {
+    LAYERS.iter().position(|layer| layer.contains(&room))
+}
+
+fn source_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("read src directory") {
+        let path = entry.expect("directory entry").path();
+        if path.is_dir() {
+            source_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// The room of a file: its first path component below `src`, without `.rs`.
+fn room_of(relative: &str) -> &str {
+    let first = relative.split('/').next().unwrap_or(relative);
+    first.strip_suffix(".rs").unwrap_or(first)
+}
+
+/// The source with `//` comments (including doc comments) and string literals blanked, so
+/// that doc links and messages do not count as imports or prints.
+fn strip_comments_and_strings(source: &str) -> String {
+    let chars: Vec<char> = source.chars().collect();
+    let mut out = String::with_capacity(source.len());
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        if c == '/' && chars.get(i + 1) == Some(&'/') {
+            while i < chars.len() && chars[i] != '\n' {
+                i += 1;
+            }
+        } else if c == '/' && chars.get(i + 1) == Some(&'*') {
+            i += 2;
+            while i + 1 < chars.len() && !(chars[i] == '*' && chars[i + 1] == '/') {
+                i += 1;
+            }
+            i += 2;
+        } else if c == '"' {
+            // a string literal (raw strings in this crate hold no `crate::` or `println!`)
+            out.push('"');
+            i += 1;
+            while i < chars.len() && chars[i] != '"' {
+                if chars[i] == '\\' {
+                    i += 1;
+                }
+                i += 1;
+            }
+            out.push('"');
+            i += 1;
+        } else if c == '\'' && chars.get(i + 2) == Some(&'\'') {
+            // a character literal such as '"' (not a lifetime)
+            out.push_str("' '");
+            i += 3;
+        } else if c == '\'' && chars.get(i + 1) == Some(&'\\') {
+            // an escaped character literal such as '\n' or '\''
+            out.push_str("' '");
+            i += 2;
+            while i < chars.len() && chars[i] != '\'' {
+                i += 1;
+            }
+            i += 1;
+        } else {
+            out.push(c);
+            i += 1;
+        }
+    }
+    out
+}
+
+fn is_ident_char(c: char) -> bool {
+    c.is_alphanumeric() || c == '_'
+}
+
+fn leading_ident(s: &str) -> &str {
+    let s = s.trim_start();
+    let end = s.find(|c: char| !is_ident_char(c)).unwrap_or(s.len());
+    &s[..end]
+}
+
+/// The rooms named by `crate::ROOM` paths in `code`, with the path as written (for the
+/// message). `crate::{a::x, b}` names `a` and `b`.
+fn crate_paths(code: &str) -> Vec<(String, String)> {
+    let mut found = Vec::new();
+    let mut rest = code;
+    while let Some(pos) = rest.find("crate::") {
+        let preceded_by_ident = rest[..pos].chars().next_back().is_some_and(is_ident_char);
+        let after = &rest[pos + "crate::".len()..];
+        rest = after;
+        if preceded_by_ident {
+            continue; // e.g. `mycrate::`
+        }
+        if let Some(group) = after.strip_prefix('{') {
+            let mut depth = 1;
+            let mut item_start = 0;
+            let mut items = Vec::new();
+            for (i, c) in group.char_indices() {
+                match c {
+                    '{' => depth += 1,
+                    '}' => {
+                        depth -= 1;
+                        if depth == 0 {
+                            items.push(&group[item_start..i]);
+                            break;
+                        }
+                    }
+                    ',' if depth == 1 => {
+                        items.push(&group[item_start..i]);
+                        item_start = i + 1;
+                    }
+                    _ => {}
+                }
+            }
+            for item in items {
+                let room = leading_ident(item);
+                if !room.is_empty() {
+                    found.push((room.to_string(), format!("crate::{}", item.trim())));
+                }
+            }
+        } else {
+            let room = leading_ident(after);
+            let end = after
+                .find(|c: char| !(is_ident_char(c) || c == ':'))
+                .unwrap_or(after.len());
+            found.push((room.to_string(), format!("crate::{}", &after[..end])));
+        }
+    }
+    found
+}
+
+fn library_sources() -> BTreeMap<String, String> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    source_files(&src, &mut files);
+    files
+        .into_iter()
+        .map(|path| {
+            let relative = path
+                .strip_prefix(&src)
+                .expect("file under src")
+                .to_string_lossy()
+                .replace('\\', "/");
+            let source = std::fs::read_to_string(&path).expect("read source file");
+            (relative, strip_comments_and_strings(&source))
+        })
+        .collect()
+}
+
+/// Every `(file, room imported, path)` that breaks the layer rule.
+fn upward_imports(sources: &BTreeMap<String, String>) -> Vec<(String, String, String)> {
+    let mut violations = Vec::new();
+    for (file, code) in sources {
+        if file == "lib.rs" {
+            continue;
+        }
+        let room = room_of(file);
+        let Some(own) = layer_of(room) else {
+            violations.push((
+                file.clone(),
+                room.to_string(),
+                "(room not in the layer table)".into(),
+            ));
+            continue;
+        };
+        for (imported, path) in crate_paths(code) {
+            match layer_of(&imported) {
+                Some(layer) if layer <= own => {}
+                Some(_) => violations.push((file.clone(), imported, path)),
+                // `crate::Error`, `crate::Result`, … re-exported at the root from `error`
+                // and `model`
+                None => match imported.as_str() {
+                    "Error" | "Result" => {}
+                    "Model" | "System" | "MassKind" if own >= layer_of("model").unwrap() => {}
+                    _ => violations.push((file.clone(), imported, path)),
+                },
+            }
+        }
+    }
+    violations
+}
+
+#[test]
+fn every_room_is_in_the_layer_table() {
+    let sources = library_sources();
+    assert!(
+        sources.len() > 20,
+        "found only {} source files",
+        sources.len()
+    );
+    let lib = &sources["lib.rs"];
+    for room in crate_paths(lib).iter().map(|(room, _)| room.clone()).chain(
+        lib.lines()
+            .filter_map(|l| {
+                l.trim()
+                    .strip_prefix("pub mod ")
+                    .or(l.trim().strip_prefix("mod "))
+            })
+            .map(|l| l.trim_end_matches(';').trim().to_string()),
+    ) {
+        if room == "error" || room == "model" {
+            continue;
+        }
+        assert!(
+            layer_of(&room).is_some(),
+            "lib.rs declares `{room}`, which the layer table lacks"
+        );
+    }
+}
+
+#[test]
+fn no_module_imports_a_higher_layer() {
+    let sources = library_sources();
+    let mut violations = upward_imports(&sources);
+    for (file, room, reason) in KNOWN_EXCEPTIONS {
+        let before = violations.len();
+        violations.retain(|(f, r, _)| !(f == file && r == room));
+        assert!(
+            violations.len() < before,
+            "the known exception {file} → {room} ({reason}) no longer exists: remove it from \
+             KNOWN_EXCEPTIONS"
+        );
+    }
+    let message: Vec<String> = violations
+        .iter()
+        .map(|(file, room, path)| {
+            let from = room_of(file);
+            format!(
+                "src/{file} (room `{from}`, layer {:?}) imports `{path}` (room `{room}`, layer {:?})",
+                layer_of(from),
+                layer_of(room)
+            )
+        })
+        .collect();
+    assert!(
+        message.is_empty(),
+        "upward imports:\n{}",
+        message.join("\n")
+    );
+}
+
+#[test]
+fn the_library_never_prints() {
+    let mut prints = Vec::new();
+    for (file, code) in library_sources() {
+        for (number, line) in code.lines().enumerate() {
+            for mac in ["println!", "eprintln!", "print!", "eprint!", "dbg!"] {
+                let hit = line
+                    .match_indices(mac)
+                    .any(|(i, _)| !line[..i].chars().next_back().is_some_and(is_ident_char));
+                if hit {
+                    prints.push(format!("src/{file}:{}: {}", number + 1, line.trim()));
+                }
+            }
+        }
+    }
+    assert!(
+        prints.is_empty(),
+        "the library prints:\n{}",
+        prints.join("\n")
+    );
+}
+
+#[test]
+fn the_scanner_finds_imports_and_prints() {
+    let code = strip_comments_and_strings(
+        "use crate::{error::Error, method::x};\n// crate::continuation\nlet s = \"crate::model println!\";\nlet c = '\"'; crate::harmonic::basis(1, 0.0);\n",
+    );
+    let rooms: Vec<String> = crate_paths(&code).into_iter().map(|(r, _)| r).collect();
+    assert_eq!(rooms, ["error", "method", "harmonic"]);
+    assert!(!code.contains("println!"));
+    let mut sources = BTreeMap::new();
+    sources.insert(
+        "dense.rs".to_string(),
+        "use crate::model::Model;".to_string(),
+    );
+    sources.insert(
+        "model/a.rs".to_string(),
+        "fn f() { crate::dense::x(); }".to_string(),
+    );
+    let violations = upward_imports(&sources);
+    assert_eq!(violations.len(), 1);
+    assert_eq!(violations[0].0, "dense.rs");
+    assert_eq!(violations[0].1, "model");
+}
