@@ -332,13 +332,6 @@ pub fn trace(
     options.min_step = args.min_step;
     options.max_turn_deg = args.max_turn;
     options.newton = args.method.newton()?;
-    if variant.method != Method::Redistributed {
-        // finite-difference Jacobian (mshbm) or stiff penalty (hbm-aft): Newton is not
-        // quadratic, so the corrector's contraction is not a sign of a jump
-        options.max_contraction = f64::INFINITY;
-    }
-    // the general MS-HBM's branches are staircases of step-wide corners (method::shooting)
-    options.frequency_stepping = variant.method == Method::Mshbm;
 
     let mut points = Vec::new();
     let mut row_error: Option<anyhow::Error> = None;

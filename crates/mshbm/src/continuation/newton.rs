@@ -5,17 +5,46 @@
 use faer::linalg::solvers::Solve;
 use faer::Mat;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, SingularSystem};
 use crate::problem::PeriodicProblem;
 
 /// Newton settings. Norms are max-norms relative to the problem's length scale.
 #[derive(Clone, Debug)]
 pub struct NewtonOptions {
-    /// Converged when `‖R‖_∞ ≤ tolerance · length_scale`.
+    /// Converged when `‖R‖_∞ ≤ tolerance · length_scale` (default `1e-10`; must be positive).
     pub tolerance: f64,
+    /// Largest number of Newton iterations (default 50; at least 1).
     pub max_iterations: usize,
-    /// Smallest line-search step factor.
+    /// Smallest line-search step factor (default `1/1024`; in `(0, 1]`).
     pub min_step: f64,
+}
+
+impl NewtonOptions {
+    /// Refuse settings Newton cannot work with ([`Error::InvalidArgument`]).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(Error::argument(
+                "Newton tolerance",
+                format!("must be positive and finite, got {}", self.tolerance),
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::argument(
+                "Newton iteration limit",
+                "must be at least 1",
+            ));
+        }
+        if !(self.min_step > 0.0 && self.min_step <= 1.0) {
+            return Err(Error::argument(
+                "Newton line-search step",
+                format!(
+                    "the smallest step factor must lie in (0, 1], got {}",
+                    self.min_step
+                ),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for NewtonOptions {
@@ -24,6 +53,34 @@ impl Default for NewtonOptions {
             tolerance: 1e-10,
             max_iterations: 50,
             min_step: 1.0 / 1024.0,
+        }
+    }
+}
+
+/// Why Newton stopped without converging. `Display` gives the sentence the CLI prints.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NewtonFailure {
+    /// `max_iterations` iterations did not reach the tolerance; `residual_norm` is the
+    /// relative residual `‖R‖_∞ / length_scale` at the last iterate.
+    IterationLimit {
+        max_iterations: usize,
+        residual_norm: f64,
+    },
+    /// The Jacobian at the current iterate is singular (no Newton direction).
+    SingularJacobian,
+}
+
+impl std::fmt::Display for NewtonFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NewtonFailure::IterationLimit {
+                max_iterations,
+                residual_norm,
+            } => write!(
+                f,
+                "no convergence in {max_iterations} iterations (relative residual {residual_norm:.3e})"
+            ),
+            NewtonFailure::SingularJacobian => SingularSystem::Jacobian.fmt(f),
         }
     }
 }
@@ -38,8 +95,8 @@ pub struct NewtonOutcome {
     pub residual_norm: f64,
     /// Relative residual after each iteration (index 0: the start).
     pub history: Vec<f64>,
-    /// Why it stopped, when it did not converge.
-    pub reason: Option<String>,
+    /// Why it stopped, when it did not converge (`None` exactly when `converged`).
+    pub reason: Option<NewtonFailure>,
 }
 
 fn max_norm(v: &[f64]) -> f64 {
@@ -50,16 +107,20 @@ fn sum_squares(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum()
 }
 
+/// Solve `A y = b` densely (LU with partial pivoting, faer), `b_i = rhs(i)`; `None` when the
+/// solution is not finite (`A` singular). The one linear solve of Newton's method and of the
+/// continuation's bordered systems.
+pub(crate) fn dense_solve(a: &Mat<f64>, n: usize, rhs: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
+    let b = Mat::<f64>::from_fn(n, 1, |i, _| rhs(i));
+    let y = a.partial_piv_lu().solve(&b);
+    let y: Vec<f64> = (0..n).map(|i| y[(i, 0)]).collect();
+    y.iter().all(|v| v.is_finite()).then_some(y)
+}
+
 /// Solve `J d = −R` densely.
 pub fn newton_direction(jacobian: &Mat<f64>, residual: &[f64]) -> Result<Vec<f64>> {
-    let n = residual.len();
-    let rhs = Mat::<f64>::from_fn(n, 1, |i, _| -residual[i]);
-    let d = jacobian.partial_piv_lu().solve(&rhs);
-    let d: Vec<f64> = (0..n).map(|i| d[(i, 0)]).collect();
-    if d.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Singular("the Jacobian is singular".into()));
-    }
-    Ok(d)
+    dense_solve(jacobian, residual.len(), |i| -residual[i])
+        .ok_or(Error::SingularSystem(SingularSystem::Jacobian))
 }
 
 /// Solve `R(x, ω) = 0` for `x` at fixed `ω`, starting from `x0`.
@@ -69,6 +130,7 @@ pub fn solve<P: PeriodicProblem + ?Sized>(
     omega: f64,
     options: &NewtonOptions,
 ) -> Result<NewtonOutcome> {
+    options.validate()?;
     let scale = problem.length_scale();
     let mut x = x0.to_vec();
     let mut lin = problem.linearize(&x, omega)?;
@@ -83,24 +145,21 @@ pub fn solve<P: PeriodicProblem + ?Sized>(
                 iterations,
                 residual_norm: norm,
                 history,
-                reason: Some(format!(
-                    "no convergence in {} iterations (relative residual {norm:.3e})",
-                    options.max_iterations
-                )),
+                reason: Some(NewtonFailure::IterationLimit {
+                    max_iterations: options.max_iterations,
+                    residual_norm: norm,
+                }),
             });
         }
-        let d = match newton_direction(&lin.jacobian, &lin.residual) {
-            Ok(d) => d,
-            Err(e) => {
-                return Ok(NewtonOutcome {
-                    x,
-                    converged: false,
-                    iterations,
-                    residual_norm: norm,
-                    history,
-                    reason: Some(e.to_string()),
-                })
-            }
+        let Some(d) = dense_solve(&lin.jacobian, lin.residual.len(), |i| -lin.residual[i]) else {
+            return Ok(NewtonOutcome {
+                x,
+                converged: false,
+                iterations,
+                residual_norm: norm,
+                history,
+                reason: Some(NewtonFailure::SingularJacobian),
+            });
         };
         let phi0 = sum_squares(&lin.residual);
         let mut t = 1.0;
