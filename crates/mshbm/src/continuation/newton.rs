@@ -209,3 +209,112 @@ pub fn solve_at_frequency<P: PeriodicProblem + ?Sized>(
     solution.residual_norm = outcome.residual_norm;
     Ok((solution, outcome))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::{ArclengthFallback, ContinuationPolicy, Linearization, NewtonContraction};
+    use crate::solution::PeriodicSolution;
+
+    /// `R(x, ω) = a x − ω` in one unknown (`a = 0`: singular Jacobian).
+    struct Line {
+        a: f64,
+    }
+
+    impl PeriodicProblem for Line {
+        fn dimension(&self) -> usize {
+            1
+        }
+        fn length_scale(&self) -> f64 {
+            1.0
+        }
+        fn initial_guess(&mut self, _omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![0.0])
+        }
+        fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![self.a * x[0] - omega])
+        }
+        fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+            Ok(Linearization {
+                residual: self.residual(x, omega)?,
+                jacobian: Mat::from_fn(1, 1, |_, _| self.a),
+                d_omega: vec![-1.0],
+            })
+        }
+        fn solution(&mut self, _x: &[f64], _omega: f64, _dof: usize) -> Result<PeriodicSolution> {
+            unimplemented!("not needed by Newton")
+        }
+        fn continuation_policy(&self) -> ContinuationPolicy {
+            ContinuationPolicy {
+                newton_contraction: NewtonContraction::Quadratic,
+                where_arclength_fails: ArclengthFallback::EscapeCorner,
+            }
+        }
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        let message = |options: NewtonOptions| match options.validate() {
+            Err(e @ Error::InvalidArgument { .. }) => e.to_string(),
+            other => panic!("expected an invalid argument, got {other:?}"),
+        };
+        NewtonOptions::default().validate().unwrap();
+        for tolerance in [0.0, -1e-10, f64::NAN, f64::INFINITY] {
+            let e = message(NewtonOptions {
+                tolerance,
+                ..NewtonOptions::default()
+            });
+            assert!(e.starts_with("invalid Newton tolerance: "), "{e}");
+        }
+        let e = message(NewtonOptions {
+            max_iterations: 0,
+            ..NewtonOptions::default()
+        });
+        assert_eq!(e, "invalid Newton iteration limit: must be at least 1");
+        for min_step in [0.0, -0.5, 1.5, f64::NAN] {
+            let e = message(NewtonOptions {
+                min_step,
+                ..NewtonOptions::default()
+            });
+            assert!(e.starts_with("invalid Newton line-search step: "), "{e}");
+        }
+        // solve refuses them too, before evaluating anything
+        let bad = NewtonOptions {
+            max_iterations: 0,
+            ..NewtonOptions::default()
+        };
+        assert!(matches!(
+            solve(&mut Line { a: 2.0 }, &[0.0], 1.0, &bad),
+            Err(Error::InvalidArgument { .. })
+        ));
+    }
+
+    #[test]
+    fn failures_are_typed_and_read_as_before() {
+        // a = 2: x = ω / 2 in one step
+        let out = solve(&mut Line { a: 2.0 }, &[0.0], 3.0, &NewtonOptions::default()).unwrap();
+        assert!(out.converged && out.reason.is_none());
+        assert_eq!(out.x, vec![1.5]);
+        // a = 0: no direction
+        let out = solve(&mut Line { a: 0.0 }, &[0.0], 3.0, &NewtonOptions::default()).unwrap();
+        assert!(!out.converged);
+        assert_eq!(out.reason, Some(NewtonFailure::SingularJacobian));
+        assert_eq!(out.reason.unwrap().to_string(), "the Jacobian is singular");
+        let e = newton_direction(&Mat::zeros(1, 1), &[1.0]).unwrap_err();
+        assert!(matches!(e, Error::SingularSystem(SingularSystem::Jacobian)));
+        assert_eq!(e.kind(), crate::error::ErrorKind::Singular);
+        assert_eq!(e.to_string(), "the Jacobian is singular");
+        let limit = NewtonFailure::IterationLimit {
+            max_iterations: 50,
+            residual_norm: 8.662e-3,
+        };
+        assert_eq!(
+            limit.to_string(),
+            "no convergence in 50 iterations (relative residual 8.662e-3)"
+        );
+        assert_eq!(
+            Error::SingularSystem(SingularSystem::BorderedMatrix).to_string(),
+            "the bordered continuation matrix is singular"
+        );
+    }
+}
