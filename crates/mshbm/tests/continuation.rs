@@ -292,8 +292,7 @@ fn bad_settings_are_refused_before_any_work() {
             events += 1;
             Ok(())
         })
-        .err()
-        .expect("refused");
+        .expect_err("refused");
         assert_eq!(events, 0);
         assert!(matches!(e, mshbm::Error::InvalidArgument { .. }), "{e}");
         e.to_string()

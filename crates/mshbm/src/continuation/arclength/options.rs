@@ -103,7 +103,7 @@ impl ContinuationOptions {
                 ),
             ));
         }
-        if !(self.max_frequency_step >= 0.0) {
+        if self.max_frequency_step.is_nan() || self.max_frequency_step < 0.0 {
             return Err(Error::argument(
                 "largest frequency step",
                 format!(
