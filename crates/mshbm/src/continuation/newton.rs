@@ -123,6 +123,112 @@ pub fn newton_direction(jacobian: &Mat<f64>, residual: &[f64]) -> Result<Vec<f64
         .ok_or(Error::SingularSystem(SingularSystem::Jacobian))
 }
 
+/// A square system `F(y) = 0` that [`iterate`] solves: the residual at a fixed frequency
+/// ([`solve`]), or the continuation's bordered systems (its corrector).
+pub(crate) trait NewtonSystem {
+    /// The Jacobian `∂F/∂y` and `F(y)`, or `None` where the system cannot be evaluated
+    /// (Newton then stops, [`Iterated::Stopped`]).
+    fn linearize(&mut self, y: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>>;
+    /// Whether `y`, with `F(y) = f`, is converged after `iterations` iterations.
+    fn converged(&mut self, y: &[f64], f: &[f64], iterations: usize) -> bool;
+    /// The next iterate from `y` along the Newton direction `d` (`J d = −F`): a line search,
+    /// or the full step; `None` refuses the step (Newton stops, [`Iterated::Stopped`]).
+    fn advance(&mut self, y: Vec<f64>, f: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>>;
+}
+
+/// How [`iterate`] ended.
+pub(crate) enum Iterated {
+    Converged {
+        y: Vec<f64>,
+        iterations: usize,
+    },
+    /// `max_iterations` iterations without convergence; `y`: the last iterate.
+    IterationLimit {
+        y: Vec<f64>,
+        iterations: usize,
+    },
+    /// The Jacobian at `y` is singular.
+    SingularJacobian {
+        y: Vec<f64>,
+        iterations: usize,
+    },
+    /// The system could not be evaluated at an iterate, or refused a step.
+    Stopped,
+}
+
+/// Newton's method (paper eq. 13): from `y`, linearize, stop when converged, else solve
+/// `J d = −F` and advance, at most `max_iterations` times. The one Newton loop of the
+/// library: [`solve`] and the continuation's corrector differ only in their
+/// [`NewtonSystem`].
+pub(crate) fn iterate(
+    system: &mut impl NewtonSystem,
+    mut y: Vec<f64>,
+    max_iterations: usize,
+) -> Result<Iterated> {
+    for iterations in 0..=max_iterations {
+        let Some((jacobian, f)) = system.linearize(&y)? else {
+            return Ok(Iterated::Stopped);
+        };
+        if system.converged(&y, &f, iterations) {
+            return Ok(Iterated::Converged { y, iterations });
+        }
+        if iterations == max_iterations {
+            return Ok(Iterated::IterationLimit { y, iterations });
+        }
+        let Some(d) = dense_solve(&jacobian, f.len(), |i| -f[i]) else {
+            return Ok(Iterated::SingularJacobian { y, iterations });
+        };
+        match system.advance(y, &f, &d)? {
+            Some(next) => y = next,
+            None => return Ok(Iterated::Stopped),
+        }
+    }
+    unreachable!("the last iteration returns")
+}
+
+/// `R(x, ω) = 0` at a fixed `ω`, with Armijo backtracking on `½‖R‖²`.
+struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
+    problem: &'a mut P,
+    omega: f64,
+    scale: f64,
+    options: &'a NewtonOptions,
+    /// `‖R‖_∞ / scale` at each iterate.
+    history: Vec<f64>,
+}
+
+impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
+    fn linearize(&mut self, x: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>> {
+        let lin = self.problem.linearize(x, self.omega)?;
+        Ok(Some((lin.jacobian, lin.residual)))
+    }
+
+    fn converged(&mut self, _x: &[f64], residual: &[f64], _iterations: usize) -> bool {
+        let norm = max_norm(residual) / self.scale;
+        self.history.push(norm);
+        // written so that the comparison reads as before (a NaN norm does not iterate on)
+        !(norm > self.options.tolerance)
+    }
+
+    fn advance(&mut self, x: Vec<f64>, residual: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>> {
+        let phi0 = sum_squares(residual);
+        let mut t = 1.0;
+        let mut best: Option<(f64, Vec<f64>)> = None;
+        loop {
+            let trial: Vec<f64> = x.iter().zip(d).map(|(a, b)| a + t * b).collect();
+            let r = self.problem.residual(&trial, self.omega)?;
+            let phi = sum_squares(&r);
+            if best.as_ref().is_none_or(|(p, _)| phi < *p) {
+                best = Some((phi, trial.clone()));
+            }
+            if phi <= (1.0 - 1e-4 * t) * phi0 || t <= self.options.min_step {
+                break;
+            }
+            t *= 0.5;
+        }
+        Ok(best.map(|(_, next)| next))
+    }
+}
+
 /// Solve `R(x, ω) = 0` for `x` at fixed `ω`, starting from `x0`.
 pub fn solve<P: PeriodicProblem + ?Sized>(
     problem: &mut P,
@@ -131,65 +237,38 @@ pub fn solve<P: PeriodicProblem + ?Sized>(
     options: &NewtonOptions,
 ) -> Result<NewtonOutcome> {
     options.validate()?;
-    let scale = problem.length_scale();
-    let mut x = x0.to_vec();
-    let mut lin = problem.linearize(&x, omega)?;
-    let mut norm = max_norm(&lin.residual) / scale;
-    let mut history = vec![norm];
-    let mut iterations = 0;
-    while norm > options.tolerance {
-        if iterations >= options.max_iterations {
-            return Ok(NewtonOutcome {
-                x,
-                converged: false,
-                iterations,
+    let mut system = AtFrequency {
+        scale: problem.length_scale(),
+        problem,
+        omega,
+        options,
+        history: Vec::new(),
+    };
+    let end = iterate(&mut system, x0.to_vec(), options.max_iterations)?;
+    let history = system.history;
+    let norm = *history.last().expect("at least the start is evaluated");
+    let (x, iterations, reason) = match end {
+        Iterated::Converged { y, iterations } => (y, iterations, None),
+        Iterated::IterationLimit { y, iterations } => (
+            y,
+            iterations,
+            Some(NewtonFailure::IterationLimit {
+                max_iterations: options.max_iterations,
                 residual_norm: norm,
-                history,
-                reason: Some(NewtonFailure::IterationLimit {
-                    max_iterations: options.max_iterations,
-                    residual_norm: norm,
-                }),
-            });
+            }),
+        ),
+        Iterated::SingularJacobian { y, iterations } => {
+            (y, iterations, Some(NewtonFailure::SingularJacobian))
         }
-        let Some(d) = dense_solve(&lin.jacobian, lin.residual.len(), |i| -lin.residual[i]) else {
-            return Ok(NewtonOutcome {
-                x,
-                converged: false,
-                iterations,
-                residual_norm: norm,
-                history,
-                reason: Some(NewtonFailure::SingularJacobian),
-            });
-        };
-        let phi0 = sum_squares(&lin.residual);
-        let mut t = 1.0;
-        let mut best: Option<(f64, Vec<f64>)> = None;
-        loop {
-            let trial: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + t * b).collect();
-            let r = problem.residual(&trial, omega)?;
-            let phi = sum_squares(&r);
-            if best.as_ref().is_none_or(|(p, _)| phi < *p) {
-                best = Some((phi, trial.clone()));
-            }
-            if phi <= (1.0 - 1e-4 * t) * phi0 || t <= options.min_step {
-                break;
-            }
-            t *= 0.5;
-        }
-        let (_, next) = best.expect("at least one trial");
-        x = next;
-        iterations += 1;
-        lin = problem.linearize(&x, omega)?;
-        norm = max_norm(&lin.residual) / scale;
-        history.push(norm);
-    }
+        Iterated::Stopped => unreachable!("a fixed-frequency problem is evaluated or errs"),
+    };
     Ok(NewtonOutcome {
         x,
-        converged: true,
+        converged: reason.is_none(),
         iterations,
         residual_norm: norm,
         history,
-        reason: None,
+        reason,
     })
 }
 

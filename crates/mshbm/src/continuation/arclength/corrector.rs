@@ -1,11 +1,14 @@
 //! Corrector: Newton on `R(X) = 0` closed by one scalar equation `g(X) = 0` — Keller's
 //! arclength condition `tᵀ(X − X_0) − Δs = 0` for a continuation step (METHODS §7.1), the
-//! sphere `‖X − X_0‖² − r² = 0` for a corner escape. One loop for both: full Newton steps
-//! on the bordered system `[R_X; ∂g/∂X] ΔX = −[R; g]`, solved by Newton's linear solve.
+//! sphere `‖X − X_0‖² − r² = 0` for a corner escape. Both are Newton's one loop
+//! ([`newton::iterate`]) on the bordered system `[R_X; ∂g/∂X] ΔX = −[R; g]`, with full
+//! steps.
 
 use super::predictor::predict;
-use super::scaled::{bordered, difference, dot, max_abs, solve_bordered, Scaling};
-use crate::continuation::newton::NewtonOptions;
+use faer::Mat;
+
+use super::scaled::{bordered, difference, dot, max_abs, Scaling};
+use crate::continuation::newton::{self, Iterated, NewtonOptions, NewtonSystem};
 use crate::error::{ErrorKind, Result};
 use crate::problem::{NewtonContraction, PeriodicProblem};
 
@@ -77,6 +80,64 @@ pub(super) struct Corrected {
     pub residual_norm: f64,
 }
 
+/// The bordered system `[R(X); g(X)] = 0` in scaled variables, for [`newton::iterate`].
+struct Bordered<'a, P: PeriodicProblem + ?Sized, G: ClosingEquation> {
+    problem: &'a mut P,
+    sc: &'a Scaling,
+    equation: &'a G,
+    min_iterations: usize,
+    tolerance: f64,
+    contraction: NewtonContraction,
+    /// Length of the last update (for the contraction check).
+    previous_update: f64,
+    /// `‖R‖_∞ / ℓ` at the last linearization.
+    residual_norm: f64,
+}
+
+impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<'_, P, G> {
+    /// `[R_X; ∂g/∂X]` and `[R; g]`; `None` off positive frequencies or where a matrix of the
+    /// problem is singular.
+    fn linearize(&mut self, xs: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>> {
+        let (x, omega) = self.sc.unscale(xs);
+        if !(omega.is_finite() && omega > 0.0) {
+            return Ok(None);
+        }
+        let border = self.equation.gradient(xs);
+        let (a, mut f) = match bordered(self.problem, self.sc, &x, omega, &border) {
+            Ok(v) => v,
+            Err(e) if e.kind() == ErrorKind::Singular => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        self.residual_norm = max_abs(&f) / self.sc.length;
+        f.push(self.equation.value(xs));
+        Ok(Some((a, f)))
+    }
+
+    fn converged(&mut self, xs: &[f64], f: &[f64], iterations: usize) -> bool {
+        let g = f[f.len() - 1];
+        iterations >= self.min_iterations
+            && self.residual_norm <= self.tolerance
+            && g.abs() <= self.equation.tolerance(xs)
+    }
+
+    /// The full step; with [`NewtonContraction::Quadratic`], refused when it does not halve
+    /// the previous one (a corrector working across a grazing event or towards another piece
+    /// of the branch; the arclength step will be halved).
+    fn advance(&mut self, mut xs: Vec<f64>, _f: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>> {
+        if self.contraction == NewtonContraction::Quadratic {
+            let update = dot(d, d).sqrt();
+            if update > QUADRATIC_CONTRACTION * self.previous_update
+                && update > 64.0 * f64::EPSILON * (1.0 + max_abs(&xs))
+            {
+                return Ok(None);
+            }
+            self.previous_update = update;
+        }
+        xs.iter_mut().zip(d).for_each(|(a, b)| *a += b);
+        Ok(Some(xs))
+    }
+}
+
 /// Newton on the bordered system, as the method's policy allows it to contract.
 pub(super) struct Corrector<'a> {
     pub newton: &'a NewtonOptions,
@@ -84,63 +145,41 @@ pub(super) struct Corrector<'a> {
 }
 
 impl Corrector<'_> {
-    /// Newton on `[R(X); g(X)] = 0` from `xs`: converged when `‖R‖_∞ ≤ tolerance · ℓ` and
-    /// `|g| ≤ g.tolerance` after at least `min_iterations` iterations; `None` when it does
-    /// not converge within the iteration limit, leaves positive frequencies, meets a
-    /// singular matrix, or (with [`NewtonContraction::Quadratic`]) an update does not halve
-    /// the previous one.
+    /// Newton on `[R(X); g(X)] = 0` from `xs` ([`newton::iterate`]): converged when
+    /// `‖R‖_∞ ≤ tolerance · ℓ` and `|g| ≤ g.tolerance` after at least `min_iterations`
+    /// iterations; `None` when it does not converge within the iteration limit, leaves
+    /// positive frequencies, meets a singular matrix, or (with
+    /// [`NewtonContraction::Quadratic`]) an update does not halve the previous one.
     pub fn solve<P: PeriodicProblem + ?Sized>(
         &self,
         problem: &mut P,
         sc: &Scaling,
-        mut xs: Vec<f64>,
+        xs: Vec<f64>,
         equation: &impl ClosingEquation,
         min_iterations: usize,
     ) -> Result<Option<Corrected>> {
-        let mut previous_update = f64::INFINITY;
-        for it in 0..=self.newton.max_iterations {
-            let (x, omega) = sc.unscale(&xs);
-            if !(omega.is_finite() && omega > 0.0) {
-                return Ok(None);
-            }
-            let (a, r) = match bordered(problem, sc, &x, omega, &equation.gradient(&xs)) {
-                Ok(v) => v,
-                Err(e) if e.kind() == ErrorKind::Singular => return Ok(None),
-                Err(e) => return Err(e),
-            };
-            let g = equation.value(&xs);
-            let norm = max_abs(&r) / sc.length;
-            if it >= min_iterations
-                && norm <= self.newton.tolerance
-                && g.abs() <= equation.tolerance(&xs)
-            {
-                return Ok(Some(Corrected {
-                    xs,
-                    iterations: it,
-                    residual_norm: norm,
-                }));
-            }
-            if it == self.newton.max_iterations {
-                break;
-            }
-            let n = r.len();
-            let Ok(d) = solve_bordered(&a, |i| if i < n { -r[i] } else { -g }) else {
-                return Ok(None);
-            };
-            if self.contraction == NewtonContraction::Quadratic {
-                // poor contraction: a corrector working across a grazing event or towards
-                // another piece of the branch; refused, the step will be halved
-                let update = dot(&d, &d).sqrt();
-                if update > QUADRATIC_CONTRACTION * previous_update
-                    && update > 64.0 * f64::EPSILON * (1.0 + max_abs(&xs))
-                {
-                    return Ok(None);
-                }
-                previous_update = update;
-            }
-            xs.iter_mut().zip(&d).for_each(|(a, b)| *a += b);
-        }
-        Ok(None)
+        let mut system = Bordered {
+            problem,
+            sc,
+            equation,
+            min_iterations,
+            tolerance: self.newton.tolerance,
+            contraction: self.contraction,
+            previous_update: f64::INFINITY,
+            residual_norm: f64::NAN,
+        };
+        Ok(
+            match newton::iterate(&mut system, xs, self.newton.max_iterations)? {
+                Iterated::Converged { y, iterations } => Some(Corrected {
+                    xs: y,
+                    iterations,
+                    residual_norm: system.residual_norm,
+                }),
+                Iterated::IterationLimit { .. }
+                | Iterated::SingularJacobian { .. }
+                | Iterated::Stopped => None,
+            },
+        )
     }
 
     /// Keller corrector from the predictor `X_0 + Δs t`: the scaled point, or `None` when it
