@@ -64,7 +64,7 @@ use step_control::{continues_branch, next_step, shrink, Range};
 pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     problem: &mut P,
     options: &ContinuationOptions,
-    mut on_event: impl FnMut(&mut P, Event<'_>) -> Result<()>,
+    on_event: impl FnMut(&mut P, Event<'_>) -> Result<()>,
 ) -> Result<Branch> {
     options.validate()?;
     let policy = problem.continuation_policy();
@@ -78,35 +78,22 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         contraction: policy.newton_contraction,
     };
     let mut fallback = Fallback::new(policy.where_arclength_fails);
-    let mut branch = Branch {
-        points: Vec::new(),
-        folds: Vec::new(),
-        stop: StopReason::ReachedEnd,
-        frequency_steps: 0,
-    };
-    let first = match first_point(problem, &sc, &range, options)? {
-        Ok(point) => point,
-        Err(failure) => {
-            branch.stop = StopReason::StartFailed(failure);
-            return Ok(branch);
-        }
-    };
-    on_event(problem, Event::Point(&first))?;
-    branch.points.push(first);
+    let mut trace = Trace::new(on_event);
+    match first_point(problem, &sc, &range, options)? {
+        Ok(first) => trace.point(problem, first)?,
+        Err(failure) => return Ok(trace.stop(StopReason::StartFailed(failure))),
+    }
     let mut ds = options.initial_step;
     loop {
-        if branch.points.len() >= options.max_points {
-            branch.stop = StopReason::MaxPoints;
-            return Ok(branch);
+        if trace.branch.points.len() >= options.max_points {
+            return Ok(trace.stop(StopReason::MaxPoints));
         }
-        let last = branch.points.last().expect("non-empty").clone();
+        let last = trace.branch.points.last().expect("non-empty").clone();
         let start = sc.to_scaled(&last.x, last.omega);
         // end of the range ahead: land on it exactly
         if let Some(end) = land_on_end(problem, &sc, &range, &last, &start, ds, options)? {
-            on_event(problem, Event::Point(&end))?;
-            branch.points.push(end);
-            branch.stop = StopReason::ReachedEnd;
-            return Ok(branch);
+            trace.point(problem, end)?;
+            return Ok(trace.stop(StopReason::ReachedEnd));
         }
         let Some(point) = arclength_step(problem, &sc, &corrector, &last, &start, ds, options)?
         else {
@@ -115,79 +102,114 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
             if ds >= smallest {
                 continue;
             }
-            match fallback.rescue(problem, &sc, &corrector, &last, range.direction, options)? {
-                Some(rescue) => {
-                    ds = rescue.next_step(options);
-                    match rescue {
-                        Rescue::Corner(point) => {
-                            let n = point.tangent.len() - 1;
-                            if last.tangent[n] * point.tangent[n] < 0.0 {
-                                // ω is extremal at the corner itself
-                                let fold = Fold {
-                                    omega: last.omega,
-                                    x: last.x.clone(),
-                                    after: branch.points.len() - 1,
-                                    at_kink: true,
-                                };
-                                on_event(problem, Event::Fold(&fold))?;
-                                branch.folds.push(fold);
-                            }
-                            on_event(problem, Event::Point(&point))?;
-                            branch.points.push(point);
-                        }
-                        Rescue::FrequencyStep(point) => {
-                            branch.frequency_steps += 1;
-                            let omega = point.omega;
-                            on_event(problem, Event::Point(&point))?;
-                            branch.points.push(point);
-                            if omega == range.end {
-                                branch.stop = StopReason::ReachedEnd;
-                                return Ok(branch);
-                            }
-                        }
+            let Some(rescue) =
+                fallback.rescue(problem, &sc, &corrector, &last, range.direction, options)?
+            else {
+                let reason = StepFailure::NoContinuationPoint {
+                    corrector_iterations: options.newton.max_iterations,
+                    smallest_step: smallest,
+                    frequency_stepping: fallback.steps_in_frequency(),
+                };
+                return Ok(trace.stop(StopReason::StepTooSmall {
+                    omega: last.omega,
+                    reason,
+                }));
+            };
+            ds = rescue.next_step(options);
+            match rescue {
+                Rescue::Corner(point) => {
+                    let n = point.tangent.len() - 1;
+                    if last.tangent[n] * point.tangent[n] < 0.0 {
+                        // ω is extremal at the corner itself
+                        let fold = Fold {
+                            omega: last.omega,
+                            x: last.x.clone(),
+                            after: trace.branch.points.len() - 1,
+                            at_kink: true,
+                        };
+                        trace.fold(problem, fold)?;
                     }
-                    continue;
+                    trace.point(problem, point)?;
                 }
-                None => {
-                    branch.stop = StopReason::StepTooSmall {
-                        omega: last.omega,
-                        reason: StepFailure::NoContinuationPoint {
-                            corrector_iterations: options.newton.max_iterations,
-                            smallest_step: smallest,
-                            frequency_stepping: fallback.steps_in_frequency(),
-                        },
-                    };
-                    return Ok(branch);
+                Rescue::FrequencyStep(point) => {
+                    trace.branch.frequency_steps += 1;
+                    let at_end = point.omega == range.end;
+                    trace.point(problem, point)?;
+                    if at_end {
+                        return Ok(trace.stop(StopReason::ReachedEnd));
+                    }
                 }
             }
+            continue;
         };
         // fold between `last` and `point`?
         let n = point.tangent.len() - 1;
         if last.tangent[n] * point.tangent[n] < 0.0 {
             if let Some(fold) = locate_fold(problem, &sc, &corrector, &last, &start, ds)? {
                 let fold = Fold {
-                    after: branch.points.len() - 1,
+                    after: trace.branch.points.len() - 1,
                     ..fold
                 };
                 // a fold met again (same frequency, same solution) means the branch is
                 // retracing itself: stop instead of going round
-                let seen = seen_before(&branch.folds, &fold, &sc);
-                on_event(problem, Event::Fold(&fold))?;
-                branch.folds.push(fold);
+                let seen = seen_before(&trace.branch.folds, &fold, &sc);
+                trace.fold(problem, fold)?;
                 if seen {
-                    branch.stop = StopReason::Retraced { omega: point.omega };
-                    return Ok(branch);
+                    return Ok(trace.stop(StopReason::Retraced { omega: point.omega }));
                 }
             }
         }
         fallback.arclength_step_accepted();
         ds = next_step(ds, &point, options);
         let omega = point.omega;
-        on_event(problem, Event::Point(&point))?;
-        branch.points.push(point);
+        trace.point(problem, point)?;
         if let Some(stop) = range.stop_at(omega) {
-            branch.stop = stop;
-            return Ok(branch);
+            return Ok(trace.stop(stop));
+        }
+    }
+}
+
+/// The branch being traced, and the observer that sees each point and fold as it is added.
+struct Trace<F> {
+    branch: Branch,
+    on_event: F,
+}
+
+impl<F> Trace<F> {
+    fn new(on_event: F) -> Self {
+        Trace {
+            branch: Branch {
+                points: Vec::new(),
+                folds: Vec::new(),
+                stop: StopReason::ReachedEnd,
+                frequency_steps: 0,
+            },
+            on_event,
+        }
+    }
+
+    fn point<P: ?Sized>(&mut self, problem: &mut P, point: BranchPoint) -> Result<()>
+    where
+        F: FnMut(&mut P, Event<'_>) -> Result<()>,
+    {
+        (self.on_event)(problem, Event::Point(&point))?;
+        self.branch.points.push(point);
+        Ok(())
+    }
+
+    fn fold<P: ?Sized>(&mut self, problem: &mut P, fold: Fold) -> Result<()>
+    where
+        F: FnMut(&mut P, Event<'_>) -> Result<()>,
+    {
+        (self.on_event)(problem, Event::Fold(&fold))?;
+        self.branch.folds.push(fold);
+        Ok(())
+    }
+
+    fn stop(self, stop: StopReason) -> Branch {
+        Branch {
+            stop,
+            ..self.branch
         }
     }
 }
