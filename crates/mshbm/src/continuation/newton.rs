@@ -205,8 +205,8 @@ impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
     fn converged(&mut self, _x: &[f64], residual: &[f64], _iterations: usize) -> bool {
         let norm = max_norm(residual) / self.scale;
         self.history.push(norm);
-        // written so that the comparison reads as before (a NaN norm does not iterate on)
-        !(norm > self.options.tolerance)
+        // as the loop `while norm > tolerance` always read: a NaN norm stops it, as converged
+        norm <= self.options.tolerance || norm.is_nan()
     }
 
     fn advance(&mut self, x: Vec<f64>, residual: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>> {

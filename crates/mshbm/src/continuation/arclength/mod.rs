@@ -20,10 +20,10 @@
 //! which fallback) is declared by the method, [`PeriodicProblem::continuation_policy`], so
 //! every caller runs the same algorithm for a method.
 //!
-//! The parts: [`options`] (settings and their validation), `predictor` (tangent),
+//! The parts: `options` (settings and their validation), `predictor` (tangent),
 //! `corrector` (the bordered Newton: Keller's arclength condition, or a sphere), `step_control`
 //! (`Δs`, turn check, range), `fallback` (corner escape, frequency stepping), `fold` (fold
-//! location), [`branch`] (what is produced).
+//! location), `branch` (what is produced).
 //!
 //! **Folds** (turning points in ω) are sign changes of the ω-component of the tangent
 //! between accepted points. Each is *located* by regula falsi on `t_ω(s) = 0` along the arc
