@@ -53,9 +53,62 @@ pub enum Error {
     /// A numerical algorithm failed for a reason that is not the user's input.
     #[error("numerical failure: {0}")]
     Numerical(String),
+
+    /// The linear system of a Newton step (or of the continuation's bordered system) is
+    /// singular at the current point.
+    #[error("{0}")]
+    SingularSystem(SingularSystem),
+}
+
+/// Which linear system of Newton's method or of the continuation is singular.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SingularSystem {
+    /// The Jacobian `∂R/∂x` of a Newton step at a fixed frequency.
+    Jacobian,
+    /// The bordered matrix `[R_X; cᵀ]` of the continuation (tangent or corrector, METHODS §7.1).
+    BorderedMatrix,
+}
+
+impl std::fmt::Display for SingularSystem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SingularSystem::Jacobian => "the Jacobian is singular",
+            SingularSystem::BorderedMatrix => "the bordered continuation matrix is singular",
+        })
+    }
+}
+
+/// What an error says about the point where it happened, for iterations that visit points
+/// (Newton, continuation) and may try another point instead of giving up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// A matrix is singular (or not positive definite) at this point: another point may
+    /// do ([`Error::Singular`], [`Error::SingularSystem`]).
+    Singular,
+    /// A numerical algorithm (an LCP, an eigenvalue solver, ...) failed at this point
+    /// ([`Error::Numerical`]).
+    Numerical,
+    /// The input is wrong (a file, a field, an argument, the model's mass): no other point
+    /// helps.
+    Input,
 }
 
 impl Error {
+    /// What the error says about the point where it happened ([`ErrorKind`]).
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Error::Singular(_) | Error::SingularSystem(_) => ErrorKind::Singular,
+            Error::Numerical(_) => ErrorKind::Numerical,
+            Error::Io { .. }
+            | Error::Toml { .. }
+            | Error::Field { .. }
+            | Error::MatrixMarket { .. }
+            | Error::Override { .. }
+            | Error::InvalidArgument { .. }
+            | Error::Redistribution(_) => ErrorKind::Input,
+        }
+    }
+
     /// A field error for `file`.
     pub fn field(file: &Path, field: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Field {

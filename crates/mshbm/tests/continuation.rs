@@ -278,3 +278,28 @@ fn paper_bar_frd_completes_below_the_gap(harmonics_list: &[usize]) {
         }
     }
 }
+
+/// The library refuses settings it cannot work with before any Newton solve, naming the
+/// setting (the CLI has its own checks, but every caller gets these).
+#[test]
+fn bad_settings_are_refused_before_any_work() {
+    let mut p = method(&oscillator(), 3);
+    let refused = |p: &mut RedistributedMsHbm, change: &dyn Fn(&mut ContinuationOptions)| {
+        let mut options = ContinuationOptions::new(0.5, 2.5);
+        change(&mut options);
+        let mut events = 0;
+        let e = trace_branch(p, &options, |_, _| {
+            events += 1;
+            Ok(())
+        })
+        .expect_err("refused");
+        assert_eq!(events, 0);
+        assert!(matches!(e, mshbm::Error::InvalidArgument { .. }), "{e}");
+        e.to_string()
+    };
+    assert!(refused(&mut p, &|o| o.omega_end = o.omega_start).contains("frequency range"));
+    assert!(refused(&mut p, &|o| o.min_step = 0.0).contains("smallest step"));
+    assert!(refused(&mut p, &|o| o.initial_step = 1.0).contains("smallest <= initial <= largest"));
+    assert!(refused(&mut p, &|o| o.max_turn_deg = 180.0).contains("tangent turn"));
+    assert!(refused(&mut p, &|o| o.newton.tolerance = -1.0).contains("Newton tolerance"));
+}

@@ -752,11 +752,11 @@ fn floquet_verdict_agrees_with_time_integration_on_the_orbit() {
 
 /// `frf --method mshbm` on the friction oscillator across its first resonance (6–7 Hz,
 /// H = 5, 256 steps): the arclength continuation alone stops at the step-wide corners of
-/// the time-stepped residual (module docs of `method::shooting`); with frequency stepping
-/// the branch reaches the end, every point is a solution of a fresh problem, the points
-/// cover the range without holes wider than two frequency steps, and the branch agrees with
-/// full-system Moreau–Jean integration run to steady state within 2 % on the friction DOF's
-/// max and min at the points nearest 6.2, 6.6 and 7.0 Hz.
+/// the time-stepped residual (module docs of `method::shooting`); with frequency stepping (the
+/// method's continuation policy) the branch reaches the end, every point is a solution of a
+/// fresh problem, the points cover the range without holes wider than two frequency steps,
+/// and the branch agrees with full-system Moreau–Jean integration run to steady state within
+/// 2 % on the friction DOF's max and min at the points nearest 6.2, 6.6 and 7.0 Hz.
 #[test]
 fn friction_oscillator_frd_reaches_the_end_and_agrees_with_time_integration() {
     let limit = 0.3;

@@ -301,6 +301,6 @@ fn iteration_limit_gives_a_non_converged_outcome() {
     )
     .unwrap();
     assert!(!out.converged && !sol.converged);
-    assert!(out.reason.unwrap().contains("1 iterations"));
+    assert!(out.reason.unwrap().to_string().contains("1 iterations"));
     let _ = Path::new("");
 }

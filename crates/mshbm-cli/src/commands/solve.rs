@@ -444,7 +444,9 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         bail!(
             "Newton did not converge at {} Hz: {}",
             args.frequency,
-            outcome.reason.unwrap_or_else(|| "unknown reason".into())
+            outcome
+                .reason
+                .map_or_else(|| "unknown reason".into(), |r| r.to_string())
         );
     }
     Ok(())

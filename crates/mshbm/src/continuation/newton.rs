@@ -5,17 +5,46 @@
 use faer::linalg::solvers::Solve;
 use faer::Mat;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, SingularSystem};
 use crate::problem::PeriodicProblem;
 
 /// Newton settings. Norms are max-norms relative to the problem's length scale.
 #[derive(Clone, Debug)]
 pub struct NewtonOptions {
-    /// Converged when `‖R‖_∞ ≤ tolerance · length_scale`.
+    /// Converged when `‖R‖_∞ ≤ tolerance · length_scale` (default `1e-10`; must be positive).
     pub tolerance: f64,
+    /// Largest number of Newton iterations (default 50; at least 1).
     pub max_iterations: usize,
-    /// Smallest line-search step factor.
+    /// Smallest line-search step factor (default `1/1024`; in `(0, 1]`).
     pub min_step: f64,
+}
+
+impl NewtonOptions {
+    /// Refuse settings Newton cannot work with ([`Error::InvalidArgument`]).
+    pub fn validate(&self) -> Result<()> {
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
+            return Err(Error::argument(
+                "Newton tolerance",
+                format!("must be positive and finite, got {}", self.tolerance),
+            ));
+        }
+        if self.max_iterations == 0 {
+            return Err(Error::argument(
+                "Newton iteration limit",
+                "must be at least 1",
+            ));
+        }
+        if !(self.min_step > 0.0 && self.min_step <= 1.0) {
+            return Err(Error::argument(
+                "Newton line-search step",
+                format!(
+                    "the smallest step factor must lie in (0, 1], got {}",
+                    self.min_step
+                ),
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for NewtonOptions {
@@ -24,6 +53,34 @@ impl Default for NewtonOptions {
             tolerance: 1e-10,
             max_iterations: 50,
             min_step: 1.0 / 1024.0,
+        }
+    }
+}
+
+/// Why Newton stopped without converging. `Display` gives the sentence the CLI prints.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NewtonFailure {
+    /// `max_iterations` iterations did not reach the tolerance; `residual_norm` is the
+    /// relative residual `‖R‖_∞ / length_scale` at the last iterate.
+    IterationLimit {
+        max_iterations: usize,
+        residual_norm: f64,
+    },
+    /// The Jacobian at the current iterate is singular (no Newton direction).
+    SingularJacobian,
+}
+
+impl std::fmt::Display for NewtonFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NewtonFailure::IterationLimit {
+                max_iterations,
+                residual_norm,
+            } => write!(
+                f,
+                "no convergence in {max_iterations} iterations (relative residual {residual_norm:.3e})"
+            ),
+            NewtonFailure::SingularJacobian => SingularSystem::Jacobian.fmt(f),
         }
     }
 }
@@ -38,8 +95,8 @@ pub struct NewtonOutcome {
     pub residual_norm: f64,
     /// Relative residual after each iteration (index 0: the start).
     pub history: Vec<f64>,
-    /// Why it stopped, when it did not converge.
-    pub reason: Option<String>,
+    /// Why it stopped, when it did not converge (`None` exactly when `converged`).
+    pub reason: Option<NewtonFailure>,
 }
 
 fn max_norm(v: &[f64]) -> f64 {
@@ -50,16 +107,126 @@ fn sum_squares(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum()
 }
 
+/// Solve `A y = b` densely (LU with partial pivoting, faer), `b_i = rhs(i)`; `None` when the
+/// solution is not finite (`A` singular). The one linear solve of Newton's method and of the
+/// continuation's bordered systems.
+pub(crate) fn dense_solve(a: &Mat<f64>, n: usize, rhs: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
+    let b = Mat::<f64>::from_fn(n, 1, |i, _| rhs(i));
+    let y = a.partial_piv_lu().solve(&b);
+    let y: Vec<f64> = (0..n).map(|i| y[(i, 0)]).collect();
+    y.iter().all(|v| v.is_finite()).then_some(y)
+}
+
 /// Solve `J d = −R` densely.
 pub fn newton_direction(jacobian: &Mat<f64>, residual: &[f64]) -> Result<Vec<f64>> {
-    let n = residual.len();
-    let rhs = Mat::<f64>::from_fn(n, 1, |i, _| -residual[i]);
-    let d = jacobian.partial_piv_lu().solve(&rhs);
-    let d: Vec<f64> = (0..n).map(|i| d[(i, 0)]).collect();
-    if d.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Singular("the Jacobian is singular".into()));
+    dense_solve(jacobian, residual.len(), |i| -residual[i])
+        .ok_or(Error::SingularSystem(SingularSystem::Jacobian))
+}
+
+/// A square system `F(y) = 0` that [`iterate`] solves: the residual at a fixed frequency
+/// ([`solve`]), or the continuation's bordered systems (its corrector).
+pub(crate) trait NewtonSystem {
+    /// The Jacobian `∂F/∂y` and `F(y)`, or `None` where the system cannot be evaluated
+    /// (Newton then stops, [`Iterated::Stopped`]).
+    fn linearize(&mut self, y: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>>;
+    /// Whether `y`, with `F(y) = f`, is converged after `iterations` iterations.
+    fn converged(&mut self, y: &[f64], f: &[f64], iterations: usize) -> bool;
+    /// The next iterate from `y` along the Newton direction `d` (`J d = −F`): a line search,
+    /// or the full step; `None` refuses the step (Newton stops, [`Iterated::Stopped`]).
+    fn advance(&mut self, y: Vec<f64>, f: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>>;
+}
+
+/// How [`iterate`] ended.
+pub(crate) enum Iterated {
+    Converged {
+        y: Vec<f64>,
+        iterations: usize,
+    },
+    /// `max_iterations` iterations without convergence; `y`: the last iterate.
+    IterationLimit {
+        y: Vec<f64>,
+        iterations: usize,
+    },
+    /// The Jacobian at `y` is singular.
+    SingularJacobian {
+        y: Vec<f64>,
+        iterations: usize,
+    },
+    /// The system could not be evaluated at an iterate, or refused a step.
+    Stopped,
+}
+
+/// Newton's method (paper eq. 13): from `y`, linearize, stop when converged, else solve
+/// `J d = −F` and advance, at most `max_iterations` times. The one Newton loop of the
+/// library: [`solve`] and the continuation's corrector differ only in their
+/// [`NewtonSystem`].
+pub(crate) fn iterate(
+    system: &mut impl NewtonSystem,
+    mut y: Vec<f64>,
+    max_iterations: usize,
+) -> Result<Iterated> {
+    for iterations in 0..=max_iterations {
+        let Some((jacobian, f)) = system.linearize(&y)? else {
+            return Ok(Iterated::Stopped);
+        };
+        if system.converged(&y, &f, iterations) {
+            return Ok(Iterated::Converged { y, iterations });
+        }
+        if iterations == max_iterations {
+            return Ok(Iterated::IterationLimit { y, iterations });
+        }
+        let Some(d) = dense_solve(&jacobian, f.len(), |i| -f[i]) else {
+            return Ok(Iterated::SingularJacobian { y, iterations });
+        };
+        match system.advance(y, &f, &d)? {
+            Some(next) => y = next,
+            None => return Ok(Iterated::Stopped),
+        }
     }
-    Ok(d)
+    unreachable!("the last iteration returns")
+}
+
+/// `R(x, ω) = 0` at a fixed `ω`, with Armijo backtracking on `½‖R‖²`.
+struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
+    problem: &'a mut P,
+    omega: f64,
+    scale: f64,
+    options: &'a NewtonOptions,
+    /// `‖R‖_∞ / scale` at each iterate.
+    history: Vec<f64>,
+}
+
+impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
+    fn linearize(&mut self, x: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>> {
+        let lin = self.problem.linearize(x, self.omega)?;
+        Ok(Some((lin.jacobian, lin.residual)))
+    }
+
+    fn converged(&mut self, _x: &[f64], residual: &[f64], _iterations: usize) -> bool {
+        let norm = max_norm(residual) / self.scale;
+        self.history.push(norm);
+        // as the loop `while norm > tolerance` always read: a NaN norm stops it, as converged
+        norm <= self.options.tolerance || norm.is_nan()
+    }
+
+    fn advance(&mut self, x: Vec<f64>, residual: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>> {
+        let phi0 = sum_squares(residual);
+        let mut t = 1.0;
+        let mut best: Option<(f64, Vec<f64>)> = None;
+        loop {
+            let trial: Vec<f64> = x.iter().zip(d).map(|(a, b)| a + t * b).collect();
+            let r = self.problem.residual(&trial, self.omega)?;
+            let phi = sum_squares(&r);
+            if best.as_ref().is_none_or(|(p, _)| phi < *p) {
+                best = Some((phi, trial.clone()));
+            }
+            if phi <= (1.0 - 1e-4 * t) * phi0 || t <= self.options.min_step {
+                break;
+            }
+            t *= 0.5;
+        }
+        Ok(best.map(|(_, next)| next))
+    }
 }
 
 /// Solve `R(x, ω) = 0` for `x` at fixed `ω`, starting from `x0`.
@@ -69,68 +236,39 @@ pub fn solve<P: PeriodicProblem + ?Sized>(
     omega: f64,
     options: &NewtonOptions,
 ) -> Result<NewtonOutcome> {
-    let scale = problem.length_scale();
-    let mut x = x0.to_vec();
-    let mut lin = problem.linearize(&x, omega)?;
-    let mut norm = max_norm(&lin.residual) / scale;
-    let mut history = vec![norm];
-    let mut iterations = 0;
-    while norm > options.tolerance {
-        if iterations >= options.max_iterations {
-            return Ok(NewtonOutcome {
-                x,
-                converged: false,
-                iterations,
+    options.validate()?;
+    let mut system = AtFrequency {
+        scale: problem.length_scale(),
+        problem,
+        omega,
+        options,
+        history: Vec::new(),
+    };
+    let end = iterate(&mut system, x0.to_vec(), options.max_iterations)?;
+    let history = system.history;
+    let norm = *history.last().expect("at least the start is evaluated");
+    let (x, iterations, reason) = match end {
+        Iterated::Converged { y, iterations } => (y, iterations, None),
+        Iterated::IterationLimit { y, iterations } => (
+            y,
+            iterations,
+            Some(NewtonFailure::IterationLimit {
+                max_iterations: options.max_iterations,
                 residual_norm: norm,
-                history,
-                reason: Some(format!(
-                    "no convergence in {} iterations (relative residual {norm:.3e})",
-                    options.max_iterations
-                )),
-            });
+            }),
+        ),
+        Iterated::SingularJacobian { y, iterations } => {
+            (y, iterations, Some(NewtonFailure::SingularJacobian))
         }
-        let d = match newton_direction(&lin.jacobian, &lin.residual) {
-            Ok(d) => d,
-            Err(e) => {
-                return Ok(NewtonOutcome {
-                    x,
-                    converged: false,
-                    iterations,
-                    residual_norm: norm,
-                    history,
-                    reason: Some(e.to_string()),
-                })
-            }
-        };
-        let phi0 = sum_squares(&lin.residual);
-        let mut t = 1.0;
-        let mut best: Option<(f64, Vec<f64>)> = None;
-        loop {
-            let trial: Vec<f64> = x.iter().zip(&d).map(|(a, b)| a + t * b).collect();
-            let r = problem.residual(&trial, omega)?;
-            let phi = sum_squares(&r);
-            if best.as_ref().is_none_or(|(p, _)| phi < *p) {
-                best = Some((phi, trial.clone()));
-            }
-            if phi <= (1.0 - 1e-4 * t) * phi0 || t <= options.min_step {
-                break;
-            }
-            t *= 0.5;
-        }
-        let (_, next) = best.expect("at least one trial");
-        x = next;
-        iterations += 1;
-        lin = problem.linearize(&x, omega)?;
-        norm = max_norm(&lin.residual) / scale;
-        history.push(norm);
-    }
+        Iterated::Stopped => unreachable!("a fixed-frequency problem is evaluated or errs"),
+    };
     Ok(NewtonOutcome {
         x,
-        converged: true,
+        converged: reason.is_none(),
         iterations,
         residual_norm: norm,
         history,
-        reason: None,
+        reason,
     })
 }
 
@@ -149,4 +287,113 @@ pub fn solve_at_frequency<P: PeriodicProblem + ?Sized>(
     solution.iterations = outcome.iterations;
     solution.residual_norm = outcome.residual_norm;
     Ok((solution, outcome))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::{ArclengthFallback, ContinuationPolicy, Linearization, NewtonContraction};
+    use crate::solution::PeriodicSolution;
+
+    /// `R(x, ω) = a x − ω` in one unknown (`a = 0`: singular Jacobian).
+    struct Line {
+        a: f64,
+    }
+
+    impl PeriodicProblem for Line {
+        fn dimension(&self) -> usize {
+            1
+        }
+        fn length_scale(&self) -> f64 {
+            1.0
+        }
+        fn initial_guess(&mut self, _omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![0.0])
+        }
+        fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![self.a * x[0] - omega])
+        }
+        fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+            Ok(Linearization {
+                residual: self.residual(x, omega)?,
+                jacobian: Mat::from_fn(1, 1, |_, _| self.a),
+                d_omega: vec![-1.0],
+            })
+        }
+        fn solution(&mut self, _x: &[f64], _omega: f64, _dof: usize) -> Result<PeriodicSolution> {
+            unimplemented!("not needed by Newton")
+        }
+        fn continuation_policy(&self) -> ContinuationPolicy {
+            ContinuationPolicy {
+                newton_contraction: NewtonContraction::Quadratic,
+                where_arclength_fails: ArclengthFallback::EscapeCorner,
+            }
+        }
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        let message = |options: NewtonOptions| match options.validate() {
+            Err(e @ Error::InvalidArgument { .. }) => e.to_string(),
+            other => panic!("expected an invalid argument, got {other:?}"),
+        };
+        NewtonOptions::default().validate().unwrap();
+        for tolerance in [0.0, -1e-10, f64::NAN, f64::INFINITY] {
+            let e = message(NewtonOptions {
+                tolerance,
+                ..NewtonOptions::default()
+            });
+            assert!(e.starts_with("invalid Newton tolerance: "), "{e}");
+        }
+        let e = message(NewtonOptions {
+            max_iterations: 0,
+            ..NewtonOptions::default()
+        });
+        assert_eq!(e, "invalid Newton iteration limit: must be at least 1");
+        for min_step in [0.0, -0.5, 1.5, f64::NAN] {
+            let e = message(NewtonOptions {
+                min_step,
+                ..NewtonOptions::default()
+            });
+            assert!(e.starts_with("invalid Newton line-search step: "), "{e}");
+        }
+        // solve refuses them too, before evaluating anything
+        let bad = NewtonOptions {
+            max_iterations: 0,
+            ..NewtonOptions::default()
+        };
+        assert!(matches!(
+            solve(&mut Line { a: 2.0 }, &[0.0], 1.0, &bad),
+            Err(Error::InvalidArgument { .. })
+        ));
+    }
+
+    #[test]
+    fn failures_are_typed_and_read_as_before() {
+        // a = 2: x = ω / 2 in one step
+        let out = solve(&mut Line { a: 2.0 }, &[0.0], 3.0, &NewtonOptions::default()).unwrap();
+        assert!(out.converged && out.reason.is_none());
+        assert_eq!(out.x, vec![1.5]);
+        // a = 0: no direction
+        let out = solve(&mut Line { a: 0.0 }, &[0.0], 3.0, &NewtonOptions::default()).unwrap();
+        assert!(!out.converged);
+        assert_eq!(out.reason, Some(NewtonFailure::SingularJacobian));
+        assert_eq!(out.reason.unwrap().to_string(), "the Jacobian is singular");
+        let e = newton_direction(&Mat::zeros(1, 1), &[1.0]).unwrap_err();
+        assert!(matches!(e, Error::SingularSystem(SingularSystem::Jacobian)));
+        assert_eq!(e.kind(), crate::error::ErrorKind::Singular);
+        assert_eq!(e.to_string(), "the Jacobian is singular");
+        let limit = NewtonFailure::IterationLimit {
+            max_iterations: 50,
+            residual_norm: 8.662e-3,
+        };
+        assert_eq!(
+            limit.to_string(),
+            "no convergence in 50 iterations (relative residual 8.662e-3)"
+        );
+        assert_eq!(
+            Error::SingularSystem(SingularSystem::BorderedMatrix).to_string(),
+            "the bordered continuation matrix is singular"
+        );
+    }
 }

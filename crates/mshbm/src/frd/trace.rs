@@ -112,14 +112,8 @@ pub fn trace_frd_branch(
     };
     observer.start(&info);
     let mut problem = built.problem;
-    let mut options = settings.continuation();
-    if method.kind() != MethodKind::Redistributed {
-        // finite-difference Jacobian (general MS-HBM) or stiff penalty (HBM-AFT): Newton is
-        // not quadratic, so the corrector's contraction is not a sign of a jump
-        options.max_contraction = f64::INFINITY;
-    }
-    // the general MS-HBM's branches are staircases of step-wide corners
-    options.frequency_stepping = method.kind() == MethodKind::General;
+    // the method's continuation policy comes with the problem
+    let options = settings.continuation();
 
     let mut points: Vec<FrdPoint> = Vec::new();
     let mut folds = Vec::new();

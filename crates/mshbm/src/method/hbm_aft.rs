@@ -750,6 +750,15 @@ impl HbmAft {
 }
 
 impl PeriodicProblem for HbmAft {
+    /// Stiff penalties (and, with sampled quadrature, a kinked residual): Newton does not
+    /// contract quadratically; the branch has isolated corners at grazing contacts.
+    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
+        crate::problem::ContinuationPolicy {
+            newton_contraction: crate::problem::NewtonContraction::Unchecked,
+            where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
+        }
+    }
+
     fn dimension(&self) -> usize {
         self.n() * n_coefficients(self.harmonics)
     }

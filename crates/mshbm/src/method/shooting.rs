@@ -89,8 +89,8 @@
 //!   3e-5 Hz): a travel allowance from the point's estimated error or a fixed floor, and
 //!   corner escapes that accept backward turns. What works where Newton at a fixed
 //!   frequency converges: stepping in frequency past the corners
-//!   ([`crate::continuation::arclength::ContinuationOptions::frequency_stepping`], on for
-//!   this method in `frf`): the friction oscillator 2 → 40 Hz (H = 10) then reaches the end
+//!   ([`crate::problem::ArclengthFallback::StepInFrequency`], this method's continuation
+//!   policy): the friction oscillator 2 → 40 Hz (H = 10) then reaches the end
 //!   (1318 points, 26 by frequency stepping, 2 min 14 s on 2 cores), 6 → 7 Hz (H = 5, 256
 //!   steps) agrees with time integration within 0.6 % (tests/general_mshbm.rs). Such steps
 //!   cannot turn at folds, and on the bar with impacts the branch still stops (1 → 100 kHz
@@ -673,6 +673,19 @@ impl GeneralMsHbm {
 }
 
 impl PeriodicProblem for GeneralMsHbm {
+    /// Finite-difference Jacobian: Newton does not contract quadratically. The time-stepped
+    /// residual is piecewise affine with pieces one time step wide, so the branch is a
+    /// staircase of corners ≈ 1e-7 apart in scaled arclength (module docs): the continuation
+    /// steps in frequency once the arclength step falls below 1e-4, well above them.
+    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
+        crate::problem::ContinuationPolicy {
+            newton_contraction: crate::problem::NewtonContraction::Unchecked,
+            where_arclength_fails: crate::problem::ArclengthFallback::StepInFrequency {
+                min_arclength_step: 1e-4,
+            },
+        }
+    }
+
     fn dimension(&self) -> usize {
         self.n() * (n_coefficients(self.harmonics) + 2)
     }

@@ -56,7 +56,7 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
         if !outcome.converged {
             bail!(
                 "H = {h}: Newton did not converge at {FREQUENCY_HZ} Hz: {}",
-                outcome.reason.unwrap_or_default()
+                outcome.reason.map(|r| r.to_string()).unwrap_or_default()
             );
         }
         solutions.push(solution);

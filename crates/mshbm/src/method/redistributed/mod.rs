@@ -340,6 +340,15 @@ impl RedistributedMsHbm {
 }
 
 impl PeriodicProblem for RedistributedMsHbm {
+    /// Exact Jacobian of a residual that is smooth between grazing events (METHODS §5):
+    /// Newton contracts quadratically; the branch has isolated corners at grazing contacts.
+    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
+        crate::problem::ContinuationPolicy {
+            newton_contraction: crate::problem::NewtonContraction::Quadratic,
+            where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
+        }
+    }
+
     fn dimension(&self) -> usize {
         self.n() * n_coefficients(self.harmonics)
     }

@@ -1,0 +1,222 @@
+//! Corrector: Newton on `R(X) = 0` closed by one scalar equation `g(X) = 0` — Keller's
+//! arclength condition `tᵀ(X − X_0) − Δs = 0` for a continuation step (METHODS §7.1), the
+//! sphere `‖X − X_0‖² − r² = 0` for a corner escape. Both are Newton's one loop
+//! ([`newton::iterate`]) on the bordered system `[R_X; ∂g/∂X] ΔX = −[R; g]`, with full
+//! steps.
+
+use super::predictor::predict;
+use faer::Mat;
+
+use super::scaled::{bordered, difference, dot, max_abs, Scaling};
+use crate::continuation::newton::{self, Iterated, NewtonOptions, NewtonSystem};
+use crate::error::{ErrorKind, Result};
+use crate::problem::{NewtonContraction, PeriodicProblem};
+
+/// Largest ratio of two successive updates of a quadratically contracting Newton: each
+/// update at least halves the previous one ([`NewtonContraction::Quadratic`]).
+const QUADRATIC_CONTRACTION: f64 = 0.5;
+
+/// Largest distance of a Keller-corrected point from its predictor, relative to the step.
+const MAX_CORRECTOR_TRAVEL: f64 = 0.5;
+
+/// The scalar equation `g(X) = 0` that closes `R(X) = 0`.
+pub(super) trait ClosingEquation {
+    /// `g(X)`.
+    fn value(&self, xs: &[f64]) -> f64;
+    /// `∂g/∂X`, the border row of the bordered matrix.
+    fn gradient(&self, xs: &[f64]) -> Vec<f64>;
+    /// Largest accepted `|g(X)|`.
+    fn tolerance(&self, xs: &[f64]) -> f64;
+}
+
+/// Keller's arclength condition `tᵀ(X − X_0) − Δs = 0`.
+pub(super) struct Arclength<'a> {
+    pub start: &'a [f64],
+    pub tangent: &'a [f64],
+    pub ds: f64,
+}
+
+impl ClosingEquation for Arclength<'_> {
+    fn value(&self, xs: &[f64]) -> f64 {
+        dot(self.tangent, &difference(xs, self.start)) - self.ds
+    }
+    fn gradient(&self, _xs: &[f64]) -> Vec<f64> {
+        self.tangent.to_vec()
+    }
+    /// The arclength equation is linear: after one step it holds to round-off, which is
+    /// relative to `|X|`, not to the (possibly tiny) step.
+    fn tolerance(&self, xs: &[f64]) -> f64 {
+        1e-8 * self.ds + 64.0 * f64::EPSILON * max_abs(xs)
+    }
+}
+
+/// The sphere `‖X − X_0‖² − r² = 0` around `X_0`.
+pub(super) struct Sphere<'a> {
+    pub center: &'a [f64],
+    pub radius: f64,
+}
+
+impl ClosingEquation for Sphere<'_> {
+    fn value(&self, xs: &[f64]) -> f64 {
+        let d = difference(xs, self.center);
+        dot(&d, &d) - self.radius * self.radius
+    }
+    fn gradient(&self, xs: &[f64]) -> Vec<f64> {
+        difference(xs, self.center)
+            .iter()
+            .map(|d| 2.0 * d)
+            .collect()
+    }
+    fn tolerance(&self, _xs: &[f64]) -> f64 {
+        1e-8 * self.radius * self.radius
+    }
+}
+
+/// A converged point of the bordered Newton, in scaled variables.
+pub(super) struct Corrected {
+    pub xs: Vec<f64>,
+    pub iterations: usize,
+    /// `‖R‖_∞ / length_scale`.
+    pub residual_norm: f64,
+}
+
+/// The bordered system `[R(X); g(X)] = 0` in scaled variables, for [`newton::iterate`].
+struct Bordered<'a, P: PeriodicProblem + ?Sized, G: ClosingEquation> {
+    problem: &'a mut P,
+    sc: &'a Scaling,
+    equation: &'a G,
+    min_iterations: usize,
+    tolerance: f64,
+    contraction: NewtonContraction,
+    /// Length of the last update (for the contraction check).
+    previous_update: f64,
+    /// `‖R‖_∞ / ℓ` at the last linearization.
+    residual_norm: f64,
+}
+
+impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<'_, P, G> {
+    /// `[R_X; ∂g/∂X]` and `[R; g]`; `None` off positive frequencies or where a matrix of the
+    /// problem is singular.
+    fn linearize(&mut self, xs: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>> {
+        let (x, omega) = self.sc.unscale(xs);
+        if !(omega.is_finite() && omega > 0.0) {
+            return Ok(None);
+        }
+        let border = self.equation.gradient(xs);
+        let (a, mut f) = match bordered(self.problem, self.sc, &x, omega, &border) {
+            Ok(v) => v,
+            Err(e) if e.kind() == ErrorKind::Singular => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        self.residual_norm = max_abs(&f) / self.sc.length;
+        f.push(self.equation.value(xs));
+        Ok(Some((a, f)))
+    }
+
+    fn converged(&mut self, xs: &[f64], f: &[f64], iterations: usize) -> bool {
+        let g = f[f.len() - 1];
+        iterations >= self.min_iterations
+            && self.residual_norm <= self.tolerance
+            && g.abs() <= self.equation.tolerance(xs)
+    }
+
+    /// The full step; with [`NewtonContraction::Quadratic`], refused when it does not halve
+    /// the previous one (a corrector working across a grazing event or towards another piece
+    /// of the branch; the arclength step will be halved).
+    fn advance(&mut self, mut xs: Vec<f64>, _f: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>> {
+        if self.contraction == NewtonContraction::Quadratic {
+            let update = dot(d, d).sqrt();
+            if update > QUADRATIC_CONTRACTION * self.previous_update
+                && update > 64.0 * f64::EPSILON * (1.0 + max_abs(&xs))
+            {
+                return Ok(None);
+            }
+            self.previous_update = update;
+        }
+        xs.iter_mut().zip(d).for_each(|(a, b)| *a += b);
+        Ok(Some(xs))
+    }
+}
+
+/// Newton on the bordered system, as the method's policy allows it to contract.
+pub(super) struct Corrector<'a> {
+    pub newton: &'a NewtonOptions,
+    pub contraction: NewtonContraction,
+}
+
+impl Corrector<'_> {
+    /// Newton on `[R(X); g(X)] = 0` from `xs` ([`newton::iterate`]): converged when
+    /// `‖R‖_∞ ≤ tolerance · ℓ` and `|g| ≤ g.tolerance` after at least `min_iterations`
+    /// iterations; `None` when it does not converge within the iteration limit, leaves
+    /// positive frequencies, meets a singular matrix, or (with
+    /// [`NewtonContraction::Quadratic`]) an update does not halve the previous one.
+    pub fn solve<P: PeriodicProblem + ?Sized>(
+        &self,
+        problem: &mut P,
+        sc: &Scaling,
+        xs: Vec<f64>,
+        equation: &impl ClosingEquation,
+        min_iterations: usize,
+    ) -> Result<Option<Corrected>> {
+        let mut system = Bordered {
+            problem,
+            sc,
+            equation,
+            min_iterations,
+            tolerance: self.newton.tolerance,
+            contraction: self.contraction,
+            previous_update: f64::INFINITY,
+            residual_norm: f64::NAN,
+        };
+        Ok(
+            match newton::iterate(&mut system, xs, self.newton.max_iterations)? {
+                Iterated::Converged { y, iterations } => Some(Corrected {
+                    xs: y,
+                    iterations,
+                    residual_norm: system.residual_norm,
+                }),
+                Iterated::IterationLimit { .. }
+                | Iterated::SingularJacobian { .. }
+                | Iterated::Stopped => None,
+            },
+        )
+    }
+
+    /// Keller corrector from the predictor `X_0 + Δs t`: the scaled point, or `None` when it
+    /// does not converge or lands further than half the step from the predictor.
+    pub fn keller<P: PeriodicProblem + ?Sized>(
+        &self,
+        problem: &mut P,
+        sc: &Scaling,
+        start: &[f64],
+        t: &[f64],
+        ds: f64,
+    ) -> Result<Option<Corrected>> {
+        let predictor = predict(start, t, ds);
+        let equation = Arclength {
+            start,
+            tangent: t,
+            ds,
+        };
+        // at least one correction: with a tiny step any predictor meets the residual
+        // tolerance, and uncorrected points let the path wander with the noise of the
+        // tangent (near grazing contacts the Jacobian is nearly singular)
+        let Some(corrected) = self.solve(problem, sc, predictor.clone(), &equation, 1)? else {
+            return Ok(None);
+        };
+        // the point must lie near the predictor: a corrector that travels further than
+        // half the step has left the piece of branch it started on (e.g. jumped across an
+        // S of two close folds, or onto a nearby piece born at a grazing contact)
+        let travelled = corrected
+            .xs
+            .iter()
+            .zip(&predictor)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
+        if travelled > MAX_CORRECTOR_TRAVEL * ds {
+            return Ok(None);
+        }
+        Ok(Some(corrected))
+    }
+}
