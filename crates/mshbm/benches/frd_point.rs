@@ -37,13 +37,13 @@ use std::time::{Duration, Instant};
 
 use common::{hz, median, show, timed_with_setup};
 use criterion::Criterion;
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::harmonic::Quadrature;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
+use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::{MassKind, Model};
 
 const FREQUENCY_HZ: f64 = 90e3;

@@ -21,11 +21,11 @@ use std::time::Duration;
 use common::{hz, median, show, timed};
 use criterion::Criterion;
 use mshbm::continuation::arclength::StopReason;
-use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::settings::MethodSettings;
+use mshbm::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::{MassKind, Model};
 
 const FROM_HZ: f64 = 55e3;

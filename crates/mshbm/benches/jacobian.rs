@@ -14,9 +14,9 @@ mod common;
 
 use common::{hz, median, show, timed};
 use criterion::{BenchmarkId, Criterion};
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 
 const HARMONICS: [usize; 4] = [1, 5, 10, 20];

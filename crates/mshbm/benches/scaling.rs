@@ -33,10 +33,10 @@ use std::time::Duration;
 
 use common::{hz, median, report_growth, timed, CountingAllocator};
 use criterion::{BenchmarkId, Criterion};
-use mshbm::continuation::newton::{newton_direction, solve, NewtonOptions};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::lattice::lattice_model;
+use mshbm::newton::{newton_direction, solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::Model;
 

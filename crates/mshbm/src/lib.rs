@@ -15,6 +15,7 @@ pub mod fe;
 pub mod frd;
 pub mod model;
 pub mod modes;
+pub mod newton;
 pub mod roots;
 pub mod sparse;
 pub mod stability;

@@ -90,7 +90,8 @@ pub struct PeriodicSolution {
     pub frequency_hz: f64,
     pub harmonics: usize,
     pub samples: usize,
-    pub quadrature: String,
+    /// How the Fourier coefficients were computed.
+    pub quadrature: crate::harmonic::Quadrature,
     pub method: MethodKind,
     pub converged: bool,
     pub iterations: usize,

@@ -1,11 +1,11 @@
 //! One periodic solution at one frequency (`mshbm solve`): Newton from the contact-free
 //! response, then the Floquet multipliers where the method provides them.
 
-use crate::continuation::newton::{solve_at_frequency, NewtonOptions, NewtonOutcome};
 use crate::error::{Error, Result};
 use crate::frd::response_dof;
 use crate::method::settings::MethodSettings;
 use crate::model::Model;
+use crate::newton::{solve_at_frequency, NewtonOptions, NewtonOutcome};
 use crate::solution::PeriodicSolution;
 
 /// Settings of one solve, with their defaults.

@@ -9,10 +9,10 @@ use faer::Mat;
 use mshbm::continuation::arclength::{
     trace_branch, Branch, ContinuationOptions, Event, StopReason,
 };
-use mshbm::continuation::newton::{solve, NewtonOptions};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::file::load_model;
+use mshbm::newton::{solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::Model;
 

@@ -7,9 +7,9 @@
 mod common;
 
 use mshbm::continuation::arclength::{trace_branch, ContinuationOptions, Event, StopReason};
-use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::harmonic::{Quadrature, Sampling};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
+use mshbm::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::{MassKind, Model};
 

@@ -6,8 +6,8 @@ mod common;
 
 use std::path::Path;
 
-use mshbm::continuation::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::harmonic::Quadrature;
+use mshbm::newton::{solve, solve_at_frequency, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};

@@ -9,8 +9,8 @@ use std::f64::consts::PI;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use mshbm::continuation::arclength::{trace_branch, ContinuationOptions};
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::method::redistributed::RedistributedMsHbm;
+use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::MassKind;
 

@@ -8,12 +8,12 @@ mod common;
 use std::f64::consts::PI;
 
 use mshbm::analytic::{BouncingBarSolution, DroppedBarSolution};
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::{load_dropped_bar, load_model};
 use mshbm::model::System;
+use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
 
@@ -818,7 +818,7 @@ fn periods_of(
 #[test]
 #[ignore]
 fn survey_steady_state_against_the_ms_hbm() {
-    use mshbm::continuation::newton::solve;
+    use mshbm::newton::solve;
     use mshbm::problem::PeriodicProblem;
     let n = 2000;
     for (label, model) in [

@@ -5,12 +5,12 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, bail, Result};
 use clap::{Args, ValueEnum};
-use mshbm::continuation::newton::NewtonOptions;
 use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
 use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
 use mshbm::method::shooting::GeneralOptions;
+use mshbm::newton::NewtonOptions;
 use mshbm::solution::{MethodKind, PeriodicSolution};
 use mshbm::solve::{solve_periodic, SolveSettings, Solved};
 use mshbm::stability::StabilityOptions;

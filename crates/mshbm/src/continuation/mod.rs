@@ -1,5 +1,4 @@
-//! Newton's method and pseudo-arclength continuation over any
-//! [`crate::problem::PeriodicProblem`].
+//! Pseudo-arclength continuation over any [`crate::problem::PeriodicProblem`] (Newton is
+//! [`crate::newton`]).
 
 pub mod arclength;
-pub mod newton;

@@ -1,9 +1,9 @@
 //! Settings of a frequency response diagram, validated, with documented defaults.
 
 use crate::continuation::arclength::ContinuationOptions;
-use crate::continuation::newton::NewtonOptions;
 use crate::error::{Error, Result};
 use crate::model::Model;
+use crate::newton::NewtonOptions;
 
 /// What to trace and how finely. Step sizes are in the continuation's scaled arclength
 /// (unknowns divided by the model's length scale, frequency as `ln(ω/ω_start)`).

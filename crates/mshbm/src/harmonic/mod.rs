@@ -232,7 +232,8 @@ pub fn polynomial_extremum(coef: &[f64], samples: usize, sign: f64) -> f64 {
 
 /// How Fourier coefficients of a nonsmooth periodic signal (the contact displacement of the
 /// redistributed MS-HBM, paper eqs. 33–35, or the penalty force of HBM-AFT) are computed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Quadrature {
     /// Closed-form integrals between located switching times.
     Exact,
@@ -246,6 +247,12 @@ impl Quadrature {
             Quadrature::Exact => "exact",
             Quadrature::Sampled => "sampled",
         }
+    }
+}
+
+impl std::fmt::Display for Quadrature {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 

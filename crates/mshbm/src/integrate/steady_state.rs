@@ -266,7 +266,7 @@ pub fn simulate_to_steady_state(
             frequency_hz: omega / (2.0 * std::f64::consts::PI),
             harmonics: h,
             samples: n,
-            quadrature: "sampled".into(),
+            quadrature: crate::harmonic::Quadrature::Sampled,
             method: crate::solution::MethodKind::TimeIntegration,
             converged: periodic,
             iterations: p,

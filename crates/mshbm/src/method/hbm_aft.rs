@@ -32,7 +32,7 @@
 //!
 //! `k_ref` is the largest diagonal entry of `K_NN` (the contact DOF's stiffness, `EA/h`
 //! for the bar). Dividing by it turns the force residual into a displacement, so that
-//! [`crate::continuation::newton::NewtonOptions::tolerance`] (relative to
+//! [`crate::newton::NewtonOptions::tolerance`] (relative to
 //! [`PeriodicProblem::length_scale`]) means the same as for the MS-HBM, whose residual
 //! `x − FFT(q_N)` is a displacement: with the redistributed mass and no contact the two
 //! residuals of the bar are identical (`x − q_N(x) = K_NN⁻¹ × force residual`).
@@ -674,7 +674,7 @@ impl HbmAft {
             return Ok(linear);
         }
         let target = self.penalty.clone();
-        let options = crate::continuation::newton::NewtonOptions {
+        let options = crate::newton::NewtonOptions {
             tolerance: 1e-10,
             max_iterations: 50,
             ..Default::default()
@@ -685,7 +685,7 @@ impl HbmAft {
         let mut ratio = 10.0f64;
         let result = loop {
             self.penalty = target.iter().map(|kp| kp * next).collect();
-            let out = match crate::continuation::newton::solve(self, &x, omega, &options) {
+            let out = match crate::newton::solve(self, &x, omega, &options) {
                 Ok(o) => o,
                 Err(e) => break Err(e),
             };
@@ -835,7 +835,7 @@ impl PeriodicProblem for HbmAft {
             omega,
             SolutionParts {
                 method: crate::solution::MethodKind::HbmAft,
-                quadrature: self.quadrature.name(),
+                quadrature: self.quadrature,
                 harmonics: h,
                 taus: &self.sampling.taus,
                 residual: &residual,

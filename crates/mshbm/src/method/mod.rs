@@ -9,7 +9,7 @@ pub mod shooting;
 use faer::c64;
 
 use crate::error::{Error, Result};
-use crate::harmonic::n_coefficients;
+use crate::harmonic::{n_coefficients, Quadrature};
 use crate::model::System;
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, MethodKind, PeriodicSolution};
 use partition::Partition;
@@ -72,7 +72,7 @@ pub(crate) fn check_frequency(omega: f64) -> Result<()> {
 pub(crate) struct SolutionParts<'a> {
     pub method: MethodKind,
     /// The quadrature of the Fourier coefficients (`"exact"`, `"sampled"`).
-    pub quadrature: &'static str,
+    pub quadrature: Quadrature,
     pub harmonics: usize,
     /// Phases `τ_j = ω t_j` of the time series (their number is the reported `samples`).
     pub taus: &'a [f64],
@@ -96,7 +96,7 @@ pub(crate) fn periodic_solution(
         frequency_hz: omega / (2.0 * std::f64::consts::PI),
         harmonics: parts.harmonics,
         samples: parts.taus.len(),
-        quadrature: parts.quadrature.to_string(),
+        quadrature: parts.quadrature,
         method: parts.method,
         converged: false,
         iterations: 0,

@@ -867,7 +867,7 @@ impl PeriodicProblem for GeneralMsHbm {
             omega,
             SolutionParts {
                 method: crate::solution::MethodKind::General,
-                quadrature: "sampled",
+                quadrature: crate::harmonic::Quadrature::Sampled,
                 harmonics: h,
                 taus: &sampling.taus,
                 residual: &residual,

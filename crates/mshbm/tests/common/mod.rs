@@ -6,12 +6,12 @@ use std::path::{Path, PathBuf};
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
-use mshbm::continuation::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::harmonic::Quadrature;
 use mshbm::integrate::initial::state_from_harmonics;
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::file::load_model;
 use mshbm::model::{Contact, Damping, Model, System};
+use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::solution::PeriodicSolution;
 use mshbm::sparse::SparseMatrix;

@@ -1,6 +1,6 @@
 //! What the continuation produces: points, folds, and why the branch ended.
 
-use crate::continuation::newton::NewtonFailure;
+use crate::newton::NewtonFailure;
 
 /// One accepted point of a branch.
 #[derive(Clone, Debug)]

@@ -8,8 +8,8 @@ use super::predictor::predict;
 use faer::Mat;
 
 use super::scaled::{bordered, difference, dot, max_abs, Scaling};
-use crate::continuation::newton::{self, Iterated, NewtonOptions, NewtonSystem};
 use crate::error::{ErrorKind, Result};
+use crate::newton::{self, Iterated, NewtonOptions, NewtonSystem};
 use crate::problem::{NewtonContraction, PeriodicProblem};
 
 /// Largest ratio of two successive updates of a quadratically contracting Newton: each

@@ -6,8 +6,8 @@ use super::corrector::{Corrector, Sphere};
 use super::options::ContinuationOptions;
 use super::predictor::{predict, tangent};
 use super::scaled::{difference, dot, normalized, Scaling};
-use crate::continuation::newton;
 use crate::error::{ErrorKind, Result};
+use crate::newton;
 use crate::problem::{ArclengthFallback, NewtonContraction, PeriodicProblem};
 
 /// Radii of the spheres searched for the outgoing piece of a corner (scaled arclength).

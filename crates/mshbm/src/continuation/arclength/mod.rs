@@ -45,8 +45,8 @@ mod step_control;
 pub use branch::{Branch, BranchPoint, Event, Fold, StepFailure, StopReason};
 pub use options::ContinuationOptions;
 
-use crate::continuation::newton;
 use crate::error::{ErrorKind, Result};
+use crate::newton;
 use crate::problem::PeriodicProblem;
 use corrector::Corrector;
 use fallback::{Fallback, Rescue};

@@ -1,7 +1,7 @@
 //! Settings of the continuation and their validation.
 
-use crate::continuation::newton::NewtonOptions;
 use crate::error::{Error, Result};
+use crate::newton::NewtonOptions;
 
 /// Settings of the continuation. Step sizes are in the scaled arclength (dimensionless,
 /// METHODS §7.1). What the continuation may assume about the residual is not a setting: the

@@ -3,8 +3,8 @@
 
 use faer::Mat;
 
-use crate::continuation::newton::dense_solve;
 use crate::error::{Error, Result, SingularSystem};
+use crate::newton::dense_solve;
 use crate::problem::PeriodicProblem;
 
 pub(super) fn max_abs(v: &[f64]) -> f64 {

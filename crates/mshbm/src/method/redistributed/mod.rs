@@ -461,7 +461,7 @@ impl PeriodicProblem for RedistributedMsHbm {
             omega,
             SolutionParts {
                 method: crate::solution::MethodKind::Redistributed,
-                quadrature: self.quadrature.name(),
+                quadrature: self.quadrature,
                 harmonics: h,
                 taus: &taus,
                 residual: &residual,
