@@ -52,7 +52,9 @@ impl FrdSettings {
         }
     }
 
-    /// Refuse settings that cannot describe a sweep.
+    /// Refuse settings that cannot describe a sweep: frequencies in Hz here, the steps, turn,
+    /// point limit and Newton settings as the continuation checks them
+    /// ([`ContinuationOptions::validate`]).
     pub fn validate(&self) -> Result<()> {
         for (name, v) in [("from", self.from_hz), ("to", self.to_hz)] {
             if !(v.is_finite() && v > 0.0) {
@@ -65,35 +67,7 @@ impl FrdSettings {
         if self.from_hz == self.to_hz {
             return Err(Error::argument("from/to", "the frequencies must differ"));
         }
-        if !(self.min_step > 0.0
-            && self.min_step <= self.initial_step
-            && self.initial_step <= self.max_step
-            && self.max_step.is_finite())
-        {
-            return Err(Error::argument(
-                "steps",
-                "must satisfy 0 < min_step <= initial_step <= max_step",
-            ));
-        }
-        if !(self.max_turn_deg > 0.0 && self.max_turn_deg < 180.0) {
-            return Err(Error::argument(
-                "max_turn_deg",
-                format!("must lie in (0, 180), got {}", self.max_turn_deg),
-            ));
-        }
-        if !(self.newton.tolerance.is_finite() && self.newton.tolerance > 0.0) {
-            return Err(Error::argument(
-                "tolerance",
-                format!("must be positive, got {}", self.newton.tolerance),
-            ));
-        }
-        if self.max_points == 0 {
-            return Err(Error::argument("max_points", "must be at least 1"));
-        }
-        if self.newton.max_iterations == 0 {
-            return Err(Error::argument("max_iterations", "must be at least 1"));
-        }
-        Ok(())
+        self.continuation().validate()
     }
 
     /// The continuation settings of one branch.
