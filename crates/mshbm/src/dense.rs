@@ -34,18 +34,21 @@ pub fn solve_small_lu(
         return Err(SingularPivot { column: 0 });
     }
     let threshold = rel_tol * scale;
+    // a pivot that is not clearly above the threshold (NaN included) is singular
+    let singular =
+        |pivot: f64| pivot.abs().partial_cmp(&threshold) != Some(std::cmp::Ordering::Greater);
     if n == 1 {
         // one contact or constraint: the division itself (faer's LU multiplies by the
         // reciprocal pivot, which is not exact: the gap of a closed contact would be 1e-17
         // instead of 0, and every result would move at round-off level)
-        if !(a[0].abs() > threshold) {
+        if singular(a[0]) {
             return Err(SingularPivot { column: 0 });
         }
         return Ok(vec![b[0] / a[0]]);
     }
     let lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]).partial_piv_lu();
     let u = lu.U();
-    if let Some(column) = (0..n).find(|&k| !(u[(k, k)].abs() > threshold)) {
+    if let Some(column) = (0..n).find(|&k| singular(u[(k, k)])) {
         return Err(SingularPivot { column });
     }
     let x = lu.solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
