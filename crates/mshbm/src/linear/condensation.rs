@@ -2,20 +2,20 @@
 //! 25, in complex form).
 //!
 //! For harmonic `k` the linear part responds to the amplitudes `z_k = a_k − i b_k` of the
-//! `N` DOFs (the harmonic `k` of `x = q̂_N`) by eq. (6):
+//! `N` DOFs (the harmonic `k` of `x = q̂_N`) by eq. (6), docs/theory.md (T17):
 //!
 //! ```text
 //! q̂_L,k = A_LL,k⁻¹ (f_L,k − A_LN,k z_k),
 //! ```
 //!
-//! and the force it exerts on `N` is affine in `z_k`:
+//! and the force it exerts on `N` is affine in `z_k` (docs/theory.md (T19)–(T20)):
 //!
 //! ```text
 //! A_NL,k q̂_L,k = u0_k − G_k z_k,   G_k = A_NL,k A_LL,k⁻¹ A_LN,k,   u0_k = A_NL,k A_LL,k⁻¹ f_L,k
 //! ```
 //!
 //! (`G_k` is `n_N × n_N`; with the redistributed mass `M_NL = C_NL = 0` and it reduces to
-//! `K_NL A_LL,k⁻¹ K_LN`, eq. 25). The `N` equations then read
+//! `K_NL A_LL,k⁻¹ K_LN`, eq. 25). The `N` equations then read (docs/theory.md (T23))
 //!
 //! ```text
 //! H̃_k z_k = F̃_k + λ̂_N,k,   H̃_k = A_NN,k − G_k,   F̃_k = f_N,k − u0_k,
@@ -24,7 +24,8 @@
 //! and the load on `N` that the MS-HBM's nonlinear subsystem sees is
 //! `B_k(x) = f_N,k − A_NL,k q̂_L,k = f_N,k − u0_k + G_k z_k` (eq. 10 with the derivatives of
 //! `q_L` taken in the frequency domain). Its frequency derivative at fixed `x` follows from
-//! `∂q̂_L,k/∂ω = −A_LL,k⁻¹ (∂A_LL,k/∂ω q̂_L,k + ∂A_LN,k/∂ω z_k)`:
+//! `∂q̂_L,k/∂ω = −A_LL,k⁻¹ (∂A_LL,k/∂ω q̂_L,k + ∂A_LN,k/∂ω z_k)` (docs/theory.md (T22),
+//! (T24)):
 //!
 //! ```text
 //! ∂(A_NL,k q̂_L,k)/∂ω = ∂u0_k/∂ω − ∂G_k/∂ω z_k

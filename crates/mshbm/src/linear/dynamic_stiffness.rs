@@ -1,9 +1,9 @@
 //! The complex dynamic stiffness per harmonic (complex form of the real 2×2 blocks of paper
-//! eq. 8) and its sparse LU factorization on the linear part.
+//! eq. 8; docs/theory.md (T11)–(T14)) and its sparse LU factorization on the linear part.
 //!
 //! For harmonic `k`, with the complex amplitude `z = a − i b` of `a cos kτ + b sin kτ`, the
 //! real block `[[K − (kω)² M, kω C], [−kω C, K − (kω)² M]]` of eq. (8) acting on `(a, b)` is
-//! equivalent to the complex symmetric matrix
+//! equivalent to the complex symmetric matrix (docs/theory.md (T12)–(T14))
 //!
 //! ```text
 //! A_k(ω) = K − (kω)² M + i kω C        (A_0 = K),

@@ -1,5 +1,5 @@
 //! Predictor: the unit tangent of the branch, oriented along the secant of the last step, and
-//! the point ahead along it (METHODS §7.1).
+//! the point ahead along it (docs/theory.md (T73)–(T74)).
 
 use super::scaled::{bordered, dot, normalized, solve_bordered, Scaling};
 use crate::error::Result;

@@ -1,5 +1,5 @@
 //! Scaled unknowns and the bordered system `[R_X; cᵀ]` shared by the predictor, the
-//! corrector and the fallbacks (METHODS §7.1).
+//! corrector and the fallbacks (docs/theory.md (T72)–(T73)).
 
 use faer::Mat;
 

@@ -1,5 +1,5 @@
 //! Step control: the arclength step `Δs` after success and failure, its bounds, the turn
-//! check of an accepted point, and where the sweep ends (METHODS §7.1).
+//! check of an accepted point, and where the sweep ends (docs/theory.md (T75)).
 
 use super::branch::{BranchPoint, StopReason};
 use super::options::ContinuationOptions;
