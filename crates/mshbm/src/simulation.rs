@@ -11,7 +11,7 @@ use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::{Model, System};
 use crate::solution::PeriodicSolution;
 
-/// The period [s] that sets the time scale of a run: `1/f` of the forcing frequency; for a
+/// The period (s) that sets the time scale of a run: `1/f` of the forcing frequency; for a
 /// dropped bar its closed-form period `4(κ+1)L/c` (docs/theory.md (T89); exactly periodic
 /// for integer κ, and still the time scale otherwise); else the first eigenperiod of
 /// `system`. `None` for a free structure without forcing.
