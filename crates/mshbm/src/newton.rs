@@ -187,7 +187,7 @@ pub(crate) fn iterate(
     unreachable!("the last iteration returns")
 }
 
-/// `R(x, ω) = 0` at a fixed `ω`, with Armijo backtracking on `½‖R‖²`.
+/// `R(x, ω) = 0` at a fixed `ω`, with Armijo backtracking on `½‖R‖²` (docs/theory.md (T71)).
 struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
     problem: &'a mut P,
     omega: f64,

@@ -24,7 +24,8 @@ use crate::sparse::SparseMatrix;
 
 /// Stiffness `K`, mass `M` and damping `C` of one block (the same rows and columns of each)
 /// of a structural system, with the dynamic stiffness `A_k(ω) = K − (kω)² M + i kω C` of
-/// harmonic `k` and its frequency derivative `∂A_k/∂ω = −2k²ω M + i k C`.
+/// harmonic `k` and its frequency derivative `∂A_k/∂ω = −2k²ω M + i k C` (docs/theory.md
+/// (T13)–(T14)).
 #[derive(Clone, Debug)]
 pub struct StructuralBlock {
     pub stiffness: SparseMatrix,

@@ -29,7 +29,7 @@ pub(super) trait ClosingEquation {
     fn tolerance(&self, xs: &[f64]) -> f64;
 }
 
-/// Keller's arclength condition `tᵀ(X − X_0) − Δs = 0`.
+/// Keller's arclength condition `tᵀ(X − X_0) − Δs = 0` (docs/theory.md (T74)).
 pub(super) struct Arclength<'a> {
     pub start: &'a [f64],
     pub tangent: &'a [f64],
