@@ -65,7 +65,8 @@ pub enum Error {
 pub enum SingularSystem {
     /// The Jacobian `∂R/∂x` of a Newton step at a fixed frequency.
     Jacobian,
-    /// The bordered matrix `[R_X; cᵀ]` of the continuation (tangent or corrector, METHODS §7.1).
+    /// The bordered matrix `[R_X; cᵀ]` of the continuation (tangent or corrector,
+    /// docs/theory.md (T73)–(T74)).
     BorderedMatrix,
 }
 

@@ -1,7 +1,7 @@
 //! Eigenfrequencies of `K φ = ω² M φ`, including singular (redistributed) masses.
 //!
 //! DOFs without mass (zero rows of `M`, the contact boundary after redistribution) are
-//! condensed statically first, `K* = K_dd − K_dc K_cc⁻¹ K_cd` (METHODS §8.1): a singular
+//! condensed statically first, `K* = K_dd − K_dc K_cc⁻¹ K_cd` (docs/theory.md (T30)): a singular
 //! mass never reaches the symmetric-definite eigensolver. The reduced problem is solved
 //! densely through a Cholesky factor of `M_dd` (`L⁻¹ K* L⁻ᵀ ψ = ω² ψ`); this suits models of
 //! up to a few thousand DOFs. [`first_angular_frequency`] uses sparse inverse iteration

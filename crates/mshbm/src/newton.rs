@@ -1,6 +1,7 @@
-//! Newton's method with Armijo backtracking on `½‖R‖²` (paper eq. 13; the residual of the
-//! redistributed MS-HBM is piecewise affine with sampled quadrature, METHODS §5.5, so the
-//! full step is not always a descent step).
+//! Newton's method with Armijo backtracking on `½‖R‖²` (paper eq. 13, docs/theory.md (T71);
+//! the residual of the redistributed MS-HBM is piecewise affine with sampled quadrature,
+//! docs/theory.md §5 "Nondifferentiability", so the full step is not always a descent
+//! step).
 
 use faer::linalg::solvers::Solve;
 use faer::Mat;
@@ -186,7 +187,7 @@ pub(crate) fn iterate(
     unreachable!("the last iteration returns")
 }
 
-/// `R(x, ω) = 0` at a fixed `ω`, with Armijo backtracking on `½‖R‖²`.
+/// `R(x, ω) = 0` at a fixed `ω`, with Armijo backtracking on `½‖R‖²` (docs/theory.md (T71)).
 struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
     problem: &'a mut P,
     omega: f64,

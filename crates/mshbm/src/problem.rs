@@ -1,5 +1,6 @@
 //! The one trait every periodic-solution method implements, so that Newton and
-//! continuation are written once (DESIGN.md).
+//! continuation are written once (docs/architecture.md; their algorithms are
+//! docs/theory.md §10).
 
 use faer::Mat;
 
@@ -16,7 +17,7 @@ pub struct Linearization {
     pub d_omega: Vec<f64>,
 }
 
-/// What a method's residual lets the pseudo-arclength continuation assume (METHODS §7.1):
+/// What a method's residual lets the pseudo-arclength continuation assume (docs/theory.md §10):
 /// declared by each method ([`PeriodicProblem::continuation_policy`]) so that every caller of
 /// [`crate::continuation::arclength::trace_branch`] runs the same algorithm for it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -59,13 +60,14 @@ pub enum ArclengthFallback {
     StepInFrequency { min_arclength_step: f64 },
 }
 
-/// A periodic-solution problem `R(x, ω) = 0` (e.g. the connectivity condition, eq. 30).
+/// A periodic-solution problem `R(x, ω) = 0` (e.g. the connectivity condition, paper eq. 30,
+/// docs/theory.md (T33)).
 pub trait PeriodicProblem {
     /// Number of unknowns.
     fn dimension(&self) -> usize;
 
-    /// A length that sets the scale of `x` (e.g. the gap, or the static deflection): Newton's
-    /// tolerance and continuation's scaling are relative to it.
+    /// A length that sets the scale of `x` (e.g. the gap, or the static deflection;
+    /// docs/theory.md (T6)): Newton's tolerance and continuation's scaling are relative to it.
     fn length_scale(&self) -> f64;
 
     /// A starting point at `ω` (the contact-free linear response).

@@ -11,10 +11,10 @@ use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::{Model, System};
 use crate::solution::PeriodicSolution;
 
-/// The period [s] that sets the time scale of a run: `1/f` of the forcing frequency; for a
-/// dropped bar its closed-form period `4(κ+1)L/c` (exactly periodic for integer κ, and
-/// still the time scale otherwise); else the first eigenperiod of `system`. `None` for a
-/// free structure without forcing.
+/// The period (s) that sets the time scale of a run: `1/f` of the forcing frequency; for a
+/// dropped bar its closed-form period `4(κ+1)L/c` (docs/theory.md (T89); exactly periodic
+/// for integer κ, and still the time scale otherwise); else the first eigenperiod of
+/// `system`. `None` for a free structure without forcing.
 pub fn reference_period(
     system: &System,
     frequency_hz: Option<f64>,
@@ -34,7 +34,8 @@ pub fn reference_period(
 
 /// The initial state `(q(0), q̇(0))` (system numbering) of the periodic `solution` at
 /// `omega` [rad/s]: the harmonics of its contact DOFs extended to all DOFs
-/// ([`state_from_harmonics`]). `source` names where the solution came from, for errors.
+/// ([`state_from_harmonics`]; docs/theory.md (T17) and the end of §3). `source` names where
+/// the solution came from, for errors.
 pub fn state_from_solution(
     system: &System,
     model: &Model,

@@ -1,5 +1,6 @@
 //! One periodic solution at one frequency (`mshbm solve`): Newton from the contact-free
-//! response, then the Floquet multipliers where the method provides them.
+//! response (docs/theory.md (T71)), then the Floquet multipliers where the method provides
+//! them (docs/theory.md §11).
 
 use crate::error::{Error, Result};
 use crate::frd::response_dof;

@@ -1,9 +1,9 @@
-//! Floquet multipliers of periodic solutions (METHODS §7.2).
+//! Floquet multipliers of periodic solutions (docs/theory.md §11).
 //!
 //! A periodic solution is asymptotically stable when every Floquet multiplier (eigenvalue
-//! of the monodromy matrix, the linearised map over one period) lies inside the unit
-//! circle. A real multiplier leaving through +1 is a fold (turning point of the FRD),
-//! through −1 a period doubling, a complex pair a Neimark–Sacker bifurcation.
+//! of the monodromy matrix, the linearised map over one period) lies inside the unit circle
+//! (docs/theory.md (T79)). A real multiplier leaving through +1 is a fold (turning point of
+//! the FRD), through −1 a period doubling, a complex pair a Neimark–Sacker bifurcation.
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -37,7 +37,8 @@ impl Floquet {
 }
 
 /// Monodromy of `ż = A_i z` over consecutive intervals of lengths `Δt_i` (seconds):
-/// `Φ = exp(A_m Δt_m) ⋯ exp(A_1 Δt_1)`. Exact for piecewise-constant systems.
+/// `Φ = exp(A_m Δt_m) ⋯ exp(A_1 Δt_1)` (docs/theory.md (T81)). Exact for piecewise-constant
+/// systems.
 pub fn piecewise_monodromy(pieces: &[(&Mat<f64>, f64)]) -> Mat<f64> {
     let n = pieces.first().map_or(0, |(a, _)| a.nrows());
     let mut phi = Mat::<f64>::identity(n, n);
@@ -129,7 +130,7 @@ impl StabilityOptions {
     }
 }
 
-/// The linearised L-system of the redistributed MS-HBM (METHODS §7.2),
+/// The linearised L-system of the redistributed MS-HBM (docs/theory.md (T80)),
 /// `M̄ q̈ + C q̇ + (K_LL − K_LN P_A(t) K_NL) q = 0`, in the coordinates of the Floquet
 /// analysis: the full L-space, or a reduced basis ([`ReducedSystem::reduced`]).
 ///
@@ -143,11 +144,11 @@ impl StabilityOptions {
 /// statically for every active set, like the contact DOFs themselves:
 /// `K_r(A) = K_ηη(A) − K_ηξ(A) K_ξξ(A)⁻¹ K_ξη(A)` with the blocks of
 /// `[Φ, Ψ̃]ᵀ (K_LL − K_LN P_A K_NL) [Φ, Ψ̃]`, and
-/// `η̈ + Φᵀ C Φ η̇ + K_r(A(t)) η = 0`. For mass-proportional and for Rayleigh damping
-/// (`C = α M̄ + β K_LL`) the dropped coupling `Φᵀ C Ψ̃` vanishes. Every active set's stiffness
-/// differs from `K_LL` only through `K_LN`, so the static correction makes each `K_eff(A)`
-/// exact in the static limit (the reduced static response to loads in the span of
-/// `M̄ Φ_m` and of the interface is exact).
+/// `η̈ + Φᵀ C Φ η̇ + K_r(A(t)) η = 0` (docs/theory.md (T82)). For mass-proportional and for
+/// Rayleigh damping (`C = α M̄ + β K_LL`) the dropped coupling `Φᵀ C Ψ̃` vanishes. Every
+/// active set's stiffness differs from `K_LL` only through `K_LN`, so the static correction
+/// makes each `K_eff(A)` exact in the static limit (the reduced static response to loads in
+/// the span of `M̄ Φ_m` and of the interface is exact).
 ///
 /// **Truncation error.** The reduced system has `2m` multipliers instead of `2 n_L`; the
 /// multipliers of the discarded modes are not computed. Between two switches the discarded

@@ -1,4 +1,4 @@
-//! Mass redistribution (paper eqs. 21–22, METHODS §1): moments kept, massless contact
+//! Mass redistribution (paper eqs. 21–22, docs/theory.md §4): moments kept, massless contact
 //! nodes, pattern and symmetry kept, positive definite elsewhere — in 1-D, 2-D and 3-D.
 
 use std::path::Path;
@@ -40,7 +40,7 @@ fn check(mass: &SparseMatrix, coords: &[Vec<f64>], contact: &[usize]) -> SparseM
 fn bar_redistribution_keeps_moments_and_matches_the_reference_entries() {
     let model = BarParameters::paper().build(Path::new("bar")).unwrap();
     let r = check(&model.mass, &model.coordinates, &[100]);
-    // Entries in units of rho A h / 6 from the closed form of METHODS §1.3.
+    // Entries in units of rho A h / 6 from the closed form docs/theory.md (T31).
     let unit = 9e-9 * 0.2 / 6.0;
     for (i, j, expected) in [
         (0, 0, 2.0416),

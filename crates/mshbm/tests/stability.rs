@@ -1,4 +1,4 @@
-//! Floquet multipliers of redistributed MS-HBM solutions (METHODS §7.2) against
+//! Floquet multipliers of redistributed MS-HBM solutions (docs/theory.md §11) against
 //! independent references: the damped eigenvalues of the linear system, and the folds of
 //! the frequency response diagram.
 

@@ -725,7 +725,7 @@ pub(crate) fn transient_figures(
     let first = runs[0].1;
     if let Some(a) = analytic {
         gap.series.push(Series {
-            label: "closed form (METHODS §2.3)".into(),
+            label: "closed form (docs/theory.md §12)".into(),
             points: first.plot_time.iter().map(|&t| (t, a.gap(t))).collect(),
             style: Style::Dashed,
             color: 7,

@@ -1,12 +1,12 @@
 //! Mass redistribution (paper Section 3, eqs. 21–22; Khenous, Laborde & Renard 2008;
-//! METHODS §1): a mass matrix `M_R` with massless contact nodes that stays as close as
-//! possible to the consistent mass `M` in the Frobenius norm (eq. 22) while keeping the
-//! total mass, the first moments (centre of gravity) and the second moments (inertia) —
-//! i.e. the kinetic energy of every affine velocity field.
+//! docs/theory.md §4, (T25)–(T26)): a mass matrix `M_R` with massless contact nodes that
+//! stays as close as possible to the consistent mass `M` in the Frobenius norm (eq. 22)
+//! while keeping the total mass, the first moments (centre of gravity) and the second
+//! moments (inertia) — i.e. the kinetic energy of every affine velocity field.
 //!
 //! The problem is posed on the *scalar* per-node mass matrix of the **unconstrained** mesh
-//! (Dirichlet DOFs are removed afterwards; METHODS §8.1 shows why). Its KKT conditions give
-//! the closed form (METHODS §1.2)
+//! (Dirichlet DOFs are removed afterwards; docs/theory.md §4, "Where it is posed", shows
+//! why). Its KKT conditions give the closed form (docs/theory.md (T27)–(T29))
 //!
 //! `R_ij = M_ij + (Φ Λ Φᵀ)_ij` on the free pattern `F` (entries of `M` between non-contact
 //! nodes), `R_ij = 0` elsewhere, `Φ = [1, x_1, …, x_d]`,

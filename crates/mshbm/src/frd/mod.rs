@@ -1,8 +1,9 @@
 //! Frequency response diagrams (the paper's Figs. 9 and 11): one branch per method and
 //! number of harmonics, each traced by pseudo-arclength continuation
-//! ([`crate::continuation::arclength::trace_branch`]) from the contact-free response at the
-//! start frequency, with folds located, stability changes (when the Floquet multipliers are
-//! computed) and, for the penalty method, the penetration of every point.
+//! ([`crate::continuation::arclength::trace_branch`], docs/theory.md §10) from the
+//! contact-free response at the start frequency, with folds located (docs/theory.md (T76)),
+//! stability changes (when the Floquet multipliers are computed; docs/theory.md §11) and,
+//! for the penalty method, the penetration of every point.
 //!
 //! The computation is the library's: [`trace_diagram`] (or [`trace_frd_branch`] for one
 //! branch) takes typed, validated [`FrdSettings`] and the [`MethodSettings`] of each

@@ -9,9 +9,9 @@ use crate::newton::NewtonOptions;
 /// (unknowns divided by the model's length scale, frequency as `ln(ω/ω_start)`).
 #[derive(Clone, Debug)]
 pub struct FrdSettings {
-    /// Start frequency [Hz]: the branch starts from the contact-free response there.
+    /// Start frequency (Hz): the branch starts from the contact-free response there.
     pub from_hz: f64,
-    /// End frequency [Hz]; below `from_hz` for a downward sweep.
+    /// End frequency (Hz); below `from_hz` for a downward sweep.
     pub to_hz: f64,
     /// First arclength step (default 0.01).
     pub initial_step: f64,

@@ -1,5 +1,5 @@
 //! Fourier basis, sampling and exact interval integrals (paper eqs. 4–5, 9, 33–35;
-//! METHODS §0).
+//! docs/theory.md §2, (T7)–(T10)).
 //!
 //! Convention: `q(τ) = q⁰ + Σ_{k=1..H} q^{c,k} cos kτ + q^{s,k} sin kτ` in normalised time
 //! `τ = ωt ∈ [0, 2π)`; coefficients ordered `[q⁰, q^{c,1}, q^{s,1}, …, q^{c,H}, q^{s,H}]`
@@ -10,8 +10,8 @@
 //! A Fourier coefficient is a weighted integral `q̂_m = w_m/(2π) ∫ q(τ) b_m(τ) dτ` with
 //! `w_0 = 1`, `w_m = 2`. For a piecewise representation `q(τ) = Σ_c B_c b_c(τ)` on an
 //! interval, the contribution is `Σ_c B_c Γ_mc` with the *Gram block*
-//! `Γ_mc = w_m/(2π) ∫_I b_m b_c dτ`; with samples, `Γ_mc = w_m/N b_m(τ_j) b_c(τ_j)` (the DFT).
-//! Both quadratures of the MS-HBM are sums of such blocks.
+//! `Γ_mc = w_m/(2π) ∫_I b_m b_c dτ`; with samples, `Γ_mc = w_m/N b_m(τ_j) b_c(τ_j)` (the DFT;
+//! docs/theory.md (T16)). Both quadratures of the MS-HBM are sums of such blocks.
 
 use std::f64::consts::PI;
 
@@ -138,7 +138,7 @@ impl Sampling {
         self.taus.is_empty()
     }
 
-    /// DFT weight row of sample `j`: `w_m b_m(τ_j) / N` (METHODS §0).
+    /// DFT weight row of sample `j`: `w_m b_m(τ_j) / N` (docs/theory.md (T10)).
     pub fn dft_row(&self, j: usize) -> Vec<f64> {
         let n = self.len() as f64;
         self.basis[j]
@@ -148,7 +148,7 @@ impl Sampling {
             .collect()
     }
 
-    /// Fourier coefficients of scalar samples (the DFT of METHODS §0).
+    /// Fourier coefficients of scalar samples (the DFT, docs/theory.md (T10)).
     pub fn dft(&self, samples: &[f64]) -> Vec<f64> {
         let mut out = vec![0.0; n_coefficients(self.harmonics)];
         let n = self.len() as f64;
@@ -188,7 +188,7 @@ impl Sampling {
     }
 
     /// Fourier coefficients, harmonic-major (`c·n + i`), of `n` signals sampled at every
-    /// `τ_j` (`samples[j·n + i]`): the DFT of METHODS §0 for a set of DOFs.
+    /// `τ_j` (`samples[j·n + i]`): the DFT (docs/theory.md (T8), (T10)) for a set of DOFs.
     pub fn dft_set(&self, samples: &[f64], n: usize) -> Vec<f64> {
         let ns = self.len() as f64;
         let mut out = vec![0.0; n * n_coefficients(self.harmonics)];

@@ -2,20 +2,20 @@
 //! 25, in complex form).
 //!
 //! For harmonic `k` the linear part responds to the amplitudes `z_k = a_k − i b_k` of the
-//! `N` DOFs (the harmonic `k` of `x = q̂_N`) by eq. (6):
+//! `N` DOFs (the harmonic `k` of `x = q̂_N`) by eq. (6), docs/theory.md (T17):
 //!
 //! ```text
 //! q̂_L,k = A_LL,k⁻¹ (f_L,k − A_LN,k z_k),
 //! ```
 //!
-//! and the force it exerts on `N` is affine in `z_k`:
+//! and the force it exerts on `N` is affine in `z_k` (docs/theory.md (T19)–(T20)):
 //!
 //! ```text
 //! A_NL,k q̂_L,k = u0_k − G_k z_k,   G_k = A_NL,k A_LL,k⁻¹ A_LN,k,   u0_k = A_NL,k A_LL,k⁻¹ f_L,k
 //! ```
 //!
 //! (`G_k` is `n_N × n_N`; with the redistributed mass `M_NL = C_NL = 0` and it reduces to
-//! `K_NL A_LL,k⁻¹ K_LN`, eq. 25). The `N` equations then read
+//! `K_NL A_LL,k⁻¹ K_LN`, eq. 25). The `N` equations then read (docs/theory.md (T23))
 //!
 //! ```text
 //! H̃_k z_k = F̃_k + λ̂_N,k,   H̃_k = A_NN,k − G_k,   F̃_k = f_N,k − u0_k,
@@ -24,7 +24,8 @@
 //! and the load on `N` that the MS-HBM's nonlinear subsystem sees is
 //! `B_k(x) = f_N,k − A_NL,k q̂_L,k = f_N,k − u0_k + G_k z_k` (eq. 10 with the derivatives of
 //! `q_L` taken in the frequency domain). Its frequency derivative at fixed `x` follows from
-//! `∂q̂_L,k/∂ω = −A_LL,k⁻¹ (∂A_LL,k/∂ω q̂_L,k + ∂A_LN,k/∂ω z_k)`:
+//! `∂q̂_L,k/∂ω = −A_LL,k⁻¹ (∂A_LL,k/∂ω q̂_L,k + ∂A_LN,k/∂ω z_k)` (docs/theory.md (T22),
+//! (T24)):
 //!
 //! ```text
 //! ∂(A_NL,k q̂_L,k)/∂ω = ∂u0_k/∂ω − ∂G_k/∂ω z_k
@@ -70,20 +71,20 @@ pub trait CondensedFrequency: Send + Sync {
     /// The partitioned system.
     fn system(&self) -> &PartitionedSystem;
 
-    /// `G_k = A_NL,k A_LL,k⁻¹ A_LN,k` (`n_N × n_N`, row-major).
+    /// `G_k = A_NL,k A_LL,k⁻¹ A_LN,k` (`n_N × n_N`, row-major; docs/theory.md (T20)).
     fn interface_stiffness(&self, k: usize) -> &[c64];
 
-    /// `u0_k = A_NL,k A_LL,k⁻¹ f_L,k` (`n_N`).
+    /// `u0_k = A_NL,k A_LL,k⁻¹ f_L,k` (`n_N`; docs/theory.md (T20)).
     fn interface_load(&self, k: usize) -> &[c64];
 
     /// `q̂_L,k = A_LL,k⁻¹ (f_L,k − A_LN,k z_k)` for the `N` amplitudes `z_k` (all `L` DOFs;
-    /// eq. 6).
+    /// paper eq. 6, docs/theory.md (T17)).
     fn linear_amplitudes(&self, k: usize, z: &[c64]) -> Result<Vec<c64>>;
 
     /// `out += ∂(A_NL,k q̂_L,k)/∂ω = ∂u0_k/∂ω − ∂G_k/∂ω z_k` at fixed `z_k`, i.e.
     /// `∂A_NL,k/∂ω q̂_L,k + A_NL,k ∂q̂_L,k/∂ω` with
     /// `∂q̂_L,k/∂ω = −A_LL,k⁻¹ (∂A_LL,k/∂ω q̂_L,k + ∂A_LN,k/∂ω z_k)` and
-    /// `∂A_k/∂ω = −2k²ω M + i k C`.
+    /// `∂A_k/∂ω = −2k²ω M + i k C` (docs/theory.md (T24), (T14)).
     fn add_coupling_force_derivative(&self, k: usize, z: &[c64], out: &mut [c64]) -> Result<()>;
 
     /// Number of `N` DOFs.
@@ -103,7 +104,8 @@ pub trait CondensedFrequency: Send + Sync {
         Ok(out)
     }
 
-    /// The condensed dynamic stiffness `H̃_k = A_NN,k − G_k` (`n_N × n_N`).
+    /// The condensed dynamic stiffness `H̃_k = A_NN,k − G_k` (`n_N × n_N`; docs/theory.md
+    /// (T23)).
     fn condensed_dynamic_stiffness(&self, k: usize) -> Mat<c64> {
         let n = self.n_nonlinear();
         let g = self.interface_stiffness(k);
@@ -116,7 +118,7 @@ pub trait CondensedFrequency: Send + Sync {
         h
     }
 
-    /// The condensed load `F̃_k = f_N,k − u0_k` (`n_N`).
+    /// The condensed load `F̃_k = f_N,k − u0_k` (`n_N`; docs/theory.md (T23)).
     fn condensed_load(&self, k: usize) -> Vec<c64> {
         let mut f = self
             .system()
@@ -130,8 +132,8 @@ pub trait CondensedFrequency: Send + Sync {
     }
 
     /// The Fourier coefficients (harmonic-major) of the load on `N`,
-    /// `B_k(x) = f_N,k − u0_k + G_k z_k`, for the `N` coefficients `x` (its first
-    /// `n_N (2H + 1)` entries).
+    /// `B_k(x) = f_N,k − u0_k + G_k z_k` (docs/theory.md (T19)–(T20)), for the `N` coefficients
+    /// `x` (its first `n_N (2H + 1)` entries).
     fn interface_load_coefficients(&self, x: &[f64]) -> Vec<f64> {
         let load_n = &self.system().load_n;
         let (constant_n, harmonic_n) = (&load_n.constant, &load_n.harmonic);
@@ -167,7 +169,7 @@ pub trait CondensedFrequency: Send + Sync {
 
     /// `∂B/∂ω` at `x` (harmonic-major, like [`Self::interface_load_coefficients`]):
     /// `∂B_k/∂ω = −∂(A_NL,k q̂_L,k)/∂ω` ([`Self::add_coupling_force_derivative`]; zero for
-    /// `k = 0`).
+    /// `k = 0`; docs/theory.md (T22), (T24)).
     fn interface_load_frequency_derivative(&self, x: &[f64]) -> Result<Vec<f64>> {
         let n = self.n_nonlinear();
         let mut db = vec![0.0; n * n_coefficients(self.harmonics())];
@@ -191,9 +193,9 @@ pub enum LinearResponse {
     /// A sparse solve `A_LL,k⁻¹ (f_L,k − A_LN,k z_k)` per evaluation; only the factors are
     /// kept.
     Solve,
-    /// `q̂_L,k = u_k − Y_k z_k` with `Y_k = A_LL,k⁻¹ A_LN,k` (`n_L × n_N`) and
-    /// `u_k = A_LL,k⁻¹ f_L,k`, kept from forming `G_k` and `u0_k`: no solve per evaluation,
-    /// `n_L (n_N + 1) (H + 1)` complex numbers of memory per frequency.
+    /// `q̂_L,k = u_k − Y_k z_k` (docs/theory.md (T23)) with `Y_k = A_LL,k⁻¹ A_LN,k`
+    /// (`n_L × n_N`) and `u_k = A_LL,k⁻¹ f_L,k`, kept from forming `G_k` and `u0_k`: no solve
+    /// per evaluation, `n_L (n_N + 1) (H + 1)` complex numbers of memory per frequency.
     Stored,
 }
 

@@ -1,9 +1,9 @@
 //! The complex dynamic stiffness per harmonic (complex form of the real 2×2 blocks of paper
-//! eq. 8) and its sparse LU factorization on the linear part.
+//! eq. 8; docs/theory.md (T11)–(T14)) and its sparse LU factorization on the linear part.
 //!
 //! For harmonic `k`, with the complex amplitude `z = a − i b` of `a cos kτ + b sin kτ`, the
 //! real block `[[K − (kω)² M, kω C], [−kω C, K − (kω)² M]]` of eq. (8) acting on `(a, b)` is
-//! equivalent to the complex symmetric matrix
+//! equivalent to the complex symmetric matrix (docs/theory.md (T12)–(T14))
 //!
 //! ```text
 //! A_k(ω) = K − (kω)² M + i kω C        (A_0 = K),
@@ -24,7 +24,8 @@ use crate::sparse::SparseMatrix;
 
 /// Stiffness `K`, mass `M` and damping `C` of one block (the same rows and columns of each)
 /// of a structural system, with the dynamic stiffness `A_k(ω) = K − (kω)² M + i kω C` of
-/// harmonic `k` and its frequency derivative `∂A_k/∂ω = −2k²ω M + i k C`.
+/// harmonic `k` and its frequency derivative `∂A_k/∂ω = −2k²ω M + i k C` (docs/theory.md
+/// (T13)–(T14)).
 #[derive(Clone, Debug)]
 pub struct StructuralBlock {
     pub stiffness: SparseMatrix,

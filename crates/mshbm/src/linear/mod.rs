@@ -1,17 +1,17 @@
-//! The linear subsystem in the frequency domain (paper eqs. 6–8, 25).
+//! The linear subsystem in the frequency domain (paper eqs. 6–8, 25; docs/theory.md §3).
 //!
 //! * [`dynamic_stiffness`]: the complex dynamic stiffness `A_k(ω) = K − (kω)² M + i kω C`
-//!   of harmonic `k` (the complex form of eq. 8) and `∂A_k/∂ω = −2k²ω M + i k C` applied
-//!   to vectors ([`StructuralBlock`]), and its sparse LU on the linear part
-//!   ([`LinearPart`]);
+//!   of harmonic `k` (the complex form of eq. 8, docs/theory.md (T13)) and
+//!   `∂A_k/∂ω = −2k²ω M + i k C` (docs/theory.md (T14)) applied to vectors
+//!   ([`StructuralBlock`]), and its sparse LU on the linear part ([`LinearPart`]);
 //! * [`partitioned`]: the `L | N` blocks and loads of a system ([`PartitionedSystem`]);
 //! * [`condensation`]: the condensation of the linear part onto the `N` DOFs per frequency,
-//!   `G_k = A_NL,k A_LL,k⁻¹ A_LN,k`, `u0_k = A_NL,k A_LL,k⁻¹ f_L,k` and what follows from
-//!   them ([`Condensation`], [`ExactCondensation`]).
+//!   `G_k = A_NL,k A_LL,k⁻¹ A_LN,k`, `u0_k = A_NL,k A_LL,k⁻¹ f_L,k` (docs/theory.md (T20))
+//!   and what follows from them ([`Condensation`], [`ExactCondensation`]).
 //!
-//! Complex amplitudes are `z_k = a_k − i b_k` of `a_k cos kτ + b_k sin kτ` (`z_0 = a_0`);
-//! real Fourier coefficients are stored harmonic-major, coefficient `c` of `[a0, a1, b1, …]`
-//! of DOF `i` of `n` at `c·n + i`.
+//! Complex amplitudes are `z_k = a_k − i b_k` of `a_k cos kτ + b_k sin kτ` (`z_0 = a_0`;
+//! docs/theory.md (T11)); real Fourier coefficients are stored harmonic-major, coefficient
+//! `c` of `[a0, a1, b1, …]` of DOF `i` of `n` at `c·n + i` (docs/theory.md (T8)).
 
 pub mod condensation;
 pub mod dynamic_stiffness;

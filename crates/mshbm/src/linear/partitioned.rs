@@ -53,7 +53,8 @@ impl PartLoad {
 /// [A_NL,k  A_NN,k] [q̂_N,k] = [f_N,k] + [λ̂_N,k]      A_k(ω) = K − (kω)² M + i kω C
 /// ```
 ///
-/// per harmonic `k` (paper eqs. 4–8 in complex form). Each block holds its `K`, `M`, `C`.
+/// per harmonic `k` (paper eqs. 4–8 in complex form; docs/theory.md (T1), (T13)). Each
+/// block holds its `K`, `M`, `C`.
 #[derive(Clone, Debug)]
 pub struct PartitionedSystem {
     pub ll: StructuralBlock,

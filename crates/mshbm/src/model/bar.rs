@@ -4,7 +4,7 @@
 //!
 //! The DOFs are the axial displacements of the nodes `0..=elements` (node `i` at
 //! `x = i·length/elements`), positive along `+x`. With the clamp on the left, the support is
-//! beyond the right end: `g = g0 − u_end` (`W = −1`, METHODS §0); with the clamp on the
+//! beyond the right end: `g = g0 − u_end` (`W = −1`, docs/theory.md (T3)); with the clamp on the
 //! right, the support is beyond the left end: `g = g0 + u_0`.
 
 use std::path::Path;

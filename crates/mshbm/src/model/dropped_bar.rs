@@ -1,11 +1,12 @@
 //! The elastic bar dropped under gravity onto a rigid support (the paper's Figs. 3–5,
-//! METHODS §2): a free bar of two-node elements (eq. 45) along the vertical axis, released
-//! at rest and undeformed with its lower end at height `h0` above the support.
+//! docs/theory.md §12, (T88)–(T92)): a free bar of two-node elements (eq. 45) along the
+//! vertical axis, released at rest and undeformed with its lower end at height `h0` above
+//! the support.
 //!
 //! Node `i` is at height `x_i = i·length/elements` above the lower end (node 0); the DOFs
 //! are the upward displacements. The contact is at node 0 with `g = h0 + u_0` (`W = +1`).
 //! Gravity is a uniform acceleration `−g` ([`Model::acceleration`]), so its load uses the
-//! mass the method uses: `−g M_R 1` with the redistributed mass (METHODS §2.5), which keeps
+//! mass the method uses: `−g M_R 1` with the redistributed mass (docs/theory.md (T32)), which keeps
 //! free flight rigid. The stiffness of the free bar is singular (rigid translation); the
 //! time integrators' iteration matrices are nevertheless positive definite, but methods
 //! that need `K⁻¹` (the MS-HBM) refuse this model.
@@ -40,8 +41,8 @@ pub struct DroppedBarParameters {
 }
 
 impl DroppedBarParameters {
-    /// The nondimensional setup of METHODS §2.5: 100 elements, `L = c = g = ρ = E = A = 1`,
-    /// `κ = 3` (`h0 = 4.5`, period 16).
+    /// The nondimensional test setup of docs/theory.md §12: 100 elements,
+    /// `L = c = g = ρ = E = A = 1`, `κ = 3` (`h0 = 4.5`, period 16).
     pub fn nondimensional() -> Self {
         DroppedBarParameters {
             elements: 100,
@@ -70,7 +71,7 @@ impl DroppedBarParameters {
         DroppedBarSolution::height_for_kappa(kappa, self.length, self.wave_speed(), self.gravity)
     }
 
-    /// The closed-form solution of METHODS §2.3 (fails unless `κ` is an integer ≥ 3).
+    /// The closed-form solution docs/theory.md (T88)–(T90) (fails unless `κ` is an integer ≥ 3).
     pub fn analytic(&self) -> Result<DroppedBarSolution> {
         DroppedBarSolution::new(
             self.length,

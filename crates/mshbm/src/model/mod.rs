@@ -27,7 +27,7 @@ use crate::modes::{eigenfrequencies_hz, MassComparison};
 use crate::sparse::SparseMatrix;
 
 /// A unilateral contact: gap `g = Σ_i w_i q_{dofs_i} + gap ≥ 0`, force `+w λ` on the
-/// structure with `λ ≥ 0` (paper eqs. 23–24, METHODS §0).
+/// structure with `λ ≥ 0` (paper eqs. 23–24, docs/theory.md (T3)–(T4)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Contact {
     /// DOFs the gap depends on (model numbering).
@@ -49,7 +49,7 @@ pub enum FrictionNormal {
     Contact(usize),
 }
 
-/// A Coulomb friction element (METHODS §3.3): slip velocity `γ_T = Σ_i w_i q̇_{dofs_i}`,
+/// A Coulomb friction element (docs/theory.md (T5)): slip velocity `γ_T = Σ_i w_i q̇_{dofs_i}`,
 /// friction force `+w λ_T` on the structure with `λ_T ∈ −μ F_N Sign(γ_T)` (set-valued:
 /// stick when `|λ_T| < μ F_N`).
 #[derive(Clone, Debug, PartialEq)]
@@ -115,7 +115,7 @@ pub struct Model {
     pub constant_load: Vec<f64>,
     /// Optional uniform acceleration field (one value per component, e.g. gravity
     /// `[-9810]` in mm/s²); its load `M_used (1 ⊗ a)` uses the mass the method uses, so
-    /// that free flight stays rigid with a redistributed mass (METHODS §2.5).
+    /// that free flight stays rigid with a redistributed mass (docs/theory.md (T32)).
     pub acceleration: Option<Vec<f64>>,
     /// Damping.
     pub damping: Damping,

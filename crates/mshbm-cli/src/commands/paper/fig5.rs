@@ -1,8 +1,9 @@
 //! Fig. 5: the bar dropped onto a rigid support — gap and normalised energy over time for
 //! Newton's impact law with e_N = 0 and e_N = 1 (Moreau–Jean, consistent mass) and for the
 //! redistributed mass (position-level Newmark, no impact law), with the closed-form
-//! solution (METHODS §2.3). The runs are those of `mshbm simulate examples/dropped_bar.toml
-//! --scheme moreau --restitution 0|1` and `--scheme redistributed`.
+//! solution (docs/theory.md (T90)). The runs are those of
+//! `mshbm simulate examples/dropped_bar.toml --scheme moreau --restitution 0|1` and
+//! `--scheme redistributed`.
 
 use std::fmt::Write as _;
 

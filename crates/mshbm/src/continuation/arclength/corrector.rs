@@ -1,6 +1,6 @@
 //! Corrector: Newton on `R(X) = 0` closed by one scalar equation `g(X) = 0` — Keller's
-//! arclength condition `tᵀ(X − X_0) − Δs = 0` for a continuation step (METHODS §7.1), the
-//! sphere `‖X − X_0‖² − r² = 0` for a corner escape. Both are Newton's one loop
+//! arclength condition `tᵀ(X − X_0) − Δs = 0` for a continuation step (docs/theory.md
+//! (T74)), the sphere `‖X − X_0‖² − r² = 0` for a corner escape. Both are Newton's one loop
 //! ([`newton::iterate`]) on the bordered system `[R_X; ∂g/∂X] ΔX = −[R; g]`, with full
 //! steps.
 
@@ -29,7 +29,7 @@ pub(super) trait ClosingEquation {
     fn tolerance(&self, xs: &[f64]) -> f64;
 }
 
-/// Keller's arclength condition `tᵀ(X − X_0) − Δs = 0`.
+/// Keller's arclength condition `tᵀ(X − X_0) − Δs = 0` (docs/theory.md (T74)).
 pub(super) struct Arclength<'a> {
     pub start: &'a [f64],
     pub tangent: &'a [f64],

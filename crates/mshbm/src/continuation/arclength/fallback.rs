@@ -187,9 +187,9 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
     Ok(None)
 }
 
-/// Newton at a fixed frequency `ω e^{±Δ}` a little ahead of `last`, `Δ` the fractions
-/// [`FREQUENCY_STEP_FRACTIONS`] of the largest frequency step; the end frequency is not
-/// stepped over.
+/// Newton at a fixed frequency `ω e^{±Δ}` a little ahead of `last` (docs/theory.md (T77)),
+/// `Δ` the fractions [`FREQUENCY_STEP_FRACTIONS`] of the largest frequency step; the end
+/// frequency is not stepped over.
 fn step_in_frequency<P: PeriodicProblem + ?Sized>(
     problem: &mut P,
     sc: &Scaling,

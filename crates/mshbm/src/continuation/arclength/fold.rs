@@ -1,5 +1,6 @@
 //! Fold location: regula falsi (Illinois) on the ω-component of the tangent along the arc,
-//! each evaluation a Keller corrector solve; and the check that a fold was met before.
+//! each evaluation a Keller corrector solve (docs/theory.md (T76)); and the check that a
+//! fold was met before.
 
 use super::branch::{BranchPoint, Fold};
 use super::corrector::Corrector;

@@ -1,20 +1,21 @@
-//! Pseudo-arclength continuation of periodic solutions in `(x, ω)` (METHODS §7.1), written
-//! once over [`PeriodicProblem`].
+//! Pseudo-arclength continuation of periodic solutions in `(x, ω)` (docs/theory.md §10,
+//! (T72)–(T77)), written once over [`PeriodicProblem`].
 //!
-//! Unknowns are scaled to O(1): `X = [x / ℓ; ln(ω / ω_ref)]` with `ℓ` the problem's length
-//! scale and `ω_ref` the start frequency (ω ~ 1e5 rad/s against displacements ~ 0.1 mm
-//! otherwise dominate every norm; the logarithm weighs a relative change of frequency the
-//! same over the whole sweep). Each step:
+//! Unknowns are scaled to O(1) (docs/theory.md (T72)): `X = [x / ℓ; ln(ω / ω_ref)]` with
+//! `ℓ` the problem's length scale and `ω_ref` the start frequency (ω ~ 1e5 rad/s against
+//! displacements ~ 0.1 mm otherwise dominate every norm; the logarithm weighs a relative
+//! change of frequency the same over the whole sweep). Each step:
 //!
 //! * predictor `X_p = X_0 + Δs t` along the unit tangent `t` (solved from
 //!   `[R_X; t_prevᵀ] t = [0; 1]` and oriented along the secant of the last step, so that a
-//!   sharp turn is not mistaken for a reversal);
-//! * Keller corrector: Newton on `[R(X); tᵀ(X − X_0) − Δs] = 0`;
-//! * step control: `Δs ← Δs · clamp(N_opt / N_it, ½, 2)` within bounds; a failed
-//!   corrector, or a tangent that turns by more than `max_turn_deg`, halves `Δs`; below
-//!   the smallest step the method's fallback is tried (a corner escape, or stepping in
-//!   frequency, [`crate::problem::ArclengthFallback`]), and when it finds nothing the
-//!   branch stops with the reason.
+//!   sharp turn is not mistaken for a reversal; docs/theory.md (T73));
+//! * Keller corrector: Newton on `[R(X); tᵀ(X − X_0) − Δs] = 0` (docs/theory.md (T74));
+//! * step control: `Δs ← Δs · clamp(N_opt / N_it, ½, 2)` within bounds (docs/theory.md
+//!   (T75)); a failed corrector, or a tangent that turns by more than `max_turn_deg`,
+//!   halves `Δs`; below the smallest step the method's fallback is tried (a corner escape,
+//!   or stepping in frequency, docs/theory.md (T77);
+//!   [`crate::problem::ArclengthFallback`]), and when it finds nothing the branch stops
+//!   with the reason.
 //!
 //! What the residual lets the continuation assume (whether Newton contracts quadratically,
 //! which fallback) is declared by the method, [`PeriodicProblem::continuation_policy`], so
@@ -27,11 +28,12 @@
 //!
 //! **Folds** (turning points in ω) are sign changes of the ω-component of the tangent
 //! between accepted points. Each is *located* by regula falsi on `t_ω(s) = 0` along the arc
-//! (each evaluation a corrector solve). A sign change that does not close to a zero of
-//! `t_ω` — a jump of the tangent across a nonsmooth point of the residual, such as the
-//! kinks that sampled quadrature produces — is reported with `at_kink = true`: the
-//! frequency is still extremal there, but it is a corner, not a smooth fold, and with
-//! sampled quadrature it may be an artefact of the sampling (zig-zags near grazing).
+//! (each evaluation a corrector solve; docs/theory.md (T76)). A sign change that does not
+//! close to a zero of `t_ω` — a jump of the tangent across a nonsmooth point of the
+//! residual, such as the kinks that sampled quadrature produces — is reported with
+//! `at_kink = true`: the frequency is still extremal there, but it is a corner, not a
+//! smooth fold, and with sampled quadrature it may be an artefact of the sampling
+//! (zig-zags near grazing).
 
 mod branch;
 mod corrector;

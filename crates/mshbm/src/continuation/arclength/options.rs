@@ -4,8 +4,9 @@ use crate::error::{Error, Result};
 use crate::newton::NewtonOptions;
 
 /// Settings of the continuation. Step sizes are in the scaled arclength (dimensionless,
-/// METHODS §7.1). What the continuation may assume about the residual is not a setting: the
-/// method declares it ([`crate::problem::PeriodicProblem::continuation_policy`]).
+/// docs/theory.md (T72), (T75)). What the continuation may assume about the residual is not
+/// a setting: the method declares it
+/// ([`crate::problem::PeriodicProblem::continuation_policy`]).
 #[derive(Clone, Debug)]
 pub struct ContinuationOptions {
     /// Start frequency (rad/s; positive, finite).

@@ -1,13 +1,14 @@
 //! Predictor: the unit tangent of the branch, oriented along the secant of the last step, and
-//! the point ahead along it (METHODS §7.1).
+//! the point ahead along it (docs/theory.md (T73)–(T74)).
 
 use super::scaled::{bordered, dot, normalized, solve_bordered, Scaling};
 use crate::error::Result;
 use crate::problem::PeriodicProblem;
 
-/// Unit tangent at `(x, ω)`, solved from `[R_X; previousᵀ] t = [0; 1]` and oriented so that
-/// `t · direction > 0` (`direction`: the previous tangent, or better the secant of the last
-/// step, which stays a valid orientation across sharp turns).
+/// Unit tangent at `(x, ω)` (docs/theory.md (T73)), solved from
+/// `[R_X; previousᵀ] t = [0; 1]` and oriented so that `t · direction > 0` (`direction`: the
+/// previous tangent, or better the secant of the last step, which stays a valid orientation
+/// across sharp turns).
 pub(super) fn tangent<P: PeriodicProblem + ?Sized>(
     problem: &mut P,
     sc: &Scaling,

@@ -1,5 +1,5 @@
 //! Scaled unknowns and the bordered system `[R_X; cᵀ]` shared by the predictor, the
-//! corrector and the fallbacks (METHODS §7.1).
+//! corrector and the fallbacks (docs/theory.md (T72)–(T73)).
 
 use faer::Mat;
 
@@ -26,10 +26,10 @@ pub(super) fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
     a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
-/// Scaled unknowns `X = [x / ℓ; ln(ω / ω_ref)]`: displacements relative to the problem's
-/// length scale, frequency as a relative (logarithmic) change, so that the weight of the
-/// frequency in the arclength is the same at 1 kHz and at 100 kHz and does not depend on
-/// where the sweep started.
+/// Scaled unknowns `X = [x / ℓ; ln(ω / ω_ref)]` (docs/theory.md (T72)): displacements
+/// relative to the problem's length scale, frequency as a relative (logarithmic) change, so
+/// that the weight of the frequency in the arclength is the same at 1 kHz and at 100 kHz
+/// and does not depend on where the sweep started.
 pub(super) struct Scaling {
     /// `ℓ`, the problem's length scale.
     pub length: f64,

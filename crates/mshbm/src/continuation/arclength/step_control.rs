@@ -1,5 +1,5 @@
 //! Step control: the arclength step `Δs` after success and failure, its bounds, the turn
-//! check of an accepted point, and where the sweep ends (METHODS §7.1).
+//! check of an accepted point, and where the sweep ends (docs/theory.md (T75)).
 
 use super::branch::{BranchPoint, StopReason};
 use super::options::ContinuationOptions;
@@ -10,9 +10,9 @@ pub(super) fn shrink(ds: f64) -> f64 {
     ds * 0.5
 }
 
-/// The step after an accepted point: `Δs · clamp(N_opt / N_it, ½, 2)` within
-/// `[min_step, max_step]`, and no longer than `max_frequency_step` in `ln ω` along the
-/// point's tangent.
+/// The step after an accepted point: `Δs · clamp(N_opt / N_it, ½, 2)` (docs/theory.md
+/// (T75)) within `[min_step, max_step]`, and no longer than `max_frequency_step` in `ln ω`
+/// along the point's tangent.
 pub(super) fn next_step(ds: f64, point: &BranchPoint, options: &ContinuationOptions) -> f64 {
     let n = point.tangent.len() - 1;
     let ratio = options.optimal_iterations.max(1) as f64 / point.iterations.max(1) as f64;
