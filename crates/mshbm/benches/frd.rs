@@ -43,7 +43,7 @@ use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOption
 use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::hbm_aft::HbmAftOptions;
 use mshbm::method::settings::MethodSettings;
-use mshbm::method::shooting::GeneralOptions;
+use mshbm::method::general::GeneralOptions;
 use mshbm::{MassKind, Model};
 
 const HARMONICS: usize = 5;

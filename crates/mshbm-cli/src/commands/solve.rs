@@ -9,7 +9,7 @@ use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
 use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
-use mshbm::method::shooting::GeneralOptions;
+use mshbm::method::general::GeneralOptions;
 use mshbm::newton::NewtonOptions;
 use mshbm::solution::{MethodKind, PeriodicSolution};
 use mshbm::solve::{solve_periodic, SolveSettings, Solved};

@@ -1,10 +1,10 @@
 //! Periodic-solution methods, each an implementor of [`crate::problem::PeriodicProblem`].
 
+pub mod general;
 pub mod hbm_aft;
 pub(crate) mod partition;
 pub mod redistributed;
 pub mod settings;
-pub mod shooting;
 
 use faer::c64;
 

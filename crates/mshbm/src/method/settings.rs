@@ -6,7 +6,7 @@
 
 use super::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use super::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use super::shooting::{GeneralMsHbm, GeneralOptions};
+use super::general::{GeneralMsHbm, GeneralOptions};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::problem::PeriodicProblem;
