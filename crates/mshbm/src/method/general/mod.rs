@@ -1,23 +1,24 @@
-//! The general MS-HBM (paper Section 2, eqs. 1–13; METHODS §3.4): the linear subsystem in
-//! the frequency domain, the nonlinear subsystem — the DOFs the set-valued laws act on, with
-//! their mass — integrated over one period by Moreau–Jean time stepping with impacts and
-//! Coulomb friction ([`crate::integrate`]), and Newton with a finite-difference Jacobian.
+//! The general MS-HBM (paper Section 2, eqs. 1–13; docs/theory.md §8, (T56)–(T66)): the
+//! linear subsystem in the frequency domain, the nonlinear subsystem — the DOFs the
+//! set-valued laws act on, with their mass — integrated over one period by Moreau–Jean time
+//! stepping with impacts and Coulomb friction ([`crate::integrate`]), and Newton with a
+//! finite-difference Jacobian. The CLI (`--method mshbm`) and the outputs (JSON
+//! `"method": "mshbm"`, [`crate::solution::MethodKind::General`]) call this method `mshbm`.
 //!
 //! **Partition.** `N` = all DOFs of the nodes that carry a contact or a friction DOF
 //! ([`System::nonlinear_dofs`], [`crate::model::Model::nonlinear_nodes`]), `L` = the rest.
 //! The *consistent* mass is used ([`MassKind::Consistent`]); damping may act on `N`
 //! (`C_NN ≠ 0` is fine here, unlike the redistributed method).
 //!
-//! **Unknowns** (eq. 11): `x = (q̂_N, q_N(0), q̇_N(0)/ω)`, harmonic-major `q̂_N` (coefficient
-//! `c` of N-DOF `i` at `c·n_N + i`), then `n_N` displacements and `n_N` velocities divided
-//! by ω, so that every unknown is a length. (With the velocities themselves, `|q̇| ≈ ω |q|`
-//! ≈ 1e5 |q| on the bar, the velocity components dominated the scaled arclength of the
-//! continuation, whose steps then advanced the frequency by hundredths of a hertz.)
+//! **Unknowns** (eq. 11, docs/theory.md (T56)): `x = (q̂_N, q_N(0), q̇_N(0)/ω)`,
+//! harmonic-major `q̂_N` (coefficient `c` of N-DOF `i` at `c·n_N + i`), then `n_N`
+//! displacements and `n_N` velocities divided by ω, so that every unknown is a length.
 //!
-//! **Residual** (eq. 12), per evaluation:
-//! 1. eq. (6): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex per-harmonic dynamic
-//!    stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` (factored once per
-//!    frequency, [`crate::linear::ExactCondensation`]) and `z_k = a_k − i b_k`. The load of eq. (10) on `N` is affine in `x`:
+//! **Residual** (eq. 12, docs/theory.md (T57), (T58)), per evaluation (`period.rs`):
+//! 1. eq. (6), docs/theory.md (T17): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex
+//!    per-harmonic dynamic stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` (factored once per
+//!    frequency, [`crate::linear::ExactCondensation`]) and `z_k = a_k − i b_k`. The load of
+//!    eq. (10) on `N` is affine in `x` (docs/theory.md (T20)):
 //!    `F_k = f_N,k − H_NL,k q̂_L,k = f_N,k − u0_k + G_k z_k`,
 //!    `G_k = H_NL,k A_k⁻¹ H_LN,k`, `u0_k = H_NL,k A_k⁻¹ f_L,k` (precomputed per frequency;
 //!    this contains `M_NL q̈_L + C_NL q̇_L + K_NL q_L` with the derivatives of `q_L` taken
@@ -25,105 +26,69 @@
 //! 2. eq. (10): `M_NN q̈_N + C_NN q̇_N + K_NN q_N = F(t) + W λ` is integrated from
 //!    `(q_N(0), q̇_N(0))` over `[0, T]` with `N_s` Moreau–Jean steps (θ-scheme, Newton impact
 //!    law with restitution `e_N`, Coulomb friction), `F(t)` being a periodic load
-//!    ([`Integrator::set_periodic_load`]);
+//!    ([`crate::integrate::Integrator::set_periodic_load`]);
 //! 3. `R = [q̂_N − DFT(q_N(t_j)); q_N(T) − q_N(0); (q̇_N(T) − q̇_N(0))/ω]` with the DFT over
 //!    the step grid `t_j = jT/N_s` (the velocity block is divided by ω so that all blocks are
 //!    lengths, as Newton's tolerance is relative to a length).
 //!
-//! **Jacobian**: forward differences, columns in parallel (rayon); the per-column work
-//! takes `&self` (the frequency data is shared read-only, each column builds its own small
-//! N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)` (`ε` = [`GeneralOptions::fd_step`],
-//! default 1e-6) with `s` the length scale. `∂R/∂ω` also by a forward difference. The map
-//! is piecewise affine (impacts with `e_N = 0` and the anticipating index set, Coulomb
-//! friction) and continuous (up to the row switch of the stuck-friction selection below).
+//! **Jacobian** (docs/theory.md (T65)): forward differences, columns in parallel (rayon);
+//! the per-column work takes `&self` (the frequency data is shared read-only, each column
+//! builds its own small N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)`
+//! (`ε` = [`GeneralOptions::fd_step`], default 1e-6) with `s` the length scale. `∂R/∂ω` also
+//! by a forward difference. The map is piecewise affine (impacts with `e_N = 0` and the
+//! anticipating index set, Coulomb friction) and continuous (up to the row switch of the
+//! stuck-friction selection below).
 //!
-//! **Stuck friction**: when a friction element sticks at every step, every constant
-//! position in its stick range is a periodic solution and the Jacobian is singular; the
-//! residual then selects the member with zero mean friction force (`stuck_frictions`).
+//! **Stuck friction** (docs/theory.md (T64), `friction.rs`): when a friction element sticks
+//! at every step, every constant position in its stick range is a periodic solution and
+//! the Jacobian is singular; the residual then selects the member with zero mean friction
+//! force (`stuck_frictions`).
 //!
-//! **Floquet multipliers**: finite differences of the whole model's period map
-//! ([`PeriodicProblem::floquet`] below).
+//! **Floquet multipliers** (docs/theory.md (T83), `floquet.rs`): finite differences of the
+//! whole model's period map ([`PeriodicProblem::floquet`] below).
 //!
-//! **Newton on the bar with impacts** (examples/clamped_bar_impact.toml, H = 10, 1024
-//! steps, from the linear response; measured, see tests/general_mshbm.rs):
-//! * Without the position projection ([`GeneralOptions::project_contacts`]) a persistent
-//!   contact keeps the penetration `h(1−θ)U` of its impact step — a saw-tooth of the
-//!   impact time, with slope jumps of order one at every step boundary, that enters every
-//!   position of the contact phase. Newton stalled at ≈ 6e-4 (30 kHz) and 6e-3 (60 kHz)
-//!   relative to the gap. With the projection the map has no such saw-tooth in the
-//!   positions and Newton ends in the solution's affine piece (finite termination): 60 kHz
-//!   converges to 3e-13 in 28 iterations, 90 kHz to 1e-13 in 6.
-//! * With the velocity unknowns in m/s instead of `q̇/ω`, the continuation's scaled
-//!   arclength was dominated by them: 5000 points advanced 85 → 85.2 kHz. (With them as
-//!   `q̇/ω`, 85–95 kHz took 234 points before the continuation refused far-travelling
-//!   correctors; see the last item.)
-//! * What remains: after a release the contact DOF rings at the local frequency of the
-//!   N-subsystem, `√(K_NN/M_NN)/2π` ≈ 6.7 MHz for the bar (above `Hω` the harmonically
-//!   truncated L DOFs act as clamped), i.e. 4.6 steps per local period at 30 kHz. The
-//!   ringing is started by the drop of the contact force to zero within one step at the
-//!   release (amplitude ≈ `λ_last/K_NN` ≈ 1e-5 mm), so its amplitude is again a saw-tooth
-//!   of the release time, and it re-touches the support (micro-impacts near grazing). At
-//!   30 kHz Newton stalls at ≈ 1e-4 (1024 steps) or 5e-6 (512 steps) and the FRD branch
-//!   stops at such corners near 22.8 and 29.5 kHz; at 45 and 75 kHz Newton from the
-//!   linear response stalls at 4e-2 and 2e-2 (continuation from a converged neighbour is
-//!   the fallback). A finer step does not cure it (4096 steps: 1e-4 at 30 kHz); resolving
-//!   the local mode would need ≈ 20 steps per local period. Neither θ = 0.55/0.6
-//!   (numerical damping of the ringing) nor a larger finite-difference step (1e-4…1e-2)
-//!   lowers the 30 kHz stall (measured: 2.5e-5…5.7e-3); `fd_step` 1e-3 does converge at
-//!   75 kHz from the linear response (22 iterations, min −2.074 mm against −2.042 mm of a
-//!   full-system simulation) where 1e-6 stalls at 1.6e-2. At 45 kHz the full-system
-//!   simulation settles to a period-3 response: there is no stable `T`-periodic solution
-//!   to converge to.
-//! * **Frequency response diagrams** (`frf --method mshbm`). The
-//!   discrete period map is piecewise affine with pieces at the scale of one time step
-//!   (each switch of stick/slip or contact status moving by one step is a new piece), so
-//!   a branch is a staircase of corners ≈ 1e-7 apart in the continuation's scaled
-//!   arclength, and the Newton noise of a converged point is of the same size (one more
-//!   correction moves it by 2.6e-8 at the 86.17 kHz fold of the bar). The continuation
-//!   (built for the smooth residual of the redistributed method) refuses correctors that
-//!   travel more than half the step, so where the step shrinks to that scale it stops.
-//!   Measured (H = 5, bar with impacts, default settings): 1 → 100 kHz stops at 14.89 kHz,
-//!   85 → 95 kHz at the fold at 86.17 kHz, 60 → 100 kHz at 62.81 kHz; the friction
-//!   oscillator 2 → 40 Hz (H = 10) at 2.409 Hz, where each accepted point meets a 39°
-//!   corner. Tried and rejected (it made other ranges worse or crawled: 6789 points within
-//!   3e-5 Hz): a travel allowance from the point's estimated error or a fixed floor, and
-//!   corner escapes that accept backward turns. What works where Newton at a fixed
-//!   frequency converges: stepping in frequency past the corners
-//!   ([`crate::problem::ArclengthFallback::StepInFrequency`], this method's continuation
-//!   policy): the friction oscillator 2 → 40 Hz (H = 10) then reaches the end
-//!   (1318 points, 26 by frequency stepping, 2 min 14 s on 2 cores), 6 → 7 Hz (H = 5, 256
-//!   steps) agrees with time integration within 0.6 % (tests/general_mshbm.rs). Such steps
-//!   cannot turn at folds, and on the bar with impacts the branch still stops (1 → 100 kHz
-//!   at 15.1 kHz, where Newton at fixed frequencies ahead does not converge either; 85 → 95
-//!   kHz turns back after the fold pair at 86.17 kHz). What would cure it is a residual that
-//!   is smooth between events — switching times located inside the step (event-driven
-//!   integration of the N-subsystem) instead of on the step grid.
-//! * Cost: every Newton iteration integrates the N-subsystem `dim + 2` times; each
-//!   residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
-//!   the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
-//!   is meant for.
+//! **Frequency response diagrams.** The discrete period map is piecewise affine with pieces
+//! one time step wide, so a branch is a staircase of corners; `frf` steps in frequency where
+//! the arclength step shrinks to them ([`crate::problem::ArclengthFallback::StepInFrequency`],
+//! this method's continuation policy; docs/theory.md (T77)).
+//!
+//! **Cost**: every Newton iteration integrates the N-subsystem `dim + 2` times; each
+//! residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
+//! the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
+//! is meant for.
+//!
+//! **Files**: this one holds the settings, the construction, the linear response and the
+//! [`PeriodicProblem`] implementation; `period.rs` the one-period integration of the
+//! N-subsystem and the residual; `friction.rs` the friction limits and the stuck-friction
+//! selection; `floquet.rs` the whole system's initial state and monodromy.
+//!
+//! Measurements and their history (why the position projection and the `q̇/ω` unknowns,
+//! what limits Newton and the FRD on the bar with impacts, what was tried and rejected):
+//! `docs/general-mshbm.md`.
+
+mod floquet;
+mod friction;
+mod period;
+
+pub use floquet::MAX_FLOQUET_DOFS;
+pub use period::Trajectory;
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use rayon::prelude::*;
 
 use super::partition::{DofLocation, Partition, SingularStiffness};
-use super::{check_dimension, complex_harmonic, fixed_response, n_dof_coefficients};
+use super::{check_dimension, fixed_response, n_dof_coefficients};
 use super::{periodic_solution, store_harmonic, SolutionParts};
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
-use crate::integrate::{Integrator, Scheme, Settings};
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
-use crate::model::{FrictionNormal, MassKind, Model, System, SystemContact, SystemFriction};
+use crate::model::{MassKind, Model, System, SystemContact, SystemFriction};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::Floquet;
-
-/// Largest system (DOFs) for which [`GeneralMsHbm`] computes Floquet multipliers: the
-/// monodromy is dense, `2n × 2n`, and costs `2n + 1` full-system period integrations.
-pub const MAX_FLOQUET_DOFS: usize = 1500;
 
 /// Default steps per period for `H` harmonics: `max(512, 32 (2H + 1))`.
 pub fn default_steps(harmonics: usize) -> usize {
@@ -143,14 +108,15 @@ pub struct GeneralOptions {
     /// Newton restitution coefficient `e_N ∈ [0, 1]` (default 0).
     pub restitution: f64,
     /// Use the anticipating index set of the Moreau–Jean scheme
-    /// ([`Integrator::set_contact_anticipation`], default `true`): with `e_N = 0` the
+    /// ([`crate::integrate::Integrator::set_contact_anticipation`], default `true`): with `e_N = 0` the
     /// period map is then continuous and Newton converges; with the plain index set it jumps
     /// on the step grid and Newton stalls at a small residual.
     pub anticipate_contacts: bool,
     /// Project the positions back onto `g ≥ 0` after each step
-    /// ([`Integrator::set_contact_projection`], default `true`): removes the penetration of
+    /// ([`crate::integrate::Integrator::set_contact_projection`], default `true`): removes the penetration of
     /// persistent contacts, whose saw-tooth dependence on the impact time within a step
-    /// otherwise stalls Newton at `≈ h |U| / g₀` (module docs).
+    /// otherwise stalls Newton at `≈ h |U| / g₀` (docs/theory.md (T62); measured in
+    /// docs/general-mshbm.md §1).
     pub project_contacts: bool,
     /// Relative finite-difference step `ε`: `h_j = ε · max(|x_j|, s_j)` (default 1e-6).
     /// Larger steps (1e-5…1e-4) average over the grid-level discontinuities of impacts.
@@ -170,25 +136,6 @@ impl GeneralOptions {
             project_contacts: true,
         }
     }
-}
-
-/// The time history of the nonlinear subsystem over one period for given unknowns.
-#[derive(Clone, Debug)]
-pub struct Trajectory {
-    /// `q_N` at the step times `t_j = jT/N_s`, `j = 0..N_s` (row `j`, N numbering).
-    pub displacement: Vec<Vec<f64>>,
-    /// `q̇_N` at the step times.
-    pub velocity: Vec<Vec<f64>>,
-    /// Contact gaps at the step times.
-    pub gaps: Vec<Vec<f64>>,
-    /// Contact forces (impulse / h) of the step ending at `t_j` (row 0: the last step of
-    /// the period, `t_{N_s} ≡ t_0`).
-    pub contact_forces: Vec<Vec<f64>>,
-    /// Friction forces (impulse / h), same convention.
-    pub friction_forces: Vec<Vec<f64>>,
-    /// State at `t = T`.
-    pub end_q: Vec<f64>,
-    pub end_v: Vec<f64>,
 }
 
 /// The general MS-HBM for one model.
@@ -353,186 +300,8 @@ impl GeneralMsHbm {
         Ok(())
     }
 
-    /// Coefficients (harmonic-major) of the load `F(t)` of eq. (10) on N for `q̂_N`.
-    fn load_coefficients(&self, fd: &dyn CondensedFrequency, x: &[f64]) -> Vec<f64> {
-        fd.interface_load_coefficients(x)
-    }
-
     fn check_x(&self, x: &[f64]) -> Result<()> {
         check_dimension(x, self.dimension())
-    }
-
-    /// Integrate the nonlinear subsystem over one period (eq. 10) from the state in `x`.
-    fn integrate(&self, fd: &dyn CondensedFrequency, x: &[f64]) -> Result<Trajectory> {
-        let n = self.n();
-        let nc = n_coefficients(self.harmonics);
-        let omega = fd.omega();
-        let period = 2.0 * std::f64::consts::PI / omega;
-        let ns = self.steps;
-        let mut it = Integrator::new(
-            &self.subsystem,
-            &Settings {
-                dt: period / ns as f64,
-                scheme: Scheme::MoreauJean {
-                    theta: self.theta,
-                    restitution: self.restitution,
-                },
-                omega: Some(omega),
-                energy_offset: 0.0,
-            },
-        )?;
-        it.set_contact_anticipation(self.anticipate);
-        it.set_contact_projection(self.project);
-        it.set_periodic_load(self.harmonics, self.load_coefficients(fd, x))?;
-        let q0 = &x[n * nc..n * nc + n];
-        let v0: Vec<f64> = x[n * nc + n..n * nc + 2 * n]
-            .iter()
-            .map(|v| v * omega)
-            .collect();
-        it.set_state(0.0, q0, &v0)?;
-        let mut tr = Trajectory {
-            displacement: Vec::with_capacity(ns),
-            velocity: Vec::with_capacity(ns),
-            gaps: Vec::with_capacity(ns),
-            contact_forces: vec![vec![]; ns],
-            friction_forces: vec![vec![]; ns],
-            end_q: vec![],
-            end_v: vec![],
-        };
-        for j in 0..ns {
-            tr.displacement.push(it.q().to_vec());
-            tr.velocity.push(it.v().to_vec());
-            tr.gaps.push(it.gaps().to_vec());
-            it.step()?;
-            let slot = (j + 1) % ns;
-            tr.contact_forces[slot] = it.forces().to_vec();
-            tr.friction_forces[slot] = it.friction_forces().to_vec();
-        }
-        tr.end_q = it.q().to_vec();
-        tr.end_v = it.v().to_vec();
-        Ok(tr)
-    }
-
-    fn residual_with(
-        &self,
-        fd: &dyn CondensedFrequency,
-        x: &[f64],
-    ) -> Result<(Vec<f64>, Trajectory)> {
-        let n = self.n();
-        let nc = n_coefficients(self.harmonics);
-        let tr = self.integrate(fd, x)?;
-        let sampling = Sampling::new(self.harmonics, self.steps);
-        let mut r = vec![0.0; n * (nc + 2)];
-        for i in 0..n {
-            let samples: Vec<f64> = tr.displacement.iter().map(|q| q[i]).collect();
-            let dft = sampling.dft(&samples);
-            for c in 0..nc {
-                r[c * n + i] = x[c * n + i] - dft[c];
-            }
-            r[nc * n + i] = tr.end_q[i] - x[nc * n + i];
-            r[(nc + 1) * n + i] = tr.end_v[i] / fd.omega() - x[(nc + 1) * n + i];
-        }
-        for (f, i) in self.stuck_frictions(&tr) {
-            // a continuum of periodic solutions (any stuck position): select the one with
-            // zero mean friction force instead of the (dependent) position periodicity
-            let fr = &self.subsystem.frictions[f];
-            let w_i: f64 = fr.w.iter().filter(|(d, _)| *d == i).map(|(_, w)| w).sum();
-            let mean = tr.friction_forces.iter().map(|p| p[f]).sum::<f64>() / self.steps as f64;
-            r[nc * n + i] = w_i * mean / self.stiffness_nn_diagonal[i];
-        }
-        Ok((r, tr))
-    }
-
-    /// Limit `μ F_N` or `μ λ_N` of friction element `f` in step row `j` of `tr`.
-    fn friction_limit(&self, tr: &Trajectory, f: usize, j: usize) -> f64 {
-        let fr = &self.subsystem.frictions[f];
-        match fr.normal {
-            FrictionNormal::Force(p) => fr.mu * p,
-            FrictionNormal::Contact(c) => fr.mu * tr.contact_forces[j][c].max(0.0),
-        }
-    }
-
-    /// Friction elements that stick in every step of `tr` (force strictly inside its
-    /// limit), each with the N-DOF of its largest direction entry. For such an element the
-    /// stuck position is undetermined: every constant position in the stick range is a
-    /// periodic solution, `q(T) − q(0)` is identically zero along that family and the
-    /// Jacobian is singular. [`Self::residual_with`] replaces that DOF's position
-    /// periodicity row by the mean friction force over the period (divided by `K_ii`, a
-    /// length): the selected member is the one whose stuck position the linear part alone
-    /// determines (the friction force then only balances the oscillating part, and the
-    /// mean position is that of the friction-free static response).
-    fn stuck_frictions(&self, tr: &Trajectory) -> Vec<(usize, usize)> {
-        let mut out: Vec<(usize, usize)> = Vec::new();
-        for (f, fr) in self.subsystem.frictions.iter().enumerate() {
-            let stuck = (0..self.steps).all(|j| {
-                let limit = self.friction_limit(tr, f, j);
-                limit > 0.0 && tr.friction_forces[j][f].abs() < limit * (1.0 - 1e-9)
-            });
-            let dof =
-                fr.w.iter()
-                    .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
-                    .map(|&(d, _)| d);
-            if let (true, Some(d)) = (stuck, dof) {
-                if !out.iter().any(|&(_, e)| e == d) {
-                    out.push((f, d));
-                }
-            }
-        }
-        out
-    }
-
-    /// Complex amplitudes `z_k` (`q_L(t) = Re Σ_k z_k e^{ikωt}`) of all L DOFs, `k = 0..=H`
-    /// (eq. 6).
-    fn linear_part_amplitudes(
-        &self,
-        fd: &dyn CondensedFrequency,
-        x: &[f64],
-    ) -> Result<Vec<Vec<c64>>> {
-        let n = self.n();
-        (0..=self.harmonics)
-            .map(|k| fd.linear_amplitudes(k, &complex_harmonic(x, n, k)))
-            .collect()
-    }
-
-    /// State `(q, q̇)` of the whole system (system numbering) at `t = 0` of the solution
-    /// `x`: the N part from `x`, the L part from its harmonics (eq. 6).
-    pub fn initial_state(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Vec<f64>)> {
-        self.check_x(x)?;
-        self.prepare(omega)?;
-        let fd = self.frequency.as_deref().expect("prepared");
-        self.full_initial_state(fd, x)
-    }
-
-    fn full_initial_state(
-        &self,
-        fd: &dyn CondensedFrequency,
-        x: &[f64],
-    ) -> Result<(Vec<f64>, Vec<f64>)> {
-        let n = self.n();
-        let nc = n_coefficients(self.harmonics);
-        let mut q = vec![0.0; self.system.n_dofs()];
-        let mut v = vec![0.0; self.system.n_dofs()];
-        for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
-            q[d] = x[nc * n + i];
-            v[d] = x[(nc + 1) * n + i] * fd.omega();
-        }
-        let z = self.linear_part_amplitudes(fd, x)?;
-        for (l, &d) in self.system.linear_dofs.iter().enumerate() {
-            for (k, zk) in z.iter().enumerate() {
-                q[d] += zk[l].re;
-                v[d] -= k as f64 * fd.omega() * zk[l].im;
-            }
-        }
-        Ok((q, v))
-    }
-
-    /// The trajectory of the nonlinear subsystem over one period for `x` at `ω`
-    /// (diagnostics: friction forces, contact forces, gaps).
-    pub fn trajectory(&mut self, x: &[f64], omega: f64) -> Result<Trajectory> {
-        self.check_x(x)?;
-        self.prepare(omega)?;
-        let fd = self.frequency.as_deref().expect("prepared");
-        self.integrate(fd, x)
     }
 
     /// Connectivity (`q̂_N − DFT`) and periodicity (`q_N(T) − q_N(0)`, `(q̇_N(T) −
@@ -583,92 +352,6 @@ impl GeneralMsHbm {
             x[(nc + 1) * n + i] = v / omega;
         }
         Ok(x)
-    }
-
-    /// The monodromy matrix used by [`PeriodicProblem::floquet`] (see there): forward
-    /// differences of the whole system's Moreau–Jean period map at the solution's initial
-    /// state, in the scaled state `(q, q̇/ω)` of the DOFs with mass (system numbering),
-    /// `2n × 2n`.
-    pub fn monodromy(&mut self, x: &[f64], omega: f64) -> Result<Mat<f64>> {
-        self.check_x(x)?;
-        self.prepare(omega)?;
-        let n_dofs = self.system.n_dofs();
-        if n_dofs > MAX_FLOQUET_DOFS {
-            return Err(Error::argument(
-                "stability",
-                format!("the model has {n_dofs} DOFs; the dense monodromy of the general MS-HBM is limited to {MAX_FLOQUET_DOFS} (use --no-stability)"),
-            ));
-        }
-        let this = &*self;
-        let fd = this.frequency.as_deref().expect("prepared");
-        let (q0, v0) = this.full_initial_state(fd, x)?;
-        let steps = this.steps;
-        let settings = Settings {
-            dt: 2.0 * std::f64::consts::PI / omega / steps as f64,
-            scheme: Scheme::MoreauJean {
-                theta: this.theta,
-                restitution: this.restitution,
-            },
-            omega: Some(omega),
-            energy_offset: 0.0,
-        };
-        let new_integrator = || -> Result<Integrator> {
-            let mut it = Integrator::new(&this.system, &settings)?;
-            it.set_contact_anticipation(this.anticipate);
-            it.set_contact_projection(this.project);
-            Ok(it)
-        };
-        let mut first = new_integrator()?;
-        let massive = first.massive_dofs().to_vec();
-        let m = massive.len();
-        let period_map = |it: &mut Integrator, q: &[f64], v: &[f64]| -> Result<Vec<f64>> {
-            it.set_state(0.0, q, v)?;
-            for _ in 0..steps {
-                it.step()?;
-            }
-            Ok(massive
-                .iter()
-                .map(|&i| it.q()[i])
-                .chain(massive.iter().map(|&i| it.v()[i]))
-                .collect())
-        };
-        let base = period_map(&mut first, &q0, &v0)?;
-        let columns: Vec<Result<Vec<f64>>> = (0..2 * m)
-            .into_par_iter()
-            .map_init(
-                || None,
-                |slot: &mut Option<Integrator>, j| {
-                    if slot.is_none() {
-                        *slot = Some(new_integrator()?);
-                    }
-                    let it = slot.as_mut().expect("created");
-                    let (mut q, mut v) = (q0.clone(), v0.clone());
-                    let (target, scale) = if j < m {
-                        (&mut q[massive[j]], this.partition.length_scale())
-                    } else {
-                        (
-                            &mut v[massive[j - m]],
-                            this.partition.length_scale() * omega,
-                        )
-                    };
-                    let before = *target;
-                    *target += this.fd_step * before.abs().max(scale);
-                    let h = *target - before;
-                    let end = period_map(it, &q, &v)?;
-                    Ok(end.iter().zip(&base).map(|(a, b)| (a - b) / h).collect())
-                },
-            )
-            .collect();
-        // in the scaled state (q, q̇/ω): a similarity (same eigenvalues) that balances the
-        // blocks, so that the eigenvalues are computed accurately
-        let d = |i: usize| if i < m { 1.0 } else { omega };
-        let mut phi = Mat::<f64>::zeros(2 * m, 2 * m);
-        for (j, col) in columns.into_iter().enumerate() {
-            for (i, v) in col?.into_iter().enumerate() {
-                phi[(i, j)] = v * d(j) / d(i);
-            }
-        }
-        Ok(phi)
     }
 }
 
@@ -745,7 +428,7 @@ impl PeriodicProblem for GeneralMsHbm {
         })
     }
 
-    /// Floquet multipliers (METHODS §7.2) as the eigenvalues of the monodromy matrix of
+    /// Floquet multipliers (docs/theory.md (T79), (T83)) as the eigenvalues of the monodromy matrix of
     /// the **whole system's** period map — the state `(q, q̇)` of all DOFs at `t = 0` mapped
     /// to the state at `t = T` by the same Moreau–Jean integrator (same steps, θ, `e_N`,
     /// anticipation and projection) — by forward finite differences around the solution's
@@ -764,15 +447,12 @@ impl PeriodicProblem for GeneralMsHbm {
     /// fixed point of the *harmonically truncated* problem, not exactly of the full
     /// discrete map (the multipliers are those of the full map linearised at the orbit's
     /// initial state); near grazing the piece can be smaller than the step and the
-    /// multipliers unreliable (METHODS §7.2). So they describe the full model near the
-    /// orbit, not the H-truncated branch: on the bar with impacts at H = 5 the branch has a
-    /// fold pair at 86.17 / 86.27 kHz, yet no multiplier approaches +1 there (largest
-    /// |μ| ≈ 0.94 on all three parts), and full-system simulations started on the lower,
-    /// middle and upper orbits all settle to one and the same periodic state (contact-DOF
-    /// minimum −0.342 mm against −0.334 / −0.369 / −0.373 mm of the H = 5 orbits): the
-    /// full model has a single attractor there and the fold pair is a truncation effect. Cost: `2n + 1` period integrations of the
-    /// whole model and a dense `2n × 2n` eigenproblem (`n ≤` [`MAX_FLOQUET_DOFS`]) —
-    /// one reason the general method is expensive for FE models.
+    /// multipliers unreliable (docs/theory.md §11, caveats after (T83)). So they describe the
+    /// full model near the orbit, not the H-truncated branch: at a fold pair of the truncated
+    /// branch no multiplier need approach +1 (the bar with impacts at H = 5, measured in
+    /// docs/general-mshbm.md §5). Cost: `2n + 1` period integrations of the whole model and a
+    /// dense `2n × 2n` eigenproblem (`n ≤` [`MAX_FLOQUET_DOFS`]) — one reason the general
+    /// method is expensive for FE models.
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
         let phi = self.monodromy(x, omega)?;
         let values = phi
