@@ -40,9 +40,9 @@ use criterion::Criterion;
 use mshbm::harmonic::Quadrature;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
+use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
 use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::{MassKind, Model};
 

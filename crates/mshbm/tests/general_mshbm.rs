@@ -1,4 +1,4 @@
-//! The general MS-HBM (paper Section 2, METHODS §3.4) against independent references:
+//! The general MS-HBM (paper Section 2, docs/theory.md §8) against independent references:
 //! full-system Moreau–Jean time integration run to a periodic steady state, the linear
 //! response from a direct dense complex solve, and the friction limit.
 
@@ -12,8 +12,8 @@ use mshbm::continuation::arclength::BranchPoint;
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
-use mshbm::method::settings::MethodSettings;
 use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
+use mshbm::method::settings::MethodSettings;
 use mshbm::model::file::load_model;
 use mshbm::model::{Damping, Friction, FrictionNormal};
 use mshbm::newton::{solve_at_frequency, NewtonOptions};

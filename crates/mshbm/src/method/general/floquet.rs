@@ -62,9 +62,9 @@ impl GeneralMsHbm {
         Ok((q, v))
     }
 
-    /// The monodromy matrix used by [`crate::problem::PeriodicProblem::floquet`] (see there): forward
-    /// differences of the whole system's Moreau–Jean period map at the solution's initial
-    /// state, in the scaled state `(q, q̇/ω)` of the DOFs with mass (system numbering),
+    /// The monodromy matrix used by [`crate::problem::PeriodicProblem::floquet`] (see there):
+    /// forward differences of the whole system's Moreau–Jean period map at the solution's
+    /// initial state, in the scaled state `(q, q̇/ω)` of the DOFs with mass (system numbering),
     /// `2n × 2n`.
     pub fn monodromy(&mut self, x: &[f64], omega: f64) -> Result<Mat<f64>> {
         self.check_x(x)?;

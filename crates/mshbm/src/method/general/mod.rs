@@ -108,14 +108,14 @@ pub struct GeneralOptions {
     /// Newton restitution coefficient `e_N ∈ [0, 1]` (default 0).
     pub restitution: f64,
     /// Use the anticipating index set of the Moreau–Jean scheme
-    /// ([`crate::integrate::Integrator::set_contact_anticipation`], default `true`): with `e_N = 0` the
-    /// period map is then continuous and Newton converges; with the plain index set it jumps
-    /// on the step grid and Newton stalls at a small residual.
+    /// ([`crate::integrate::Integrator::set_contact_anticipation`], default `true`): with
+    /// `e_N = 0` the period map is then continuous and Newton converges; with the plain index
+    /// set it jumps on the step grid and Newton stalls at a small residual.
     pub anticipate_contacts: bool,
     /// Project the positions back onto `g ≥ 0` after each step
-    /// ([`crate::integrate::Integrator::set_contact_projection`], default `true`): removes the penetration of
-    /// persistent contacts, whose saw-tooth dependence on the impact time within a step
-    /// otherwise stalls Newton at `≈ h |U| / g₀` (docs/theory.md (T62); measured in
+    /// ([`crate::integrate::Integrator::set_contact_projection`], default `true`): removes the
+    /// penetration of persistent contacts, whose saw-tooth dependence on the impact time within
+    /// a step otherwise stalls Newton at `≈ h |U| / g₀` (docs/theory.md (T62); measured in
     /// docs/general-mshbm.md §1).
     pub project_contacts: bool,
     /// Relative finite-difference step `ε`: `h_j = ε · max(|x_j|, s_j)` (default 1e-6).
@@ -428,9 +428,9 @@ impl PeriodicProblem for GeneralMsHbm {
         })
     }
 
-    /// Floquet multipliers (docs/theory.md (T79), (T83)) as the eigenvalues of the monodromy matrix of
-    /// the **whole system's** period map — the state `(q, q̇)` of all DOFs at `t = 0` mapped
-    /// to the state at `t = T` by the same Moreau–Jean integrator (same steps, θ, `e_N`,
+    /// Floquet multipliers (docs/theory.md (T79), (T83)) as the eigenvalues of the monodromy
+    /// matrix of the **whole system's** period map — the state `(q, q̇)` of all DOFs at `t = 0`
+    /// mapped to the state at `t = T` by the same Moreau–Jean integrator (same steps, θ, `e_N`,
     /// anticipation and projection) — by forward finite differences around the solution's
     /// initial state ([`Self::initial_state`]), columns in parallel (rayon).
     ///

@@ -5,8 +5,8 @@ use super::HbmAft;
 use crate::error::Result;
 
 impl HbmAft {
-    /// Newton iterations spent by the last [`crate::problem::PeriodicProblem::initial_guess`] (the penalty
-    /// homotopy; 0 when it returned the linear response).
+    /// Newton iterations spent by the last [`crate::problem::PeriodicProblem::initial_guess`]
+    /// (the penalty homotopy; 0 when it returned the linear response).
     pub fn guess_iterations(&self) -> usize {
         self.guess_iterations
     }

@@ -37,15 +37,15 @@
 //! `x − FFT(q_N)` is a displacement: with the redistributed mass and no contact the two
 //! residuals of the bar are identical (`x − q_N(x) = K_NN⁻¹ × force residual`).
 //!
-//! **Jacobian** (analytic, docs/theory.md (T53)): `∂R/∂x = (H̃ + Σ_A Γ_A ⊗ K_A) / k_ref`, where
-//! `H̃` acts per harmonic as the real block `[[Re H̃_k, Im H̃_k], [−Im H̃_k, Re H̃_k]]`, the
-//! samples are grouped by their set `A` of penetrating contacts, `Γ_A` is the DFT Gram
+//! **Jacobian** (analytic, docs/theory.md (T53)): `∂R/∂x = (H̃ + Σ_A Γ_A ⊗ K_A) / k_ref`,
+//! where `H̃` acts per harmonic as the real block `[[Re H̃_k, Im H̃_k], [−Im H̃_k, Re H̃_k]]`,
+//! the samples are grouped by their set `A` of penetrating contacts, `Γ_A` is the DFT Gram
 //! block of the group (`E_dft diag(1_A) E_idft`, [`Sampling::add_sample_gram`]) and
-//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ`. A sample with `g = 0` counts as open (derivative 0). **Frequency derivative**:
-//! `∂R_k/∂ω = (∂A_NN z + ∂A_NL q̂_L + A_NL ∂q̂_L) / k_ref` with
+//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ`. A sample with `g = 0` counts as open (derivative 0).
+//! **Frequency derivative**: `∂R_k/∂ω = (∂A_NN z + ∂A_NL q̂_L + A_NL ∂q̂_L) / k_ref` with
 //! `∂q̂_L = −A_LL⁻¹ (∂A_LL q̂_L + ∂A_LN z)` and `∂A/∂ω = −2k²ω M + i k C` (one sparse
-//! solve per harmonic) — equal to `∂H̃/∂ω z − ∂F̃/∂ω` of docs/theory.md (T24), (T54) without forming
-//! `∂H̃/∂ω`. The contact force does not depend on ω (sampled in `τ = ωt`).
+//! solve per harmonic) — equal to `∂H̃/∂ω z − ∂F̃/∂ω` of docs/theory.md (T24), (T54)
+//! without forming `∂H̃/∂ω`. The contact force does not depend on ω (sampled in `τ = ωt`).
 //!
 //! **Penalty.** `k_p` is either given (force per length, every contact) or a multiple of
 //! the contact's own stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` (so that `k_p w_c w_cᵀ`
