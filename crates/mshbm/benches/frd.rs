@@ -41,9 +41,9 @@ use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::harmonic::Quadrature;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
+use mshbm::method::general::GeneralOptions;
 use mshbm::method::hbm_aft::HbmAftOptions;
 use mshbm::method::settings::MethodSettings;
-use mshbm::method::shooting::GeneralOptions;
 use mshbm::{MassKind, Model};
 
 const HARMONICS: usize = 5;

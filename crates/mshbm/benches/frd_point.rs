@@ -19,7 +19,7 @@
 //! The resolution of each method is chosen in the setup, before timing: the smallest `H` (or
 //! steps per period) of a ladder that meets the tolerance. The general MS-HBM is not
 //! calibrated (one solve costs seconds and its Newton often stalls at a small residual with
-//! impacts, see `method/shooting.rs`): it runs with H = 10, 256 steps, tolerance 1e-5, and its
+//! impacts, see `method/general/`): it runs with H = 10, 256 steps, tolerance 1e-5, and its
 //! error is printed as measured.
 //!
 //! **Timed**: one cold solve at the frequency, from each method's own start (the linear
@@ -40,9 +40,9 @@ use criterion::Criterion;
 use mshbm::harmonic::Quadrature;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
+use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
 use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::{MassKind, Model};
 

@@ -1,4 +1,4 @@
-//! The general MS-HBM (paper Section 2, METHODS §3.4) against independent references:
+//! The general MS-HBM (paper Section 2, docs/theory.md §8) against independent references:
 //! full-system Moreau–Jean time integration run to a periodic steady state, the linear
 //! response from a direct dense complex solve, and the friction limit.
 
@@ -12,8 +12,8 @@ use mshbm::continuation::arclength::BranchPoint;
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
+use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
 use mshbm::method::settings::MethodSettings;
-use mshbm::method::shooting::{GeneralMsHbm, GeneralOptions};
 use mshbm::model::file::load_model;
 use mshbm::model::{Damping, Friction, FrictionNormal};
 use mshbm::newton::{solve_at_frequency, NewtonOptions};
@@ -325,7 +325,7 @@ fn without_active_nonlinearity_equals_the_linear_response() {
 /// general MS-HBM agrees with full-system Moreau–Jean integration within 3 % on the
 /// contact DOF's max and min at 30 and 90 kHz, where the simulation becomes periodic.
 /// Newton converges to 1e-10 at 90 kHz; at 30 kHz the contact DOF chatters after each
-/// release (the N-subsystem's local mode, see the module docs of `method::shooting`) and
+/// release (the N-subsystem's local mode, see the module docs of `method::general`) and
 /// 1e-4 is what is attainable.
 ///
 /// The simulation uses θ = 0.6: with θ = ½ (trapezoidal rule) the stiff, overdamped high
@@ -752,7 +752,7 @@ fn floquet_verdict_agrees_with_time_integration_on_the_orbit() {
 
 /// `frf --method mshbm` on the friction oscillator across its first resonance (6–7 Hz,
 /// H = 5, 256 steps): the arclength continuation alone stops at the step-wide corners of
-/// the time-stepped residual (module docs of `method::shooting`); with frequency stepping (the
+/// the time-stepped residual (module docs of `method::general`); with frequency stepping (the
 /// method's continuation policy) the branch reaches the end, every point is a solution of a
 /// fresh problem, the points cover the range without holes wider than two frequency steps,
 /// and the branch agrees with full-system Moreau–Jean integration run to steady state within

@@ -1,4 +1,4 @@
-//! The HBM-AFT baseline with penalty contact (METHODS §6; the paper's Fig. 11) against
+//! The HBM-AFT baseline with penalty contact (docs/theory.md §7; the paper's Fig. 11) against
 //! independent references: central finite differences for the Jacobian and the frequency
 //! derivative, a direct dense complex solve of the full system and the MS-HBM without
 //! contact, the uncondensed harmonic balance of the full system at a contact solution, and

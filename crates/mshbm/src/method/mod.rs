@@ -1,10 +1,10 @@
 //! Periodic-solution methods, each an implementor of [`crate::problem::PeriodicProblem`].
 
+pub mod general;
 pub mod hbm_aft;
 pub(crate) mod partition;
 pub mod redistributed;
 pub mod settings;
-pub mod shooting;
 
 use faer::c64;
 
@@ -35,7 +35,8 @@ pub(crate) fn check_resolution(harmonics: usize, samples: usize, what: &str) -> 
 }
 
 /// A default time resolution for `H` harmonics: `max(at_least, per_coefficient (2H + 1))`
-/// samples or steps per period, far above the `2H + 1` needed (METHODS §0: resolve the
+/// samples or steps per period, far above the `2H + 1` needed (docs/theory.md (T10) and §6,
+/// (T44): resolve the
 /// nonsmooth time signal, not just the harmonics).
 pub(crate) fn default_resolution(
     harmonics: usize,
@@ -126,7 +127,8 @@ pub(crate) fn fixed_response(dof: usize, harmonics: usize) -> DofResponse {
 }
 
 /// The Fourier coefficients `[a0, a1, b1, …]` of `N`-DOF `i` in the harmonic-major
-/// unknowns `x` (coefficient `c` at `c·n + i`, METHODS §0; `n` = number of `N` DOFs).
+/// unknowns `x` (coefficient `c` at `c·n + i`, docs/theory.md (T8); `n` = number of `N`
+/// DOFs).
 pub(crate) fn n_dof_coefficients(x: &[f64], n: usize, harmonics: usize, i: usize) -> Vec<f64> {
     (0..n_coefficients(harmonics))
         .map(|c| x[c * n + i])

@@ -1,4 +1,5 @@
-//! The `L | N` partition as the periodic-solution methods use it (METHODS §0, paper eqs. 3
+//! The `L | N` partition as the periodic-solution methods use it (docs/theory.md §1, (T3),
+//! (T6); paper eqs. 3
 //! and 23): where each system DOF sits in `N` (the DOFs the set-valued laws act on) or `L`,
 //! the contact directions `W` in `N` numbering, and the length scale that Newton's
 //! tolerance and the continuation's scaling are relative to
@@ -109,7 +110,7 @@ impl Partition {
 }
 
 /// `W = ∂g/∂q_N` (`n_N × n_c`, row-major): the contact directions of `system` in `N`
-/// numbering (METHODS §0).
+/// numbering (docs/theory.md (T3)).
 pub(crate) fn contact_directions(system: &System) -> Vec<f64> {
     let n = system.nonlinear_dofs.len();
     let nc = system.contacts.len();

@@ -4,9 +4,9 @@
 //! construction (the continuation policy comes with the problem,
 //! [`PeriodicProblem::continuation_policy`]).
 
+use super::general::{GeneralMsHbm, GeneralOptions};
 use super::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use super::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use super::shooting::{GeneralMsHbm, GeneralOptions};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::problem::PeriodicProblem;

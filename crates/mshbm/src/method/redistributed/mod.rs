@@ -12,7 +12,7 @@
 //!
 //! Per evaluation: the static contact problem (eqs. 26–29) is solved per sample or per
 //! interval ([`quadrature`]), giving `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`. The
-//! semi-analytical Jacobian (eqs. 32–44; METHODS §5) is
+//! semi-analytical Jacobian (eqs. 32–44; docs/theory.md (T41)–(T42)) is
 //! `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`, where `∂B/∂x` is block-diagonal per harmonic
 //! (`[[Re G_k, Im G_k], [−Im G_k, Re G_k]]`), and
 //! `∂R/∂ω = −Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂ω` with
@@ -340,7 +340,8 @@ impl RedistributedMsHbm {
 }
 
 impl PeriodicProblem for RedistributedMsHbm {
-    /// Exact Jacobian of a residual that is smooth between grazing events (METHODS §5):
+    /// Exact Jacobian of a residual that is smooth between grazing events (docs/theory.md
+    /// (T41)–(T42)):
     /// Newton contracts quadratically; the branch has isolated corners at grazing contacts.
     fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
         crate::problem::ContinuationPolicy {
@@ -472,7 +473,7 @@ impl PeriodicProblem for RedistributedMsHbm {
         ))
     }
 
-    /// Floquet multipliers (METHODS §7.2, derived): condensing the static contact
+    /// Floquet multipliers (docs/theory.md (T80)–(T82), derived): condensing the static contact
     /// subsystem leaves the linear time-periodic system `M̄ q̈_L + C q̇_L + K_eff(t) q_L = 0`
     /// with `K_eff = K_LL − K_LN P_A(t) K_NL`, piecewise constant between the switching
     /// times; its vector field is continuous, so no saltation terms. The monodromy is the

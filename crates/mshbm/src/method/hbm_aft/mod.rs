@@ -1,9 +1,9 @@
 //! Classical harmonic balance with the alternating frequency–time method (AFT, Cameron &
-//! Griffin 1989) and penalty contact (METHODS §6): the baseline of the paper's Fig. 11, the
+//! Griffin 1989) and penalty contact (docs/theory.md §7): the baseline of the paper's Fig. 11, the
 //! method users of NLvib and pyHarm know.
 //!
 //! **Unknowns** are the Fourier coefficients `x = q̂_N` of the DOFs of the contact nodes,
-//! harmonic-major as everywhere (METHODS §0), exactly as for the redistributed MS-HBM, so
+//! harmonic-major as everywhere (docs/theory.md (T8)), exactly as for the redistributed MS-HBM, so
 //! the length scale, the response DOF and [`PeriodicSolution`] mean the same. Unlike the
 //! MS-HBM, `q_N(τ)` *is* the truncated series here.
 //!
@@ -37,15 +37,15 @@
 //! `x − FFT(q_N)` is a displacement: with the redistributed mass and no contact the two
 //! residuals of the bar are identical (`x − q_N(x) = K_NN⁻¹ × force residual`).
 //!
-//! **Jacobian** (analytic, METHODS §6): `∂R/∂x = (H̃ + Σ_A Γ_A ⊗ K_A) / k_ref`, where
-//! `H̃` acts per harmonic as the real block `[[Re H̃_k, Im H̃_k], [−Im H̃_k, Re H̃_k]]`, the
-//! samples are grouped by their set `A` of penetrating contacts, `Γ_A` is the DFT Gram
+//! **Jacobian** (analytic, docs/theory.md (T53)): `∂R/∂x = (H̃ + Σ_A Γ_A ⊗ K_A) / k_ref`,
+//! where `H̃` acts per harmonic as the real block `[[Re H̃_k, Im H̃_k], [−Im H̃_k, Re H̃_k]]`,
+//! the samples are grouped by their set `A` of penetrating contacts, `Γ_A` is the DFT Gram
 //! block of the group (`E_dft diag(1_A) E_idft`, [`Sampling::add_sample_gram`]) and
-//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ`. A sample with `g = 0` counts as open (derivative 0). **Frequency derivative**:
-//! `∂R_k/∂ω = (∂A_NN z + ∂A_NL q̂_L + A_NL ∂q̂_L) / k_ref` with
+//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ`. A sample with `g = 0` counts as open (derivative 0).
+//! **Frequency derivative**: `∂R_k/∂ω = (∂A_NN z + ∂A_NL q̂_L + A_NL ∂q̂_L) / k_ref` with
 //! `∂q̂_L = −A_LL⁻¹ (∂A_LL q̂_L + ∂A_LN z)` and `∂A/∂ω = −2k²ω M + i k C` (one sparse
-//! solve per harmonic) — equal to `∂H̃/∂ω z − ∂F̃/∂ω` of METHODS §6 without forming
-//! `∂H̃/∂ω`. The contact force does not depend on ω (sampled in `τ = ωt`).
+//! solve per harmonic) — equal to `∂H̃/∂ω z − ∂F̃/∂ω` of docs/theory.md (T24), (T54)
+//! without forming `∂H̃/∂ω`. The contact force does not depend on ω (sampled in `τ = ωt`).
 //!
 //! **Penalty.** `k_p` is either given (force per length, every contact) or a multiple of
 //! the contact's own stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` (so that `k_p w_c w_cᵀ`
@@ -77,8 +77,17 @@
 //! non-harmonic `q_N(t)` (for the bar `min(q_99(t), g0)`); on the gap-0 bar at 60 kHz the
 //! min displacement of the contact DOF differs by 2.1 % at `H = 5` and 0.7 % at `H = 10`
 //! (see `tests/hbm_aft.rs`). Any damping is accepted (the contact DOFs need not be static).
+//!
+//! **Files**: this one holds the settings, the construction, the residual, the Jacobian,
+//! the linear response and the [`PeriodicProblem`] implementation; `penalty.rs` the penalty
+//! law at the samples and its exact quadrature between penetration times (the contact
+//! state, the penalty groups, the penetration); `homotopy.rs` the penalty homotopy of the
+//! initial guess.
 
-use std::collections::HashMap;
+mod homotopy;
+mod penalty;
+
+use penalty::{ContactState, PenaltyGroup};
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
@@ -87,16 +96,12 @@ use super::partition::{contact_directions, DofLocation, Partition, SingularStiff
 use super::{check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution};
 use super::{store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
-use crate::harmonic::{
-    add_interval_gram, basis_derivative, evaluate, n_coefficients, polynomial_extremum, Quadrature,
-    Sampling,
-};
+use crate::harmonic::{n_coefficients, polynomial_extremum, Quadrature, Sampling};
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
-use crate::roots::find_sign_change;
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 
 /// Default penalty stiffness as a multiple of the contact's own stiffness
@@ -164,26 +169,6 @@ struct FrequencyData {
     htilde: Vec<Mat<c64>>,
     /// `F̃_k = F_N,k − u0_k` (`n`).
     ftilde: Vec<Vec<c64>>,
-}
-
-/// Contact state of the samples at one `x`.
-struct ContactState {
-    /// Penalty force `λ_c(τ_j)` (`j·n_c + c`).
-    force: Vec<f64>,
-    /// Gap `g_c(τ_j)` (`j·n_c + c`).
-    gap: Vec<f64>,
-    /// `q_N(τ_j)` (`j·n + i`).
-    displacement: Vec<f64>,
-}
-
-/// Samples (sampled quadrature) or intervals (exact) over which the same penalty springs act:
-/// the penalty force there is `−K_A q_N − s_A`, and its Fourier coefficients `−(Γ_A ⊗ K_A) x −
-/// Γ_A[:,0] ⊗ s_A`.
-struct PenaltyGroup {
-    /// `Γ_A` (`(2H+1)²`, row-major).
-    gram: Vec<f64>,
-    /// `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ` (`n × n`, row-major).
-    stiffness: Vec<f64>,
 }
 
 /// Classical HBM with AFT and penalty contact for one model.
@@ -354,45 +339,6 @@ impl HbmAft {
         Ok(())
     }
 
-    /// The AFT: `q_N(τ_j)`, gaps and penalty forces at every sample.
-    fn contact_state(&self, x: &[f64]) -> ContactState {
-        let (n, nc, ns) = (self.n(), self.n_contacts(), self.sampling.len());
-        let mut displacement = vec![0.0; ns * n];
-        let mut gap = vec![0.0; ns * nc];
-        let mut force = vec![0.0; ns * nc];
-        for j in 0..ns {
-            let q = &mut displacement[j * n..(j + 1) * n];
-            self.sampling.synthesize_into(j, x, n, q);
-            for c in 0..nc {
-                let g = self.gap[c] + (0..n).map(|i| self.w[i * nc + c] * q[i]).sum::<f64>();
-                gap[j * nc + c] = g;
-                force[j * nc + c] = self.penalty[c] * (-g).max(0.0);
-            }
-        }
-        ContactState {
-            force,
-            gap,
-            displacement,
-        }
-    }
-
-    /// Fourier coefficients of the contact force on the N DOFs, `F̂_c = E_dft [W λ_j]`.
-    fn contact_force_coefficients(&self, state: &ContactState) -> Vec<f64> {
-        let (n, nc, ns) = (self.n(), self.n_contacts(), self.sampling.len());
-        let mut f = vec![0.0; ns * n];
-        for j in 0..ns {
-            for c in 0..nc {
-                let l = state.force[j * nc + c];
-                if l != 0.0 {
-                    for i in 0..n {
-                        f[j * n + i] += self.w[i * nc + c] * l;
-                    }
-                }
-            }
-        }
-        self.sampling.dft_set(&f, n)
-    }
-
     fn evaluate(
         &mut self,
         x: &[f64],
@@ -424,129 +370,6 @@ impl HbmAft {
         let s = 1.0 / self.reference_stiffness;
         r.iter_mut().zip(&fc).for_each(|(r, f)| *r = (*r - f) * s);
         Ok((r, state, groups))
-    }
-
-    /// `K_A` for a set of contacts.
-    fn penalty_stiffness(&self, active: impl Iterator<Item = usize>) -> Vec<f64> {
-        let (n, ncon) = (self.n(), self.n_contacts());
-        let mut ka = vec![0.0; n * n];
-        for c in active {
-            let kp = self.penalty[c];
-            for i in 0..n {
-                let wi = self.w[i * ncon + c];
-                if wi != 0.0 {
-                    for l in 0..n {
-                        ka[i * n + l] += kp * wi * self.w[l * ncon + c];
-                    }
-                }
-            }
-        }
-        ka
-    }
-
-    /// Samples grouped by their set of penetrating contacts (`g < 0`; a sample with
-    /// `g = 0` counts as open), with the DFT Gram block of each group.
-    fn sample_groups(&self, state: &ContactState) -> Vec<PenaltyGroup> {
-        let ncon = self.n_contacts();
-        let nc = n_coefficients(self.harmonics);
-        let mut grams: HashMap<Vec<bool>, Vec<f64>> = HashMap::new();
-        for j in 0..self.sampling.len() {
-            let active: Vec<bool> = (0..ncon).map(|c| state.force[j * ncon + c] > 0.0).collect();
-            if !active.iter().any(|&a| a) {
-                continue;
-            }
-            let gram = grams.entry(active).or_insert_with(|| vec![0.0; nc * nc]);
-            self.sampling.add_sample_gram(j, gram);
-        }
-        grams
-            .into_iter()
-            .map(|(active, gram)| PenaltyGroup {
-                stiffness: self.penalty_stiffness((0..ncon).filter(|&c| active[c])),
-                gram,
-            })
-            .collect()
-    }
-
-    /// Exact quadrature: per contact, the intervals where the series `g_c(τ)` is negative
-    /// (roots located cell by cell on the sample grid, including dips inside a cell) and
-    /// the closed-form Gram block over them; the penalty force `−k_p g_c` is a trigonometric
-    /// polynomial there, so its Fourier coefficients are exact, and they are continuously
-    /// differentiable in `x` (the force vanishes at the interval ends).
-    fn exact_penalty(&self, x: &[f64], state: &ContactState) -> (Vec<f64>, Vec<PenaltyGroup>) {
-        let (n, ncon, ns) = (self.n(), self.n_contacts(), self.sampling.len());
-        let h = self.harmonics;
-        let nc = n_coefficients(h);
-        let two_pi = 2.0 * std::f64::consts::PI;
-        let mut fc = vec![0.0; n * nc];
-        let mut groups = Vec::new();
-        for (c, g) in self.gap_coefficients(x).iter().enumerate() {
-            let dg = |t: f64| -> f64 {
-                basis_derivative(h, t)
-                    .iter()
-                    .zip(g)
-                    .map(|(b, v)| b * v)
-                    .sum::<f64>()
-            };
-            let value = |t: f64| evaluate(g, t);
-            let mut roots = Vec::new();
-            for j in 0..ns {
-                let a = self.sampling.taus[j];
-                let b = if j + 1 < ns {
-                    self.sampling.taus[j + 1]
-                } else {
-                    two_pi
-                };
-                let ga = state.gap[j * ncon + c];
-                let gb = if j + 1 < ns {
-                    state.gap[(j + 1) * ncon + c]
-                } else {
-                    state.gap[c]
-                };
-                if (ga < 0.0) != (gb < 0.0) {
-                    roots.push(find_root(&value, a, b, ga, gb));
-                } else {
-                    // an extremum inside the cell that crosses zero (grazing, or a
-                    // contact shorter than a cell)
-                    let (da, db) = (dg(a), dg(b));
-                    if (da < 0.0) != (db < 0.0) {
-                        let m = find_root(&dg, a, b, da, db);
-                        let gm = value(m);
-                        if (gm < 0.0) != (ga < 0.0) {
-                            roots.push(find_root(&value, a, m, ga, gm));
-                            roots.push(find_root(&value, m, b, gm, gb));
-                        }
-                    }
-                }
-            }
-            let mut gram = vec![0.0; nc * nc];
-            if roots.is_empty() {
-                if state.gap[c] >= 0.0 {
-                    continue;
-                }
-                add_interval_gram(h, 0.0, two_pi, &mut gram);
-            } else {
-                roots.sort_by(f64::total_cmp);
-                for (i, &a) in roots.iter().enumerate() {
-                    let b = roots.get(i + 1).copied().unwrap_or(roots[0] + two_pi);
-                    if b > a && value(0.5 * (a + b)) < 0.0 {
-                        add_interval_gram(h, a, b, &mut gram);
-                    }
-                }
-            }
-            // λ̂_c = −k_p Γ_c ĝ_c, force W λ
-            let kp = self.penalty[c];
-            for m in 0..nc {
-                let l: f64 = -kp * (0..nc).map(|k| gram[m * nc + k] * g[k]).sum::<f64>();
-                for i in 0..n {
-                    fc[m * n + i] += self.w[i * ncon + c] * l;
-                }
-            }
-            groups.push(PenaltyGroup {
-                stiffness: self.penalty_stiffness(std::iter::once(c)),
-                gram,
-            });
-        }
-        (fc, groups)
     }
 
     /// `∂R/∂x = (H̃ + Σ_A Γ_A ⊗ K_A) / k_ref`.
@@ -644,108 +467,6 @@ impl HbmAft {
             store_harmonic(&z, n, k, &mut x);
         }
         Ok(x)
-    }
-
-    /// Newton iterations spent by the last [`PeriodicProblem::initial_guess`] (the penalty
-    /// homotopy; 0 when it returned the linear response).
-    pub fn guess_iterations(&self) -> usize {
-        self.guess_iterations
-    }
-
-    /// Starting point at `ω` for a stiff penalty. From the linear response directly, Newton
-    /// on the kinked residual of a stiff penalty (`k_p ≳ 10 k_c` on the paper's bar) cycles
-    /// between contact states of the samples, so this is a homotopy in the penalty, as a
-    /// user would do by hand: Newton solutions for penalties growing tenfold from `0.1 k_c`,
-    /// each started from the previous one (a stage that fails is retried with a smaller
-    /// increase). It returns the solution of the stage *before* `k_p`, once the step from
-    /// it to `k_p` has been seen to converge: the caller's Newton then repeats that last
-    /// step, so its iteration count shows the cost at `k_p`, and it converges. If the
-    /// homotopy gets stuck, the last converged point is returned.
-    pub fn penalty_homotopy(&mut self, omega: f64) -> Result<Vec<f64>> {
-        self.guess_iterations = 0;
-        let linear = self.linear_response(omega)?;
-        let start = self
-            .penalty
-            .iter()
-            .zip(&self.contact_stiffness)
-            .map(|(kp, kc)| 0.1 * kc / kp)
-            .fold(1.0f64, f64::min);
-        if start >= 1.0 || self.sample_penetration(&linear)?.iter().all(|&p| p <= 0.0) {
-            return Ok(linear);
-        }
-        let target = self.penalty.clone();
-        let options = crate::newton::NewtonOptions {
-            tolerance: 1e-10,
-            max_iterations: 50,
-            ..Default::default()
-        };
-        // (factor, solution) of the last converged stage; the linear response is "stage 0"
-        let (mut current, mut x) = (0.0f64, linear);
-        let mut next = start;
-        let mut ratio = 10.0f64;
-        let result = loop {
-            self.penalty = target.iter().map(|kp| kp * next).collect();
-            let out = match crate::newton::solve(self, &x, omega, &options) {
-                Ok(o) => o,
-                Err(e) => break Err(e),
-            };
-            self.guess_iterations += out.iterations;
-            if out.converged {
-                if next >= 1.0 {
-                    break Ok(());
-                }
-                (current, x) = (next, out.x);
-            } else {
-                ratio = ratio.sqrt();
-                if ratio < 1.2 || current == 0.0 {
-                    break Ok(());
-                }
-            }
-            next = (current * ratio).min(1.0);
-        };
-        self.penalty = target;
-        result.map(|_| x)
-    }
-
-    /// Coefficients of the gap `g_c(τ) = w_cᵀ q_N(τ) + g0_c` of each contact.
-    fn gap_coefficients(&self, x: &[f64]) -> Vec<Vec<f64>> {
-        let (n, ncon) = (self.n(), self.n_contacts());
-        let nc = n_coefficients(self.harmonics);
-        (0..ncon)
-            .map(|c| {
-                let mut g: Vec<f64> = (0..nc)
-                    .map(|m| (0..n).map(|i| self.w[i * ncon + c] * x[m * n + i]).sum())
-                    .collect();
-                g[0] += self.gap[c];
-                g
-            })
-            .collect()
-    }
-
-    /// Penetration `max_τ (−g_c(τ))` of each contact over the time signal (the truncated
-    /// series `q_N(τ)`, refined between samples); negative when the contact never closes.
-    pub fn penetration(&self, x: &[f64]) -> Result<Vec<f64>> {
-        check_dimension(x, self.dimension())?;
-        Ok(self
-            .gap_coefficients(x)
-            .iter()
-            .map(|g| -polynomial_extremum(g, self.sampling.len(), -1.0))
-            .collect())
-    }
-
-    /// Penetration `max_j (−g_c(τ_j))` of each contact over the AFT samples (what the
-    /// penalty sees).
-    pub fn sample_penetration(&self, x: &[f64]) -> Result<Vec<f64>> {
-        check_dimension(x, self.dimension())?;
-        let state = self.contact_state(x);
-        let ncon = self.n_contacts();
-        Ok((0..ncon)
-            .map(|c| {
-                (0..self.sampling.len())
-                    .map(|j| -state.gap[j * ncon + c])
-                    .fold(f64::NEG_INFINITY, f64::max)
-            })
-            .collect())
     }
 }
 
@@ -850,16 +571,4 @@ impl PeriodicProblem for HbmAft {
             },
         ))
     }
-}
-
-/// Root of `f` in `[a, b]` with `f(a) = fa`, `f(b) = fb` of opposite signs, to round-off
-/// ([`find_sign_change`]).
-fn find_root(f: &impl Fn(f64) -> f64, a: f64, b: f64, fa: f64, fb: f64) -> f64 {
-    if fa == 0.0 {
-        return a;
-    }
-    if fb == 0.0 {
-        return b;
-    }
-    find_sign_change(f, a, b, fa, fb).nearest()
 }

@@ -1,0 +1,560 @@
+//! The general MS-HBM (paper Section 2, eqs. 1–13; docs/theory.md §8, (T56)–(T66)): the
+//! linear subsystem in the frequency domain, the nonlinear subsystem — the DOFs the
+//! set-valued laws act on, with their mass — integrated over one period by Moreau–Jean time
+//! stepping with impacts and Coulomb friction ([`crate::integrate`]), and Newton with a
+//! finite-difference Jacobian. The CLI (`--method mshbm`) and the outputs (JSON
+//! `"method": "mshbm"`, [`crate::solution::MethodKind::General`]) call this method `mshbm`.
+//!
+//! **Partition.** `N` = all DOFs of the nodes that carry a contact or a friction DOF
+//! ([`System::nonlinear_dofs`], [`crate::model::Model::nonlinear_nodes`]), `L` = the rest.
+//! The *consistent* mass is used ([`MassKind::Consistent`]); damping may act on `N`
+//! (`C_NN ≠ 0` is fine here, unlike the redistributed method).
+//!
+//! **Unknowns** (eq. 11, docs/theory.md (T56)): `x = (q̂_N, q_N(0), q̇_N(0)/ω)`,
+//! harmonic-major `q̂_N` (coefficient `c` of N-DOF `i` at `c·n_N + i`), then `n_N`
+//! displacements and `n_N` velocities divided by ω, so that every unknown is a length.
+//!
+//! **Residual** (eq. 12, docs/theory.md (T57), (T58)), per evaluation (`period.rs`):
+//! 1. eq. (6), docs/theory.md (T17): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex
+//!    per-harmonic dynamic stiffness `A_k = K_LL − (kω)² M_LL + i kω C_LL` (factored once per
+//!    frequency, [`crate::linear::ExactCondensation`]) and `z_k = a_k − i b_k`. The load of
+//!    eq. (10) on `N` is affine in `x` (docs/theory.md (T20)):
+//!    `F_k = f_N,k − H_NL,k q̂_L,k = f_N,k − u0_k + G_k z_k`,
+//!    `G_k = H_NL,k A_k⁻¹ H_LN,k`, `u0_k = H_NL,k A_k⁻¹ f_L,k` (precomputed per frequency;
+//!    this contains `M_NL q̈_L + C_NL q̇_L + K_NL q_L` with the derivatives of `q_L` taken
+//!    analytically);
+//! 2. eq. (10): `M_NN q̈_N + C_NN q̇_N + K_NN q_N = F(t) + W λ` is integrated from
+//!    `(q_N(0), q̇_N(0))` over `[0, T]` with `N_s` Moreau–Jean steps (θ-scheme, Newton impact
+//!    law with restitution `e_N`, Coulomb friction), `F(t)` being a periodic load
+//!    ([`crate::integrate::Integrator::set_periodic_load`]);
+//! 3. `R = [q̂_N − DFT(q_N(t_j)); q_N(T) − q_N(0); (q̇_N(T) − q̇_N(0))/ω]` with the DFT over
+//!    the step grid `t_j = jT/N_s` (the velocity block is divided by ω so that all blocks are
+//!    lengths, as Newton's tolerance is relative to a length).
+//!
+//! **Jacobian** (docs/theory.md (T65)): forward differences, columns in parallel (rayon);
+//! the per-column work takes `&self` (the frequency data is shared read-only, each column
+//! builds its own small N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)`
+//! (`ε` = [`GeneralOptions::fd_step`], default 1e-6) with `s` the length scale. `∂R/∂ω` also
+//! by a forward difference. The map is piecewise affine (impacts with `e_N = 0` and the
+//! anticipating index set, Coulomb friction) and continuous (up to the row switch of the
+//! stuck-friction selection below).
+//!
+//! **Stuck friction** (docs/theory.md (T64), `friction.rs`): when a friction element sticks
+//! at every step, every constant position in its stick range is a periodic solution and
+//! the Jacobian is singular; the residual then selects the member with zero mean friction
+//! force (`stuck_frictions`).
+//!
+//! **Floquet multipliers** (docs/theory.md (T83), `floquet.rs`): finite differences of the
+//! whole model's period map ([`PeriodicProblem::floquet`] below).
+//!
+//! **Frequency response diagrams.** The discrete period map is piecewise affine with pieces
+//! one time step wide, so a branch is a staircase of corners; `frf` steps in frequency where
+//! the arclength step shrinks to them ([`crate::problem::ArclengthFallback::StepInFrequency`],
+//! this method's continuation policy; docs/theory.md (T77)).
+//!
+//! **Cost**: every Newton iteration integrates the N-subsystem `dim + 2` times; each
+//! residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
+//! the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
+//! is meant for.
+//!
+//! **Files**: this one holds the settings, the construction, the linear response and the
+//! [`PeriodicProblem`] implementation; `period.rs` the one-period integration of the
+//! N-subsystem and the residual; `friction.rs` the friction limits and the stuck-friction
+//! selection; `floquet.rs` the whole system's initial state and monodromy.
+//!
+//! Measurements and their history (why the position projection and the `q̇/ω` unknowns,
+//! what limits Newton and the FRD on the bar with impacts, what was tried and rejected):
+//! `docs/general-mshbm.md`.
+
+mod floquet;
+mod friction;
+mod period;
+
+pub use floquet::MAX_FLOQUET_DOFS;
+pub use period::Trajectory;
+
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
+use rayon::prelude::*;
+
+use super::partition::{DofLocation, Partition, SingularStiffness};
+use super::{check_dimension, fixed_response, n_dof_coefficients};
+use super::{periodic_solution, store_harmonic, SolutionParts};
+use crate::error::{Error, Result};
+use crate::harmonic::{evaluate, n_coefficients, Sampling};
+use crate::linear::PartitionedSystem;
+use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
+use crate::model::{MassKind, Model, System, SystemContact, SystemFriction};
+use crate::problem::{Linearization, PeriodicProblem};
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
+use crate::sparse::SparseMatrix;
+use crate::stability::Floquet;
+
+/// Default steps per period for `H` harmonics: `max(512, 32 (2H + 1))`.
+pub fn default_steps(harmonics: usize) -> usize {
+    super::default_resolution(harmonics, 32, 512)
+}
+
+/// Settings of the general MS-HBM.
+#[derive(Clone, Debug)]
+pub struct GeneralOptions {
+    /// Number of harmonics `H ≥ 1` of the linear part.
+    pub harmonics: usize,
+    /// Moreau–Jean steps per period `N_s ≥ 2H + 1` (`None`: [`default_steps`]); also the
+    /// DFT grid.
+    pub steps: Option<usize>,
+    /// θ of the Moreau–Jean scheme, in `[½, 1]` (default ½).
+    pub theta: f64,
+    /// Newton restitution coefficient `e_N ∈ [0, 1]` (default 0).
+    pub restitution: f64,
+    /// Use the anticipating index set of the Moreau–Jean scheme
+    /// ([`crate::integrate::Integrator::set_contact_anticipation`], default `true`): with
+    /// `e_N = 0` the period map is then continuous and Newton converges; with the plain index
+    /// set it jumps on the step grid and Newton stalls at a small residual.
+    pub anticipate_contacts: bool,
+    /// Project the positions back onto `g ≥ 0` after each step
+    /// ([`crate::integrate::Integrator::set_contact_projection`], default `true`): removes the
+    /// penetration of persistent contacts, whose saw-tooth dependence on the impact time within
+    /// a step otherwise stalls Newton at `≈ h |U| / g₀` (docs/theory.md (T62); measured in
+    /// docs/general-mshbm.md §1).
+    pub project_contacts: bool,
+    /// Relative finite-difference step `ε`: `h_j = ε · max(|x_j|, s_j)` (default 1e-6).
+    /// Larger steps (1e-5…1e-4) average over the grid-level discontinuities of impacts.
+    pub fd_step: f64,
+}
+
+impl GeneralOptions {
+    /// `H` harmonics, default steps, θ = ½, `e_N = 0`.
+    pub fn new(harmonics: usize) -> Self {
+        GeneralOptions {
+            harmonics,
+            steps: None,
+            theta: 0.5,
+            restitution: 0.0,
+            fd_step: 1e-6,
+            anticipate_contacts: true,
+            project_contacts: true,
+        }
+    }
+}
+
+/// The general MS-HBM for one model.
+pub struct GeneralMsHbm {
+    system: System,
+    harmonics: usize,
+    steps: usize,
+    theta: f64,
+    restitution: f64,
+    fd_step: f64,
+    anticipate: bool,
+    project: bool,
+    /// The N-subsystem as a system of its own (N numbering, no loads).
+    subsystem: System,
+    /// The linear part condensed onto N: the affine map `x ↦ F_k` (see the module docs).
+    condensation: Box<dyn Condensation>,
+    /// `L | N` partition and length scale.
+    partition: Partition,
+    /// The condensation at the last frequency.
+    frequency: Option<Box<dyn CondensedFrequency>>,
+    /// Diagonal of `K_NN` (N numbering).
+    stiffness_nn_diagonal: Vec<f64>,
+}
+
+impl GeneralMsHbm {
+    /// Set up the method for `model` (consistent mass, partition, checks).
+    pub fn new(model: &Model, options: &GeneralOptions) -> Result<Self> {
+        let h = options.harmonics;
+        let steps = options.steps.unwrap_or_else(|| default_steps(h));
+        super::check_resolution(h, steps, "steps per period")?;
+        crate::integrate::check_moreau_jean(options.theta, options.restitution)?;
+        if !(options.fd_step.is_finite() && options.fd_step > 0.0 && options.fd_step < 0.1) {
+            return Err(Error::argument(
+                "fd_step",
+                format!("must lie in (0, 0.1), got {}", options.fd_step),
+            ));
+        }
+        if model.contacts.is_empty() && model.frictions.is_empty() {
+            return Err(Error::argument(
+                "model",
+                "the model has no contact and no friction element; the general MS-HBM needs at least one",
+            ));
+        }
+        let system = model.system(MassKind::Consistent)?;
+        let nl_dofs = &system.nonlinear_dofs;
+        let n = nl_dofs.len();
+        // the N-subsystem is integrated with its mass: a free structure (singular K) is
+        // fine, the gaps alone then set the length scale
+        let partition = Partition::new(&system, SingularStiffness::Ignore)?;
+        let pos = |d: usize| {
+            partition
+                .n_index(d)
+                .expect("contact and friction DOFs are in N")
+        };
+        let sub = |a: &SparseMatrix, r: &[usize], c: &[usize]| a.submatrix(r, c);
+        let mats = [&system.stiffness, &system.mass, &system.damping];
+        let nn = mats.map(|a| sub(a, nl_dofs, nl_dofs));
+        if nn[1]
+            .to_dense()
+            .partial_piv_lu()
+            .solve(Mat::<f64>::identity(n, n))
+            .col_iter()
+            .any(|c| c.iter().any(|v| !v.is_finite()))
+        {
+            return Err(Error::field(
+                &model.source,
+                "matrices.mass",
+                "the mass of the nonlinear subsystem M_NN is singular; the general MS-HBM integrates it with its mass (use a consistent mass with mass on the contact and friction DOFs)",
+            ));
+        }
+        let subsystem = System {
+            mass_kind: MassKind::Consistent,
+            mass: nn[1].clone(),
+            stiffness: nn[0].clone(),
+            damping: nn[2].clone(),
+            model_dof: nl_dofs.iter().map(|&d| system.model_dof[d]).collect(),
+            n_model_dofs: system.n_model_dofs,
+            nonlinear_dofs: (0..n).collect(),
+            linear_dofs: vec![],
+            contacts: system
+                .contacts
+                .iter()
+                .map(|c| SystemContact {
+                    w: c.w.iter().map(|&(d, w)| (pos(d), w)).collect(),
+                    gap: c.gap,
+                })
+                .collect(),
+            frictions: system
+                .frictions
+                .iter()
+                .map(|f| SystemFriction {
+                    w: f.w.iter().map(|&(d, w)| (pos(d), w)).collect(),
+                    mu: f.mu,
+                    normal: f.normal.clone(),
+                })
+                .collect(),
+            harmonic_load: vec![0.0; n],
+            constant_load: vec![0.0; n],
+            alpha: system.alpha,
+            beta: system.beta,
+        };
+        let condensation =
+            ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
+        Ok(GeneralMsHbm {
+            partition,
+            harmonics: h,
+            steps,
+            theta: options.theta,
+            restitution: options.restitution,
+            fd_step: options.fd_step,
+            anticipate: options.anticipate_contacts,
+            project: options.project_contacts,
+            subsystem,
+            condensation: Box::new(condensation),
+            frequency: None,
+            stiffness_nn_diagonal: {
+                let mut d = vec![0.0; n];
+                nn[0]
+                    .iter()
+                    .filter(|(i, j, _)| i == j)
+                    .for_each(|(i, _, v)| d[i] += v);
+                d.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect()
+            },
+            system,
+        })
+    }
+
+    /// The system (consistent mass, Dirichlet DOFs removed).
+    pub fn system(&self) -> &System {
+        &self.system
+    }
+
+    pub fn harmonics(&self) -> usize {
+        self.harmonics
+    }
+
+    /// Moreau–Jean steps per period (= DFT samples).
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// Number of DOFs of the nonlinear subsystem.
+    pub fn n_nonlinear(&self) -> usize {
+        self.subsystem.n_dofs()
+    }
+
+    fn n(&self) -> usize {
+        self.subsystem.n_dofs()
+    }
+
+    /// The condensation at `ω`.
+    fn frequency_data(&self, omega: f64) -> Result<Box<dyn CondensedFrequency>> {
+        super::check_frequency(omega)?;
+        self.condensation.at(omega, self.harmonics)
+    }
+
+    fn prepare(&mut self, omega: f64) -> Result<()> {
+        if self.frequency.as_ref().is_some_and(|f| f.omega() == omega) {
+            return Ok(());
+        }
+        self.frequency = Some(self.frequency_data(omega)?);
+        Ok(())
+    }
+
+    fn check_x(&self, x: &[f64]) -> Result<()> {
+        check_dimension(x, self.dimension())
+    }
+
+    /// Connectivity (`q̂_N − DFT`) and periodicity (`q_N(T) − q_N(0)`, `(q̇_N(T) −
+    /// q̇_N(0))/ω`) residuals, max-norms relative to the length scale.
+    pub fn residual_parts(&mut self, x: &[f64], omega: f64) -> Result<(f64, f64)> {
+        let r = self.residual(x, omega)?;
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let norm = |v: &[f64]| {
+            v.iter().fold(0.0f64, |m, x| m.max(x.abs())) / self.partition.length_scale()
+        };
+        Ok((norm(&r[..n * nc]), norm(&r[n * nc..])))
+    }
+
+    /// The linear response (all set-valued forces zero) at `ω`, as unknowns `x`: the
+    /// direct complex solve of the condensed dynamic stiffness `(H_NN,k − G_k) z_k =
+    /// f_N,k − u0_k` per harmonic.
+    pub fn linear_response(&mut self, omega: f64) -> Result<Vec<f64>> {
+        self.prepare(omega)?;
+        let fd = self.frequency.as_deref().expect("prepared");
+        let n = self.n();
+        let nc = n_coefficients(self.harmonics);
+        let mut x = vec![0.0; n * (nc + 2)];
+        for k in 0..=self.harmonics {
+            let kw = k as f64 * omega;
+            let a = fd.condensed_dynamic_stiffness(k);
+            let f = fd.condensed_load(k);
+            let rhs = Mat::<c64>::from_fn(n, 1, |i, _| f[i]);
+            let z = a.partial_piv_lu().solve(&rhs);
+            let z: Vec<c64> = (0..n).map(|i| z[(i, 0)]).collect();
+            if z.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())) {
+                return Err(Error::Singular(format!(
+                    "the dynamic stiffness is singular at harmonic {k} (k·f = {} Hz is an eigenfrequency; add damping or move the frequency)",
+                    kw / (2.0 * std::f64::consts::PI)
+                )));
+            }
+            store_harmonic(&z, n, k, &mut x);
+        }
+        // initial state of the harmonic motion: q(0) = Σ a, q̇(0) = Σ kω b
+        for i in 0..n {
+            let mut q = x[i];
+            let mut v = 0.0;
+            for k in 1..=self.harmonics {
+                q += x[(2 * k - 1) * n + i];
+                v += k as f64 * omega * x[2 * k * n + i];
+            }
+            x[nc * n + i] = q;
+            x[(nc + 1) * n + i] = v / omega;
+        }
+        Ok(x)
+    }
+}
+
+impl PeriodicProblem for GeneralMsHbm {
+    /// Finite-difference Jacobian: Newton does not contract quadratically. The time-stepped
+    /// residual is piecewise affine with pieces one time step wide, so the branch is a
+    /// staircase of corners ≈ 1e-7 apart in scaled arclength (module docs): the continuation
+    /// steps in frequency once the arclength step falls below 1e-4, well above them.
+    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
+        crate::problem::ContinuationPolicy {
+            newton_contraction: crate::problem::NewtonContraction::Unchecked,
+            where_arclength_fails: crate::problem::ArclengthFallback::StepInFrequency {
+                min_arclength_step: 1e-4,
+            },
+        }
+    }
+
+    fn dimension(&self) -> usize {
+        self.n() * (n_coefficients(self.harmonics) + 2)
+    }
+
+    fn length_scale(&self) -> f64 {
+        self.partition.length_scale()
+    }
+
+    fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
+        self.linear_response(omega)
+    }
+
+    fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let fd = self.frequency.as_deref().expect("prepared");
+        Ok(self.residual_with(fd, x)?.0)
+    }
+
+    fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let this = &*self;
+        let fd = this.frequency.as_deref().expect("prepared");
+        let residual = this.residual_with(fd, x)?.0;
+        let dim = this.dimension();
+        let columns: Vec<Result<Vec<f64>>> = (0..dim)
+            .into_par_iter()
+            .map(|j| {
+                let h = this.fd_step * x[j].abs().max(this.partition.length_scale());
+                let mut xp = x.to_vec();
+                xp[j] += h;
+                let h = xp[j] - x[j];
+                let rp = this.residual_with(fd, &xp)?.0;
+                Ok(rp.iter().zip(&residual).map(|(a, b)| (a - b) / h).collect())
+            })
+            .collect();
+        let mut jacobian = Mat::<f64>::zeros(dim, dim);
+        for (j, col) in columns.into_iter().enumerate() {
+            for (i, v) in col?.into_iter().enumerate() {
+                jacobian[(i, j)] = v;
+            }
+        }
+        let dw = 0.1 * this.fd_step * omega;
+        let fdp = this.frequency_data(omega + dw)?;
+        let dw = (omega + dw) - omega;
+        let rp = this.residual_with(&*fdp, x)?.0;
+        let d_omega = rp
+            .iter()
+            .zip(&residual)
+            .map(|(a, b)| (a - b) / dw)
+            .collect();
+        Ok(Linearization {
+            residual,
+            jacobian,
+            d_omega,
+        })
+    }
+
+    /// Floquet multipliers (docs/theory.md (T79), (T83)) as the eigenvalues of the monodromy
+    /// matrix of the **whole system's** period map — the state `(q, q̇)` of all DOFs at `t = 0`
+    /// mapped to the state at `t = T` by the same Moreau–Jean integrator (same steps, θ, `e_N`,
+    /// anticipation and projection) — by forward finite differences around the solution's
+    /// initial state ([`Self::initial_state`]), columns in parallel (rayon).
+    ///
+    /// Why the whole system and not the N-subsystem: the N-subsystem sees the linear part
+    /// only through the harmonics `q̂_N` (eq. 6), a non-causal frequency-domain coupling
+    /// with no state of its own; a perturbation `e^{st} p(t)` of the orbit needs the L
+    /// states anyway. The full-system map is the physical one, and for a linear system it is
+    /// linear, so its finite-difference monodromy is exact up to rounding and equals the
+    /// discrete (trapezoidal, θ = ½) transition matrix, whose eigenvalues approximate
+    /// `exp(s_k T)` to the integrator's accuracy. With contacts the map is piecewise
+    /// affine (`e_N = 0`, anticipation, projection): the finite difference gives the slope
+    /// of the piece the solution lies in, including the effect of impacts (a persistent
+    /// contact with `e_N = 0` contributes zero multipliers). Caveats: the MS-HBM orbit is a
+    /// fixed point of the *harmonically truncated* problem, not exactly of the full
+    /// discrete map (the multipliers are those of the full map linearised at the orbit's
+    /// initial state); near grazing the piece can be smaller than the step and the
+    /// multipliers unreliable (docs/theory.md §11, caveats after (T83)). So they describe the
+    /// full model near the orbit, not the H-truncated branch: at a fold pair of the truncated
+    /// branch no multiplier need approach +1 (the bar with impacts at H = 5, measured in
+    /// docs/general-mshbm.md §5). Cost: `2n + 1` period integrations of the whole model and a
+    /// dense `2n × 2n` eigenproblem (`n ≤` [`MAX_FLOQUET_DOFS`]) — one reason the general
+    /// method is expensive for FE models.
+    fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
+        let phi = self.monodromy(x, omega)?;
+        let values = phi
+            .eigenvalues()
+            .map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
+        Ok(Some(Floquet::from_eigenvalues(values)))
+    }
+
+    fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+        let location = self.partition.locate_response(&self.system, response_dof)?;
+        self.check_x(x)?;
+        self.prepare(omega)?;
+        let fd = self.frequency.as_deref().expect("prepared");
+        let (residual, tr) = self.residual_with(fd, x)?;
+        let n = self.n();
+        let h = self.harmonics;
+        let ns = self.steps;
+        let sampling = Sampling::new(h, ns);
+        let extremes = |v: &[f64]| -> (f64, f64) {
+            v.iter()
+                .fold((f64::NEG_INFINITY, f64::INFINITY), |(mx, mn), &x| {
+                    (mx.max(x), mn.min(x))
+                })
+        };
+        let series = |i: usize| -> Vec<f64> { tr.displacement.iter().map(|q| q[i]).collect() };
+        let mut contacts = Vec::with_capacity(self.system.contacts.len());
+        for (c, sc) in self.system.contacts.iter().enumerate() {
+            let i = self.partition.contact_n_index(&self.system, c);
+            let disp = series(i);
+            let (max, min) = extremes(&disp);
+            contacts.push(ContactSeries {
+                dof: self.system.model_dof[sc.w[0].0],
+                coefficients: n_dof_coefficients(x, n, h, i),
+                displacement: disp,
+                gap: tr.gaps.iter().map(|g| g[c]).collect(),
+                force: tr.contact_forces.iter().map(|f| f[c]).collect(),
+                max,
+                min,
+            });
+        }
+        let frictions: Vec<FrictionSeries> = self
+            .subsystem
+            .frictions
+            .iter()
+            .enumerate()
+            .map(|(f, fr)| {
+                let force: Vec<f64> = tr.friction_forces.iter().map(|p| p[f]).collect();
+                let (max, min) = extremes(&force);
+                FrictionSeries {
+                    dof: self.subsystem.model_dof[fr.w[0].0],
+                    limit: (0..ns).map(|j| self.friction_limit(&tr, f, j)).collect(),
+                    force,
+                    max,
+                    min,
+                }
+            })
+            .collect();
+        let response = match location {
+            DofLocation::Fixed => fixed_response(response_dof, h),
+            DofLocation::Nonlinear(i) => {
+                let (max, min) = extremes(&series(i));
+                DofResponse {
+                    dof: response_dof,
+                    coefficients: n_dof_coefficients(x, n, h, i),
+                    max,
+                    min,
+                }
+            }
+            DofLocation::Linear(l) => {
+                let coefficients = fd.linear_dof_coefficients(x, l)?;
+                // the truncated series on a grid 4× finer than the steps
+                let fine: Vec<f64> = (0..4 * ns)
+                    .map(|j| {
+                        evaluate(
+                            &coefficients,
+                            2.0 * std::f64::consts::PI * j as f64 / (4 * ns) as f64,
+                        )
+                    })
+                    .collect();
+                let (max, min) = extremes(&fine);
+                DofResponse {
+                    dof: response_dof,
+                    coefficients,
+                    max,
+                    min,
+                }
+            }
+        };
+        Ok(periodic_solution(
+            &self.system,
+            &self.partition,
+            omega,
+            SolutionParts {
+                method: crate::solution::MethodKind::General,
+                quadrature: crate::harmonic::Quadrature::Sampled,
+                harmonics: h,
+                taus: &sampling.taus,
+                residual: &residual,
+                contacts,
+                frictions,
+                response,
+            },
+        ))
+    }
+}
