@@ -97,7 +97,7 @@ pub struct PeriodicSolution {
     pub iterations: usize,
     /// `‖R‖_∞` relative to the problem's length scale.
     pub residual_norm: f64,
-    /// Sample times over one period [s].
+    /// Sample times over one period (s).
     pub time_s: Vec<f64>,
     /// Model DOFs of the contacts (first DOF of each).
     pub contact_dofs: Vec<usize>,
