@@ -126,7 +126,7 @@ impl Integrator {
                     return Err(Error::argument(
                         "theta",
                         "the velocity-level Moreau-Jean scheme with theta = 0.5 is unstable on a singular (redistributed) mass \
-                         (METHODS §3.2); use the position-level scheme or theta > 0.5",
+                         (docs/theory.md (T68)); use the position-level scheme or theta > 0.5",
                     ));
                 }
                 Kernel::Moreau(Box::new(moreau::MoreauJean::new(

@@ -1,17 +1,17 @@
 //! Reference time integration of `M q'' + C q' + K q = f(t) + W λ` with unilateral contacts
-//! (METHODS §3.1–§3.2), run for a given time or to a periodic steady state — the paper's
+//! (docs/theory.md §8 (T59)–(T63) and §9), run for a given time or to a periodic steady state — the paper's
 //! baseline for the MS-HBM (Figs. 5 and 9).
 //!
 //! Two schemes ([`Scheme`]):
 //!
-//! * **Moreau–Jean θ-scheme** ([`Scheme::MoreauJean`], METHODS §3.1): velocity level,
+//! * **Moreau–Jean θ-scheme** ([`Scheme::MoreauJean`], docs/theory.md (T59)–(T60)): velocity level,
 //!   impulses per step, Newton's impact law `0 ≤ U⁺ + e U⁻ ⊥ P ≥ 0` on the contacts that are
 //!   closed at the predicted position `q_k + h(1−θ) v_k`. The iteration matrix
 //!   `M̂ = M + hθC + h²θ²K` is factored once. With the consistent mass this is the paper's
 //!   reference ("original mass matrix, e_N = 0"). On a singular (redistributed) mass it is
-//!   only stable for `θ > ½` (METHODS §3.2: the massless rows become a trapezoidal average
+//!   only stable for `θ > ½` (docs/theory.md (T68): the massless rows become a trapezoidal average
 //!   of an algebraic equation, with a parasitic `(−1)^k` mode), so `θ = ½` is refused there.
-//! * **Position-level Newmark** ([`Scheme::PositionNewmark`], METHODS §3.2, Khenous-type):
+//! * **Position-level Newmark** ([`Scheme::PositionNewmark`], docs/theory.md (T67), Khenous-type):
 //!   average acceleration (β = ¼, γ = ½) on a mass with a massless contact boundary, with
 //!   Signorini imposed on the positions at the end of the step (no impact law):
 //!   `Â = (4/h²) M + (2/h) C + K` (factored once, positive definite even for a free body),
@@ -20,7 +20,7 @@
 //!   Needs every contact DOF massless and damping that does not act on the massless DOFs
 //!   (`C_NN = C_NL = 0`, as the redistributed MS-HBM).
 //!
-//! **Coulomb friction** (METHODS §3.3, Moreau–Jean only): friction elements
+//! **Coulomb friction** (docs/theory.md (T63), Moreau–Jean only): friction elements
 //! ([`crate::model::Friction`]) add tangential impulses `P_T` along their direction `w_T`
 //! with `|P_T| ≤ h μ F_N` (prescribed normal force, always active) or `|P_T| ≤ μ P_N`
 //! (normal force of a unilateral contact, active while that contact is in the index set),
@@ -47,7 +47,7 @@
 //! the mass in use, `f_const` the constant load (including an acceleration field) and
 //! `E_offset` from the settings. For a free body under an acceleration field (the dropped
 //! bar) [`fall_energy`] gives the offset that makes the datum "resting on the support"
-//! (METHODS §2.5: `E = ½vᵀMv + ½uᵀKu + g 1ᵀMu + m g h0`), so `E/E(0)` is the normalised
+//! (docs/theory.md (T69): `E = ½vᵀMv + ½uᵀKu + g 1ᵀMu + m g h0`), so `E/E(0)` is the normalised
 //! energy of the paper's Fig. 5.
 //!
 //! [`steady_state`] integrates period by period until the state repeats;
@@ -70,11 +70,11 @@ use crate::model::{MassKind, Model, System};
 /// The time-stepping scheme.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Scheme {
-    /// Moreau–Jean θ-scheme with Newton's impact law (METHODS §3.1); `theta ∈ [½, 1]`,
+    /// Moreau–Jean θ-scheme with Newton's impact law (docs/theory.md (T59)–(T60)); `theta ∈ [½, 1]`,
     /// `restitution` `e_N ∈ [0, 1]`.
     MoreauJean { theta: f64, restitution: f64 },
     /// Newmark average acceleration with position-level Signorini for a massless contact
-    /// boundary (METHODS §3.2).
+    /// boundary (docs/theory.md (T67)).
     PositionNewmark,
 }
 
@@ -132,7 +132,7 @@ pub struct Settings {
 /// Energy offset that puts the datum of a free body's potential energy at the first
 /// contact: for a model without Dirichlet DOFs under a uniform acceleration `a`, the work
 /// of the acceleration load while the body translates rigidly along `a` from `q = 0` until
-/// a contact closes (`m |a| h0` for the dropped bar: METHODS §2.5). Zero when the model is
+/// a contact closes (`m |a| h0` for the dropped bar: docs/theory.md (T69)). Zero when the model is
 /// held (Dirichlet DOFs), has no acceleration field, or no contact closes along `a`.
 pub fn fall_energy(model: &Model, system: &System) -> f64 {
     let Some(acc) = &model.acceleration else {
@@ -167,7 +167,7 @@ pub fn fall_energy(model: &Model, system: &System) -> f64 {
     distance * norm * d.iter().zip(&md).map(|(a, b)| a * b).sum::<f64>()
 }
 
-/// The parameters of the Moreau–Jean scheme (METHODS §3.1): `θ ∈ [½, 1]` and the Newton
+/// The parameters of the Moreau–Jean scheme (docs/theory.md (T59)–(T60)): `θ ∈ [½, 1]` and the Newton
 /// restitution coefficient `e_N ∈ [0, 1]`.
 pub(crate) fn check_moreau_jean(theta: f64, restitution: f64) -> Result<()> {
     if !(theta.is_finite() && (0.5..=1.0).contains(&theta)) {

@@ -1,4 +1,4 @@
-//! Moreau–Jean θ-scheme with Newton's impact law (METHODS §3.1).
+//! Moreau–Jean θ-scheme with Newton's impact law (docs/theory.md §8, (T59)–(T62)).
 //!
 //! Given `(q_k, v_k)` and step `h`:
 //! 1. `M̂ = M + hθC + h²θ²K` (factored once);
@@ -29,7 +29,7 @@
 //! projection the gap of a persistent contact is exactly zero at every step, and the map
 //! stays continuous (the projection is Lipschitz in `q`).
 //!
-//! With friction elements (METHODS §3.3) the impulses of the closed contacts and the
+//! With friction elements (docs/theory.md (T63)) the impulses of the closed contacts and the
 //! active friction elements are found together by exact-row Gauss–Seidel prox sweeps,
 //! polished by an exact solve of the stick/slip/contact status found ([`super`] docs).
 //!
