@@ -1,4 +1,4 @@
-//! Closed-form reference solutions of the continuum (METHODS §2.3 and §2.6): the
+//! Closed-form reference solutions of the continuum (docs/theory.md (T90) and (T93)): the
 //! references of the time integrators and of the models that carry them.
 //!
 //! * [`DroppedBarSolution`] — the elastic bar dropped under gravity onto a rigid support
@@ -13,14 +13,14 @@
 
 use crate::error::{Error, Result};
 
-/// The elastic bar dropped under gravity (METHODS §2.1–§2.4).
+/// The elastic bar dropped under gravity (docs/theory.md §12, (T88)–(T92)).
 ///
 /// Bar of length `L`, wave speed `c = sqrt(E/ρ)`, mass per unit length `ρA`; released at
 /// rest, undeformed, with its lower end at height `h0` above a rigid support. Time `t` is
 /// measured from the release. With `v0 = sqrt(2 g h0)` (impact speed), `t1 = v0/g` (fall),
 /// `T0 = 2L/c` (contact), `tf = 2 v0/g` (flight between the two contacts), the motion is
 /// exactly periodic with period `T = 2 t1 + 2 T0 + tf = 4 (κ+1) L/c` iff
-/// `κ = tf/T0 = v0 c/(g L)` is an integer (METHODS §2.2); [`DroppedBarSolution::new`]
+/// `κ = tf/T0 = v0 c/(g L)` is an integer (docs/theory.md (T89)); [`DroppedBarSolution::new`]
 /// requires an integer `κ ≥ 3`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DroppedBarSolution {
@@ -73,7 +73,7 @@ impl DroppedBarSolution {
         Ok(s)
     }
 
-    /// Drop height `h0 = κ² g L²/(2 c²)` for an integer `κ` (METHODS §2.2).
+    /// Drop height `h0 = κ² g L²/(2 c²)` for an integer `κ` (docs/theory.md (T89)).
     pub fn height_for_kappa(kappa: f64, length: f64, wave_speed: f64, gravity: f64) -> f64 {
         kappa * kappa * gravity * length * length / (2.0 * wave_speed * wave_speed)
     }
@@ -151,7 +151,7 @@ impl DroppedBarSolution {
     }
 
     /// Gap of the lower end (height above the support) and upward contact force at time `t`
-    /// from the release (METHODS §2.3, phases A–E, repeated with period `T`).
+    /// from the release (docs/theory.md (T90), phases A–E, repeated with period `T`).
     pub fn state(&self, t: f64) -> (f64, f64) {
         let g = self.gravity;
         let v0 = self.impact_speed();
@@ -194,7 +194,7 @@ impl DroppedBarSolution {
 }
 
 /// A bar clamped at one end whose other end is lifted by `a` off a stop and released at
-/// rest, without gravity (METHODS §2.6; the GetFEM 1-D dynamic-contact benchmark).
+/// rest, without gravity (docs/theory.md (T93); the GetFEM 1-D dynamic-contact benchmark).
 ///
 /// Initial displacement linear from `0` at the clamp to `a` (away from the stop) at the
 /// contact end. The motion is periodic with period `3L/c` in three phases of length `L/c`:
@@ -327,7 +327,7 @@ mod tests {
     }
 
     /// Impulse of each contact (trapezoidal integral of the force) equals the momentum
-    /// change `2 m v0 + m g T0`; the force has the bottom-stress values of METHODS §2.4.
+    /// change `2 m v0 + m g T0`; the force has the bottom-stress values of docs/theory.md (T91)–(T92).
     #[test]
     fn contact_impulse_is_the_momentum_change() {
         let h0 = DroppedBarSolution::height_for_kappa(4.0, 2.0, 3.0, 0.5);
@@ -354,7 +354,7 @@ mod tests {
         assert!((s.contact_force(t1) - s.impedance() * s.impact_speed()).abs() < 1e-12);
     }
 
-    /// Phase C agrees with the field solution of METHODS §2.4 evaluated at the lower end,
+    /// Phase C agrees with the field solution of docs/theory.md (T92) evaluated at the lower end,
     /// `u(0, τ) = ū0 + v0 τ − g τ²/2 + η(c τ)` with `ū0 + η(s) = (2g/c²)(s²/2 − L s)` on
     /// `[0, 2L]` (η even and 2L-periodic); the mean acceleration of the end over `T0` is `−g`.
     #[test]

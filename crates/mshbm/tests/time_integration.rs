@@ -1,4 +1,4 @@
-//! Time integration (METHODS §2, §3.1–§3.2) against independent references: the closed-form
+//! Time integration (docs/theory.md §9 and §12) against independent references: the closed-form
 //! dropped bar (§2.3) and bouncing bar (§2.6), the exact-characteristics scheme of §2.5,
 //! energy conservation, Signorini/complementarity, the linear frequency response, and the
 //! MS-HBM periodic solutions.
@@ -121,7 +121,7 @@ fn normalised(r: &Run) -> Vec<f64> {
     r.energy.iter().map(|e| e / r.energy[0]).collect()
 }
 
-/// METHODS §2.5 reference generator: the exact-characteristics scheme (Courant number 1),
+/// docs/theory.md (T94) reference generator: the exact-characteristics scheme (Courant number 1),
 /// independent of the closed form; returns the gap `h0 + u_0` at every step `dt = L/(c N)`.
 fn characteristics_gap(kappa: f64, nodes: usize, duration: f64) -> (f64, Vec<f64>) {
     let (l, c, g) = (1.0, 1.0, 1.0);
@@ -165,7 +165,7 @@ fn closed_form_agrees_with_the_characteristics_scheme() {
 }
 
 /// Paper Fig. 5, `m_red`: redistributed mass with position-level Signorini. Each contact
-/// lasts 2L/c, the gap never goes negative, the energy is kept (METHODS §2.5), free flight
+/// lasts 2L/c, the gap never goes negative, the energy is kept (docs/theory.md (T69) and the §12 integrator table), free flight
 /// is exactly rigid (gravity load −g M_R 1), and each contact transfers the momentum
 /// `2 m v0 + m g T0`.
 #[test]
@@ -222,7 +222,7 @@ fn dropped_bar_with_redistributed_mass_matches_the_closed_form() {
     }
     // first contact starts when the closed form says (to one step)
     assert!((report[0].0 - starts[0]).abs() <= 1.5 * dt, "{report:?}");
-    // gap within the FE-dispersion error of METHODS §2.5 (0.21 over the first period)
+    // gap within the FE-dispersion error of the docs/theory.md §12 integrator table (0.21 over the first period)
     let gap_err =
         r.t.iter()
             .zip(&r.gap)
@@ -234,7 +234,7 @@ fn dropped_bar_with_redistributed_mass_matches_the_closed_form() {
 
 /// Paper Fig. 5 with the original (consistent) mass and Moreau–Jean θ = 1/2: with e_N = 0
 /// every contact loses energy; with e_N = 1 the energy is kept but the contact node
-/// chatters instead of staying on the support for 2L/c (METHODS §2.5 table).
+/// chatters instead of staying on the support for 2L/c (docs/theory.md §12 integrator table).
 #[test]
 fn dropped_bar_with_consistent_mass_loses_energy_or_chatters() {
     let (model, exact) = dropped_bar();
@@ -335,8 +335,8 @@ fn dropped_bar_with_consistent_mass_loses_energy_or_chatters() {
     );
 }
 
-/// METHODS §3.2: the velocity-level scheme with θ = 1/2 is refused on a singular mass;
-/// θ > 1/2 runs and is dissipative (METHODS §2.5: 0.96 after one period with θ = 0.55).
+/// docs/theory.md (T68): the velocity-level scheme with θ = 1/2 is refused on a singular mass;
+/// θ > 1/2 runs and is dissipative (docs/theory.md §12 integrator table: 0.96 after one period with θ = 0.55).
 #[test]
 fn singular_mass_needs_theta_above_one_half() {
     let (model, exact) = dropped_bar();
@@ -368,7 +368,7 @@ fn singular_mass_needs_theta_above_one_half() {
     assert!(e < 0.99 && e > 0.9, "E(T) = {e}");
 }
 
-/// METHODS §2.6: the paper's bar with g0 = 0, released from a linear displacement with its
+/// docs/theory.md (T93): the paper's bar with g0 = 0, released from a linear displacement with its
 /// end lifted by `a`, bounces with period 3L/c.
 #[test]
 fn clamped_bar_released_onto_a_stop_has_period_3l_over_c() {

@@ -4,12 +4,12 @@
 //! Eliminating `q_N` gives the LCP `0 ≤ D λ + Wᵀ K_NN⁻¹ b + g0 ⊥ λ ≥ 0` with the Delassus
 //! matrix `D = Wᵀ K_NN⁻¹ W` (constant over samples, built once). The prox equation (29) is
 //! the definition; the LCP solver is exact. For a known active set `A` the solution is
-//! affine in `b` (METHODS §5.2):
+//! affine in `b` (docs/theory.md (T37)):
 //!
 //! `q_N = P_A b + s_A`, `P_A = K⁻¹ − K⁻¹ W_A D_AA⁻¹ W_Aᵀ K⁻¹`, `s_A = −K⁻¹ W_A D_AA⁻¹ g0_A`,
 //! `λ_A = −D_AA⁻¹ (W_Aᵀ K⁻¹ b + g0_A)`.
 //!
-//! `P_A` is the semi-analytical sensitivity `∂q_N/∂b` of eqs. (42)–(43) (METHODS §5.3 shows
+//! `P_A` is the semi-analytical sensitivity `∂q_N/∂b` of eqs. (42)–(43) (docs/theory.md (T43) shows
 //! the equivalence). The data of each active set is computed once and cached: it does not
 //! depend on the frequency.
 

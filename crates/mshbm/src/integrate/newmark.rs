@@ -1,5 +1,5 @@
 //! Newmark average acceleration with position-level Signorini for a massless contact
-//! boundary (METHODS §3.2, Khenous-type).
+//! boundary (docs/theory.md §9, (T67), Khenous-type).
 //!
 //! With `R` the (redistributed) mass, `C` damping that does not act on the massless DOFs:
 //!
@@ -13,7 +13,7 @@
 //! ```
 //!
 //! (on the massive DOFs; the update makes `R a + C v + K u = f + W λ` hold at every step
-//! end, so it is the `a_{k+1,L} = R̄_LL⁻¹ (f − C v − K u)_L` of METHODS §3.2 without a
+//! end, so it is the `a_{k+1,L} = R̄_LL⁻¹ (f − C v − K u)_L` of docs/theory.md (T67) without a
 //! second factorization). For the massless DOFs `v = Δu/h` is a diagnostic and `a = 0`;
 //! `R` and `C` have no entries there, so neither enters the scheme.
 

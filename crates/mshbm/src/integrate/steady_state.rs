@@ -19,7 +19,7 @@
 //! transient whose frequency is close to a rational multiple of the forcing passes that test
 //! long before it has decayed.)
 //!
-//! Fourier coefficients are the DFT of the `N` samples (METHODS §0, mean `1/N`); max/min are
+//! Fourier coefficients are the DFT of the `N` samples (docs/theory.md (T10), mean `1/N`); max/min are
 //! those of the samples.
 //!
 //! **Damping decides whether there is a steady state to find.** With mass-proportional

@@ -1,0 +1,126 @@
+//! The system data the schemes share: contacts and friction elements in system numbering,
+//! the matrices and loads of one [`System`](crate::model::System) ([`Data`]) and the
+//! integration state ([`State`]).
+
+use crate::sparse::SparseMatrix;
+
+/// Contacts in system numbering: `g = Σ w q + g0`.
+#[derive(Clone, Debug)]
+pub(crate) struct Contacts {
+    pub(crate) w: Vec<Vec<(usize, f64)>>,
+    pub(crate) gap: Vec<f64>,
+}
+
+impl Contacts {
+    pub(crate) fn len(&self) -> usize {
+        self.gap.len()
+    }
+
+    /// `Wᵢᵀ x` (without `g0`).
+    pub(crate) fn dot(&self, i: usize, x: &[f64]) -> f64 {
+        self.w[i].iter().map(|&(d, w)| w * x[d]).sum()
+    }
+
+    /// Gaps `Wᵀ q + g0`.
+    pub(crate) fn gaps_into(&self, q: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.dot(i, q) + self.gap[i];
+        }
+    }
+
+    /// Column `i` of `W` as a dense vector of length `n`.
+    pub(crate) fn column(&self, i: usize, n: usize) -> Vec<f64> {
+        let mut c = vec![0.0; n];
+        for &(d, w) in &self.w[i] {
+            c[d] += w;
+        }
+        c
+    }
+}
+
+/// Friction elements in system numbering (see the module docs).
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Frictions {
+    pub(crate) w: Vec<Vec<(usize, f64)>>,
+    pub(crate) mu: Vec<f64>,
+    /// `Ok(F_N)` prescribed normal force, `Err(i)` the force of contact `i`.
+    pub(crate) normal: Vec<std::result::Result<f64, usize>>,
+}
+
+impl Frictions {
+    pub(crate) fn len(&self) -> usize {
+        self.mu.len()
+    }
+
+    pub(crate) fn dot(&self, i: usize, x: &[f64]) -> f64 {
+        self.w[i].iter().map(|&(d, w)| w * x[d]).sum()
+    }
+
+    pub(crate) fn column(&self, i: usize, n: usize) -> Vec<f64> {
+        let mut c = vec![0.0; n];
+        for &(d, w) in &self.w[i] {
+            c[d] += w;
+        }
+        c
+    }
+}
+
+/// The immutable data of an integration: matrices, loads, contacts.
+pub(crate) struct Data {
+    pub(crate) n: usize,
+    pub(crate) dt: f64,
+    pub(crate) mass: SparseMatrix,
+    pub(crate) stiffness: SparseMatrix,
+    pub(crate) damping: SparseMatrix,
+    pub(crate) constant_load: Vec<f64>,
+    pub(crate) harmonic_load: Vec<f64>,
+    pub(crate) omega: f64,
+    pub(crate) contacts: Contacts,
+    pub(crate) frictions: Frictions,
+    /// Harmonics and coefficients (harmonic-major, `c·n + i`) of the periodic load.
+    pub(crate) periodic_load: Option<(usize, Vec<f64>)>,
+    pub(crate) massless: Vec<usize>,
+    pub(crate) massive: Vec<usize>,
+    pub(crate) energy_offset: f64,
+}
+
+impl Data {
+    /// `f(t) = f_const + f_harm cos ωt` into `out`.
+    pub(crate) fn load_into(&self, t: f64, out: &mut [f64]) {
+        let c = if self.omega != 0.0 {
+            (self.omega * t).cos()
+        } else {
+            0.0
+        };
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.constant_load[i] + c * self.harmonic_load[i];
+        }
+        if let Some((h, coef)) = &self.periodic_load {
+            let n = self.n;
+            let b = crate::harmonic::basis(*h, self.omega * t);
+            for (ci, bc) in b.iter().enumerate() {
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o += bc * coef[ci * n + i];
+                }
+            }
+        }
+    }
+}
+
+/// The evolving state.
+pub(crate) struct State {
+    pub(crate) t0: f64,
+    pub(crate) steps: u64,
+    pub(crate) q: Vec<f64>,
+    pub(crate) v: Vec<f64>,
+    pub(crate) gaps: Vec<f64>,
+    pub(crate) forces: Vec<f64>,
+    /// Friction forces (impulse of the last step / h).
+    pub(crate) friction_forces: Vec<f64>,
+}
+
+impl State {
+    pub(crate) fn time(&self, dt: f64) -> f64 {
+        self.t0 + self.steps as f64 * dt
+    }
+}
