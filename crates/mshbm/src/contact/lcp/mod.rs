@@ -37,7 +37,6 @@ mod tests;
 pub use enumeration::solve_by_enumeration;
 pub use solver::LcpSolver;
 
-
 /// Relative tolerance of the optimality test: the natural residual `|min(Dᵢᵢ λᵢ, wᵢ)|` must
 /// be at most this times the magnitude of the terms of `w = D λ + q`.
 const RESIDUAL_REL_TOL: f64 = 1e-12;
