@@ -50,6 +50,15 @@ pub enum Error {
     #[error("{0}")]
     Singular(String),
 
+    /// A computation or an input would need more memory than the limit allows
+    /// ([`crate::limits::Limits`]); nothing was allocated.
+    #[error("{what} would need {needed}, more than the memory limit of {limit} (raise it with --max-memory GIB, or `Limits::memory_bytes` in the library)")]
+    ResourceLimit {
+        what: String,
+        needed: String,
+        limit: String,
+    },
+
     /// A numerical algorithm failed for a reason that is not the user's input.
     #[error("numerical failure: {0}")]
     Numerical(String),
@@ -106,7 +115,8 @@ impl Error {
             | Error::MatrixMarket { .. }
             | Error::Override { .. }
             | Error::InvalidArgument { .. }
-            | Error::Redistribution(_) => ErrorKind::Input,
+            | Error::Redistribution(_)
+            | Error::ResourceLimit { .. } => ErrorKind::Input,
         }
     }
 
