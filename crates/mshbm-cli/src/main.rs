@@ -15,6 +15,11 @@ use clap::{Parser, Subcommand};
 /// Units are those of the model file (the paper's bar: mm, t, s, N, MPa); frequencies are
 /// always in Hz. DOFs are numbered from 0.
 #[derive(Parser, Debug)]
+///
+/// Exit status: 0 done; 1 error; 2 results written but not converged (Newton), not
+/// periodic (simulate --steady-state) or a continuation branch stopped early — every
+/// output says so; 130 interrupted by SIGINT/SIGTERM (streamed CSVs are kept with an
+/// `# incomplete` line).
 #[command(name = "mshbm", version)]
 struct Cli {
     #[command(subcommand)]
@@ -52,6 +57,10 @@ fn main() -> ExitCode {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     let cli = Cli::parse();
+    if let Err(e) = output::interrupt::install() {
+        crate::note!("error: cannot install the SIGINT/SIGTERM handlers: {e:#}");
+        return ExitCode::from(output::status::ERROR);
+    }
     let result = match &cli.command {
         Command::Modes(args) => commands::modes::run(args),
         Command::Solve(args) => commands::solve::run(args),
@@ -60,11 +69,10 @@ fn main() -> ExitCode {
         Command::Export(args) => commands::export::run(args),
         Command::Paper(args) => commands::paper::run(args),
     };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+    // exit statuses: docs/safety.md and `output::status` (0, 1 error, 2 not converged,
+    // 130 interrupted)
+    if let Err(e) = &result {
+        crate::note!("error: {e:#}");
     }
+    ExitCode::from(output::status::exit_status(&result))
 }

@@ -1,12 +1,15 @@
 //! Line plots (SVG or PNG, chosen by the file extension) with an embedded font, so no
-//! system font libraries are needed.
+//! system font libraries are needed. Plots are rendered in memory and written atomically
+//! through the output policy (`crate::output`).
 
 use std::path::Path;
 use std::sync::Once;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
+
+use crate::output::{write_atomic, OutputKind};
 
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
@@ -88,58 +91,91 @@ where
     Ok(())
 }
 
+/// The image format of a plot path (by its extension), or an error naming the path.
+fn format_of(path: &Path) -> Result<&'static str> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("svg") => Ok("svg"),
+        Some("png") => Ok("png"),
+        _ => bail!("{}: plot file must end in .svg or .png", path.display()),
+    }
+}
+
+/// Encode an RGB buffer of `size` pixels as PNG.
+fn encode_png(rgb: &[u8], size: (u32, u32)) -> Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    let mut encoder = png::Encoder::new(&mut bytes, size.0, size.1);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().context("cannot encode the PNG")?;
+    writer
+        .write_image_data(rgb)
+        .context("cannot encode the PNG")?;
+    writer.finish().context("cannot encode the PNG")?;
+    Ok(bytes)
+}
+
+/// Render with `draw` in memory (an SVG text or a PNG image, by the extension of `path`)
+/// and write the file atomically: a full disk never leaves a truncated plot behind.
+fn render_to_file(
+    path: &Path,
+    size: (u32, u32),
+    draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,
+    draw_png: impl FnOnce(&DrawingArea<BitMapBackend, Shift>) -> Result<()>,
+) -> Result<()> {
+    register_font();
+    let cannot = || format!("{}: cannot draw the plot", path.display());
+    let bytes = match format_of(path)? {
+        "svg" => {
+            let mut text = String::new();
+            {
+                let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+                draw_svg(&root).with_context(cannot)?;
+                root.present()
+                    .map_err(|e| anyhow!("{e:?}"))
+                    .with_context(cannot)?;
+            }
+            text.into_bytes()
+        }
+        _ => {
+            let mut rgb = vec![0u8; size.0 as usize * size.1 as usize * 3];
+            {
+                let root = BitMapBackend::with_buffer(&mut rgb, size).into_drawing_area();
+                draw_png(&root).with_context(cannot)?;
+                root.present()
+                    .map_err(|e| anyhow!("{e:?}"))
+                    .with_context(cannot)?;
+            }
+            encode_png(&rgb, size).with_context(cannot)?
+        }
+    };
+    write_atomic(path, &bytes, OutputKind::Plot)
+}
+
 impl Figure {
     /// Render to `path`; the format follows the extension (`.svg` or `.png`).
     pub fn save(&self, path: &Path) -> Result<()> {
-        register_font();
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let size = (1000, 650);
-        match ext.as_deref() {
-            Some("svg") => {
-                let root = SVGBackend::new(path, size).into_drawing_area();
-                self.draw(&root)?;
-                root.present()
-                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
-            }
-            Some("png") => {
-                let root = BitMapBackend::new(path, size).into_drawing_area();
-                self.draw(&root)?;
-                root.present()
-                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
-            }
-            _ => bail!("{}: plot file must end in .svg or .png", path.display()),
-        }
-        Ok(())
+        render_to_file(
+            path,
+            (1000, 650),
+            |root| self.draw(root),
+            |root| self.draw(root),
+        )
     }
 
     /// Render several figures as panels stacked vertically (sharing nothing but the file),
     /// e.g. a gap and an energy history over the same time axis (the paper's Fig. 5).
     pub fn save_stacked(figures: &[Figure], path: &Path) -> Result<()> {
-        register_font();
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
         let size = (1000, 420 * figures.len().max(1) as u32);
-        match ext.as_deref() {
-            Some("svg") => {
-                let root = SVGBackend::new(path, size).into_drawing_area();
-                draw_panels(&root, figures)?;
-                root.present()
-                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
-            }
-            Some("png") => {
-                let root = BitMapBackend::new(path, size).into_drawing_area();
-                draw_panels(&root, figures)?;
-                root.present()
-                    .with_context(|| format!("{}: cannot write the plot", path.display()))?;
-            }
-            _ => bail!("{}: plot file must end in .svg or .png", path.display()),
-        }
-        Ok(())
+        render_to_file(
+            path,
+            size,
+            |root| draw_panels(root, figures),
+            |root| draw_panels(root, figures),
+        )
     }
 
     fn bounds(&self) -> ((f64, f64), (f64, f64)) {

@@ -1,11 +1,10 @@
 //! `mshbm frf`: frequency response diagrams by pseudo-arclength continuation, one branch
 //! per number of harmonics, streamed to CSV as points are found.
 
-use std::fs::File;
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::frd::{
@@ -17,6 +16,10 @@ use mshbm::Model;
 
 use super::solve::{Method, MethodArgs};
 use super::ModelArgs;
+use crate::output::finite::to_json;
+use crate::output::status::{Interrupted, NotConverged};
+use crate::output::stream::StreamedCsv;
+use crate::output::{interrupt, OutputKind, OutputPlan};
 use crate::plot::{Figure, HLine, Series, Style};
 
 /// Arguments of `mshbm frf`.
@@ -58,9 +61,12 @@ pub struct FrfArgs {
     #[arg(long, default_value_t = 20.0)]
     pub max_turn: f64,
 
-    /// CSV file, one row per point (appended as points are found):
+    /// CSV file, one row per point (streamed to a temporary file beside it as points are
+    /// found, renamed into place when the run ends):
     /// frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,
-    /// stable,max_multiplier (the last two empty without --stability).
+    /// stable,max_multiplier (the last two empty without --stability). The last line says
+    /// how the run ended: `# finished: ...` or `# incomplete: ...` (a branch stopped early,
+    /// or SIGINT/SIGTERM).
     #[arg(long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
@@ -100,7 +106,11 @@ struct FrfOutput {
     from_hz: f64,
     to_hz: f64,
     bar: Option<ProgressBar>,
-    csv: Option<(PathBuf, BufWriter<File>)>,
+    csv: Option<StreamedCsv>,
+    /// Points found (all branches).
+    points: usize,
+    /// The signal that stopped the diagram.
+    interrupted: Option<&'static str>,
     /// The CSV rows carry the method columns (several methods or penalties).
     method_columns: bool,
     /// One summary line per branch on stderr (not with --json).
@@ -115,13 +125,21 @@ impl FrdObserver for FrfOutput {
         points: usize,
         step: f64,
     ) -> mshbm::Result<()> {
-        if let Some((path, w)) = self.csv.as_mut() {
+        self.points += 1;
+        if let Some(csv) = self.csv.as_mut() {
             let method = self
                 .method_columns
                 .then_some((branch.method.name(), branch.penalty));
-            writeln!(w, "{}", frd_csv_row(point, branch.harmonics, method))
-                .and_then(|_| w.flush())
-                .map_err(|e| mshbm::Error::io(path, format!("cannot write the CSV: {e}")))?;
+            // a write error (full disk, NaN) stops the diagram at once
+            csv.row(&frd_csv_row(point, branch.harmonics, method))
+                .map_err(|e| mshbm::Error::io(csv.path(), format!("{e:#}")))?;
+        }
+        if let Some(signal) = interrupt::requested() {
+            self.interrupted = Some(signal);
+            return Err(mshbm::Error::InvalidArgument {
+                name: "run".into(),
+                message: format!("interrupted by {signal}"),
+            });
         }
         if self.bar.is_none() && std::io::stderr().is_terminal() {
             let bar = ProgressBar::new(1000);
@@ -158,7 +176,7 @@ impl FrdObserver for FrfOutput {
                     " ({n} of them by stepping in frequency past corners of the branch, where a fold would be jumped over)"
                 ),
             };
-            eprintln!(
+            crate::note!(
                 "{}: {} points{stepped}, {iterations} Newton iterations, {folds} folds, {}",
                 report.label,
                 report.points.len(),
@@ -347,17 +365,19 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     }
     let methods = frd_methods(args)?;
     let model = args.model.load()?;
+    OutputPlan::new()
+        .input("the model file", &args.model.model)
+        .output("--output", args.output.as_deref(), OutputKind::Data)
+        .output("--plot", args.plot.as_deref(), OutputKind::Plot)
+        .check()?;
     let settings = frd_settings(args, &model)?;
     let method_columns = methods.iter().any(|m| m.kind() == MethodKind::HbmAft);
     let csv = match &args.output {
-        Some(path) => {
-            let f =
-                File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
-            let mut w = BufWriter::new(f);
-            writeln!(w, "{}", frd_csv_header(method_columns))?;
-            w.flush()?;
-            Some((path.clone(), w))
-        }
+        Some(path) => Some(StreamedCsv::create(
+            path,
+            &frd_csv_header(method_columns),
+            true,
+        )?),
         None => None,
     };
     let mut output = FrfOutput {
@@ -365,15 +385,56 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         to_hz: args.to_hz,
         bar: None,
         csv,
+        points: 0,
+        interrupted: None,
         method_columns,
         summaries: !args.json,
     };
-    let report = trace_diagram(&model, &methods, &args.harmonics, &settings, &mut output)?;
+    let traced = trace_diagram(&model, &methods, &args.harmonics, &settings, &mut output);
+    if let Some(bar) = output.bar.take() {
+        bar.finish_and_clear();
+    }
+    let report = match traced {
+        Ok(report) => report,
+        Err(e) => {
+            let Some(signal) = output.interrupted else {
+                // an error (a write error included): the temporary CSV is removed
+                return Err(e.into());
+            };
+            let points = output.points;
+            let written = match output.csv.take() {
+                Some(csv) => {
+                    let path = csv.path().display().to_string();
+                    csv.finish(&format!(
+                        "incomplete: interrupted by {signal} after {points} points"
+                    ))?;
+                    format!("the {points} points found were written to {path}, marked incomplete")
+                }
+                None => format!("{points} points were found"),
+            };
+            return Err(Interrupted(format!(
+                "interrupted by {signal}: {written}; no plot or JSON was written"
+            ))
+            .into());
+        }
+    };
     let failure = report
         .branches
         .iter()
         .find(|b| !b.completed)
         .map(|b| format!("{}: {}", b.label, b.stop));
+    let json = if args.json {
+        Some(to_json("standard output", &report)?)
+    } else {
+        None
+    };
+    if let Some(csv) = output.csv.take() {
+        let status = match &failure {
+            Some(why) => format!("incomplete: branch {why}"),
+            None => format!("finished: {} points, every branch complete", output.points),
+        };
+        csv.finish(&status)?;
+    }
     if let Some(path) = &args.plot {
         let dof = args.method.response_dof(&model)?;
         let fig = frd_figure(
@@ -385,30 +446,35 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         );
         fig.save(path)?;
     }
-    if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+    if let Some(json) = json {
+        crate::outln!("{json}")?;
     } else {
         for f in &report.folds {
-            println!(
+            crate::outln!(
                 "fold ({}): {:.3} Hz, max {:.6e}{}",
                 f.label,
                 f.frequency_hz,
                 f.max_qn,
                 if f.at_kink { " (at a kink)" } else { "" }
-            );
+            )?;
         }
         for b in &report.bifurcations {
-            println!(
+            crate::outln!(
                 "stability change ({}): {:?} near {:.3} Hz",
-                b.label, b.kind, b.frequency_hz
-            );
+                b.label,
+                b.kind,
+                b.frequency_hz
+            )?;
         }
         if let Some(path) = &args.output {
-            eprintln!("points written to {}", path.display());
+            crate::note!("points written to {}", path.display());
         }
     }
     if let Some(why) = failure {
-        bail!("continuation incomplete — {why}; every point found was written");
+        return Err(NotConverged(format!(
+            "continuation incomplete — {why}; every point found was written"
+        ))
+        .into());
     }
     Ok(())
 }

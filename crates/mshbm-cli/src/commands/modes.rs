@@ -8,6 +8,8 @@ use clap::Args;
 use mshbm::modes::MassComparison;
 
 use super::ModelArgs;
+use crate::output::finite::{check_json, to_json};
+use crate::output::{OutputKind, OutputPlan};
 use crate::plot::{Figure, Series, Style};
 
 /// Arguments of `mshbm modes`.
@@ -55,29 +57,38 @@ pub fn relative_error_figure(report: &MassComparison) -> Figure {
 
 pub fn run(args: &ModesArgs) -> Result<()> {
     let model = args.model.load()?;
+    OutputPlan::new()
+        .input("the model file", &args.model.model)
+        .output("--plot", args.plot.as_deref(), OutputKind::Plot)
+        .check()?;
     let report = model.compare_masses(args.count)?;
+    // the table and the plot show the same numbers as the JSON: none may be NaN
+    check_json("the eigenfrequencies", &report)?;
     if let Some(path) = &args.plot {
         relative_error_figure(&report).save(path)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string(&report)?);
+        crate::outln!("{}", to_json("standard output", &report)?)?;
     } else {
-        println!("{}", model.name);
-        println!(
+        crate::outln!("{}", model.name)?;
+        crate::outln!(
             "{:>5} {:>18} {:>18} {:>14}",
-            "mode", "original_hz", "redistributed_hz", "rel_error"
-        );
+            "mode",
+            "original_hz",
+            "redistributed_hz",
+            "rel_error"
+        )?;
         for k in 0..report.original_hz.len() {
-            println!(
+            crate::outln!(
                 "{:>5} {:>18.3} {:>18.3} {:>14.3e}",
                 k + 1,
                 report.original_hz[k],
                 report.redistributed_hz[k],
                 report.relative_error[k]
-            );
+            )?;
         }
         if let Some(path) = &args.plot {
-            eprintln!("plot written to {}", path.display());
+            crate::note!("plot written to {}", path.display());
         }
     }
     Ok(())

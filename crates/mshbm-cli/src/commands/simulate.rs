@@ -2,8 +2,7 @@
 //! the redistributed mass), for a given time or to a periodic steady state.
 
 use std::fmt::Write as _;
-use std::fs::File;
-use std::io::{BufWriter, IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -19,6 +18,11 @@ use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
+use crate::output::finite::to_json;
+use crate::output::interrupt;
+use crate::output::status::{NotConverged, ERROR, INTERRUPTED};
+use crate::output::stream::StreamedCsv;
+use crate::output::{OutputKind, OutputPlan};
 use crate::plot::{Figure, HLine, Series, Style};
 
 /// Time-stepping schemes.
@@ -129,64 +133,10 @@ pub struct SimulateArgs {
     pub json: bool,
 }
 
-/// A CSV file written while the simulation runs, renamed into place at the end (so an
-/// interrupted run never leaves a half-written file under the final name).
-struct CsvStream {
-    path: PathBuf,
-    tmp: PathBuf,
-    writer: BufWriter<File>,
-    error: Option<std::io::Error>,
-    line: String,
-}
-
-impl CsvStream {
-    fn create(path: &Path, header: &str) -> Result<Self> {
-        let dir = path
-            .parent()
-            .filter(|p| !p.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        let name = path
-            .file_name()
-            .with_context(|| format!("{}: not a file path", path.display()))?;
-        let tmp = dir.join(format!(".{}.tmp", name.to_string_lossy()));
-        let file =
-            File::create(&tmp).with_context(|| format!("{}: cannot write", path.display()))?;
-        let mut s = CsvStream {
-            path: path.to_path_buf(),
-            tmp,
-            writer: BufWriter::new(file),
-            error: None,
-            line: String::new(),
-        };
-        s.write_line(header);
-        Ok(s)
-    }
-
-    fn write_line(&mut self, line: &str) {
-        if self.error.is_none() {
-            if let Err(e) = writeln!(self.writer, "{line}") {
-                self.error = Some(e);
-            }
-        }
-    }
-
-    fn finish(mut self) -> Result<()> {
-        let result = match self.error.take() {
-            Some(e) => Err(e),
-            None => self.writer.flush(),
-        };
-        if let Err(e) = result {
-            let _ = std::fs::remove_file(&self.tmp);
-            return Err(e).with_context(|| format!("{}: cannot write", self.path.display()));
-        }
-        std::fs::rename(&self.tmp, &self.path)
-            .with_context(|| format!("{}: cannot write", self.path.display()))
-    }
-}
-
 /// Everything recorded per step.
 pub(crate) struct Recorder {
-    csv: Option<CsvStream>,
+    csv: Option<StreamedCsv>,
+    line: String,
     /// Extremes, contact fraction and energy range of the run.
     pub stats: TransientStatistics,
     plot_every: u64,
@@ -204,11 +154,12 @@ impl Recorder {
         contacts: usize,
         energy_norm: Option<f64>,
         plot_every: u64,
-        csv: Option<CsvStream>,
+        csv: Option<StreamedCsv>,
         progress: ProgressBar,
     ) -> Self {
         Recorder {
             csv,
+            line: String::new(),
             stats: TransientStatistics::new(contacts, energy_norm),
             plot_every: plot_every.max(1),
             plot_time: Vec::new(),
@@ -218,13 +169,40 @@ impl Recorder {
         }
     }
 
+    /// Record the integrator's current step. The step observer cannot return an error, so
+    /// a write error or a SIGINT/SIGTERM ends the process here: on a signal the CSV is
+    /// finished with an `# incomplete` line and kept (status 130); on a write error its
+    /// temporary file is removed (status 1).
     fn record(&mut self, it: &Integrator) {
+        if let Some(signal) = interrupt::requested() {
+            self.progress.finish_and_clear();
+            let steps = self.stats.steps;
+            let written = match self.csv.take() {
+                Some(csv) => {
+                    let path = csv.path().display().to_string();
+                    let rows = csv.rows();
+                    match csv.finish(&format!(
+                        "incomplete: interrupted by {signal} after {rows} rows"
+                    )) {
+                        Ok(()) => format!(
+                            "the {rows} rows recorded were written to {path}, marked incomplete"
+                        ),
+                        Err(e) => format!("{e:#}"),
+                    }
+                }
+                None => format!("{steps} steps were done"),
+            };
+            interrupt::exit_now(
+                INTERRUPTED,
+                &format!("interrupted by {signal}: {written}; nothing else was written"),
+            );
+        }
         let step = self.stats.steps;
         let shown = self.stats.record(it);
         let e = self.stats.energy_last;
         let en = self.stats.energy_norm.map(|e0| e / e0);
         if let Some(csv) = &mut self.csv {
-            let mut line = std::mem::take(&mut csv.line);
+            let line = &mut self.line;
             line.clear();
             let _ = write!(line, "{:.12e}", it.time());
             for (&g, &f) in it.gaps().iter().zip(it.forces()) {
@@ -234,8 +212,11 @@ impl Recorder {
             if let Some(en) = en {
                 let _ = write!(line, ",{en:.12e}");
             }
-            csv.write_line(&line);
-            csv.line = line;
+            if let Err(e) = csv.row(line) {
+                self.progress.finish_and_clear();
+                drop(self.csv.take());
+                interrupt::exit_now(ERROR, &format!("{e:#}; the run was stopped"));
+            }
         }
         if step % self.plot_every == 0 {
             self.plot_time.push(it.time());
@@ -364,6 +345,14 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
 
     // --- model, scheme, system ---
     let model = args.model.load()?;
+    let mut plan = OutputPlan::new();
+    plan.input("the model file", &args.model.model);
+    if let Some(p) = &args.from_solution {
+        plan.input("the --from-solution file", p);
+    }
+    plan.output("--output", args.output.as_deref(), OutputKind::Data)
+        .output("--plot", args.plot.as_deref(), OutputKind::Plot)
+        .check()?;
     let dropped: Option<DroppedBarParameters> =
         load_dropped_bar(&args.model.model, &args.model.overrides)?;
     let analytic: Option<DroppedBarSolution> = dropped.as_ref().and_then(|p| p.analytic().ok());
@@ -484,7 +473,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             if energy_norm.is_some() {
                 header.push_str(",energy_normalized");
             }
-            Some(CsvStream::create(path, &header)?)
+            Some(StreamedCsv::create(path, &header, false)?)
         }
         None => None,
     };
@@ -529,8 +518,20 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         None
     };
     progress.finish_and_clear();
+    let json = match (&steady, args.json) {
+        (Some(s), true) => Some(to_json("standard output", s)?),
+        _ => None,
+    };
     if let Some(csv) = rec.csv.take() {
-        csv.finish()?;
+        let rows = csv.rows();
+        let status = match &steady {
+            Some(s) if !s.periodic => format!(
+                "finished: {rows} steps; NOT periodic within {} periods (period-to-period change {:.2e})",
+                s.periods_simulated, s.period_change
+            ),
+            _ => format!("finished: {rows} steps"),
+        };
+        csv.finish(&status)?;
     }
 
     // --- plot ---
@@ -541,49 +542,60 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     // --- report ---
     let scheme_name = scheme.description();
     match &steady {
-        Some(s) => report_steady(args, &model, &scheme_name, s)?,
+        Some(s) => report_steady(args, &model, &scheme_name, s, json)?,
         None => report_transient(args, &model, &scheme_name, &rec, dt, e0, analytic.as_ref())?,
     }
     if let Some(s) = &steady {
         if !s.periodic {
-            bail!(
+            return Err(NotConverged(format!(
                 "the response did not become periodic within {} periods: period-to-period change {:.2e} > tolerance {:.1e}",
                 s.periods_simulated,
                 s.period_change,
                 args.tolerance
-            );
+            ))
+            .into());
         }
     }
     Ok(())
 }
 
-fn report_steady(args: &SimulateArgs, model: &Model, scheme: &str, s: &SteadyState) -> Result<()> {
-    if args.json {
-        println!("{}", serde_json::to_string(s)?);
+fn report_steady(
+    args: &SimulateArgs,
+    model: &Model,
+    scheme: &str,
+    s: &SteadyState,
+    json: Option<String>,
+) -> Result<()> {
+    if let Some(json) = json {
+        crate::outln!("{json}")?;
         return Ok(());
     }
     let sol = &s.solution;
-    println!(
+    crate::outln!(
         "{} at {} Hz: {scheme}, {} steps per period",
-        model.name, sol.frequency_hz, sol.samples
-    );
+        model.name,
+        sol.frequency_hz,
+        sol.samples
+    )?;
     if s.periodic {
-        println!(
+        crate::outln!(
             "periodic after {} periods (period-to-period change {:.2e} < tolerance {:.1e})",
-            s.periods_simulated, s.period_change, args.tolerance
-        );
+            s.periods_simulated,
+            s.period_change,
+            args.tolerance
+        )?;
     } else {
-        println!(
+        crate::outln!(
             "NOT periodic after {} periods: period-to-period change {:.2e} > tolerance {:.1e}; \
              the response may be quasi-periodic or chaotic, and the last period below is not a steady state",
             s.periods_simulated, s.period_change, args.tolerance
-        );
+        )?;
         if let Some(k) = s.subharmonic {
-            println!("the state repeats after {k} periods (a subharmonic response)");
+            crate::outln!("the state repeats after {k} periods (a subharmonic response)")?;
         }
     }
     for c in &sol.contacts {
-        println!(
+        crate::outln!(
             "contact DOF {}: max {:.6e}, min {:.6e}, max force {:.6e}, a0 {:.6e}, a1 {:.6e}, b1 {:.6e}",
             c.dof,
             c.max,
@@ -592,16 +604,16 @@ fn report_steady(args: &SimulateArgs, model: &Model, scheme: &str, s: &SteadySta
             c.coefficients[0],
             c.coefficients[1],
             c.coefficients[2]
-        );
+        )?;
     }
     let r = &sol.response;
-    println!(
+    crate::outln!(
         "DOF {}: max {:.6e}, min {:.6e}, first-harmonic amplitude {:.6e}",
         r.dof,
         r.max,
         r.min,
         r.amplitude_h1()
-    );
+    )?;
     Ok(())
 }
 
@@ -652,36 +664,38 @@ fn report_transient(
             v["analytic_period_s"] = a.period().into();
             v["analytic_contact_duration_s"] = a.contact_duration().into();
         }
-        println!("{v}");
+        crate::outln!("{}", to_json("standard output", &v)?)?;
         return Ok(());
     }
-    println!(
+    crate::outln!(
         "{}: {scheme}, dt = {dt:.4e} s, {steps} steps, t = 0 .. {t_end:.6e} s",
         model.name
-    );
+    )?;
     for c in 0..st.min_gap.len() {
-        println!(
+        crate::outln!(
             "contact {c} (DOF {}): min gap {:.6e}, max force {:.6e}, closed in {:.1}% of the steps",
             model.contacts[c].dofs[0],
             st.min_gap[c],
             st.max_force[c],
             100.0 * st.closed_fraction(c)
-        );
+        )?;
     }
     match st.energy_norm {
-        Some(_) => println!(
+        Some(_) => crate::outln!(
             "energy: initial {e0:.6e}, final {:.6e}; normalised energy in [{:.6}, {:.6}]",
-            st.energy_last, st.energy_range.0, st.energy_range.1
-        ),
-        None => println!("energy: initial {e0:.6e}, final {:.6e}", st.energy_last),
+            st.energy_last,
+            st.energy_range.0,
+            st.energy_range.1
+        )?,
+        None => crate::outln!("energy: initial {e0:.6e}, final {:.6e}", st.energy_last)?,
     }
     if let Some(a) = analytic {
-        println!(
+        crate::outln!(
             "closed form (dropped bar, kappa = {:.0}): period {:.6e} s, each contact lasts 2L/c = {:.6e} s",
             a.kappa(),
             a.period(),
             a.contact_duration()
-        );
+        )?;
     }
     Ok(())
 }

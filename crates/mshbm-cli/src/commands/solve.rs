@@ -17,7 +17,9 @@ use mshbm::stability::StabilityOptions;
 use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
-use crate::output::write_atomic;
+use crate::output::finite::to_json;
+use crate::output::status::NotConverged;
+use crate::output::{write_csv_atomic, OutputKind, OutputPlan};
 use crate::plot::{Figure, HLine, Series, Style};
 
 /// Periodic-solution methods.
@@ -279,7 +281,8 @@ pub struct SolveArgs {
     pub json: bool,
 
     /// Write the time series over one period as CSV (time [s], displacement, gap and
-    /// force of each contact).
+    /// force of each contact). A solution that did not converge ends with a line
+    /// `# not converged: ...` (and the exit status is 2).
     #[arg(long, value_name = "FILE")]
     pub output: Option<PathBuf>,
 
@@ -378,6 +381,11 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     }
     let method = args.method.single_method(args.harmonics)?;
     let model = args.model.load()?;
+    OutputPlan::new()
+        .input("the model file", &args.model.model)
+        .output("--output", args.output.as_deref(), OutputKind::Data)
+        .output("--plot", args.plot.as_deref(), OutputKind::Plot)
+        .check()?;
     let Solved {
         solution,
         label,
@@ -390,64 +398,90 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         &solve_settings(args, &model)?,
     )?;
     if let Some(e) = stability_error {
-        eprintln!("note: stability not computed: {e}");
+        crate::note!("note: stability not computed: {e}");
     }
+    let not_converged = (!outcome.converged).then(|| {
+        format!(
+            "Newton did not converge at {} Hz: {}",
+            args.frequency,
+            outcome
+                .reason
+                .as_ref()
+                .map_or_else(|| "unknown reason".into(), |r| r.to_string())
+        )
+    });
+    let json = if args.json {
+        Some(to_json("standard output", &solution)?)
+    } else {
+        None
+    };
     if let Some(path) = &args.output {
-        write_atomic(path, time_series_csv(&solution).as_bytes())?;
+        let mut csv = time_series_csv(&solution);
+        if let Some(why) = &not_converged {
+            csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
+        }
+        write_csv_atomic(path, &csv)?;
     }
     if let Some(path) = &args.plot {
-        period_figure(&model, std::slice::from_ref(&solution)).save(path)?;
+        let mut fig = period_figure(&model, std::slice::from_ref(&solution));
+        if not_converged.is_some() {
+            fig.title.push_str(" — NOT CONVERGED");
+        }
+        fig.save(path)?;
     }
-    if args.json {
-        println!("{}", serde_json::to_string(&solution)?);
+    if let Some(json) = json {
+        crate::outln!("{json}")?;
     } else {
-        println!(
+        crate::outln!(
             "{} at {} Hz, H = {}, {} samples, {} quadrature, {label}",
-            model.name, args.frequency, solution.harmonics, solution.samples, solution.quadrature
-        );
-        println!(
+            model.name,
+            args.frequency,
+            solution.harmonics,
+            solution.samples,
+            solution.quadrature
+        )?;
+        crate::outln!(
             "converged: {} after {} Newton iterations (relative residual {:.2e})",
-            solution.converged, solution.iterations, solution.residual_norm
-        );
+            solution.converged,
+            solution.iterations,
+            solution.residual_norm
+        )?;
         if let Some(st) = &solution.stability {
-            println!(
+            crate::outln!(
                 "{}: largest Floquet multiplier modulus {:.6}",
                 if st.stable { "stable" } else { "unstable" },
                 st.max_multiplier
-            );
+            )?;
         }
         for c in &solution.contacts {
-            println!(
+            crate::outln!(
                 "contact DOF {}: max {:.6e}, min {:.6e}, max force {:.6e}",
                 c.dof,
                 c.max,
                 c.min,
                 c.force.iter().fold(0.0f64, |m, v| m.max(*v))
-            );
+            )?;
             if solution.method == MethodKind::HbmAft {
-                println!(
+                crate::outln!(
                     "  penalty contact: max penetration −g {:.6e} (at the samples)",
                     c.gap.iter().fold(f64::NEG_INFINITY, |m, g| m.max(-g))
-                );
+                )?;
             }
         }
         let r = &solution.response;
-        println!(
+        crate::outln!(
             "DOF {}: max {:.6e}, min {:.6e}, first-harmonic amplitude {:.6e}",
             r.dof,
             r.max,
             r.min,
             r.amplitude_h1()
-        );
+        )?;
     }
-    if !outcome.converged {
-        bail!(
-            "Newton did not converge at {} Hz: {}",
-            args.frequency,
-            outcome
-                .reason
-                .map_or_else(|| "unknown reason".into(), |r| r.to_string())
-        );
+    if let Some(why) = not_converged {
+        return Err(NotConverged(format!(
+            "{why}; every output is marked as not converged (exit status 2)"
+        ))
+        .into());
     }
     Ok(())
 }

@@ -1,6 +1,9 @@
 //! Export of a model as a general `kind = "matrices"` model: Matrix Market files for the
 //! matrices and load vectors, a node-coordinate file and the TOML that ties them
 //! together. Reading the export back gives the same model (to the 17 digits written).
+//!
+//! [`export_files`] only produces the files' names and contents: where and how they are
+//! written (refusing to overwrite, atomically) is the caller's policy, e.g. `mshbm export`.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -10,14 +13,41 @@ use crate::model::matrix_market::format_matrix;
 use crate::model::Model;
 use crate::sparse::SparseMatrix;
 
-/// Write `model` into `dir` (created if needed) as `model.toml`, `mass.mtx`,
-/// `stiffness.mtx` (`damping.mtx`), `harmonic_load.mtx`, `constant_load.mtx` and
-/// `nodes.txt`. Returns the path of the TOML file.
+/// One file of an export: its name (in the export's directory) and its contents.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExportedFile {
+    pub name: &'static str,
+    pub contents: String,
+}
+
+/// The name of the model file of an export (the one to load).
+pub const EXPORTED_MODEL_FILE: &str = "model.toml";
+
+/// Write `model` into `dir` (created if needed) as the files of [`export_files`]; a file
+/// that exists already is an error (nothing is overwritten). Returns the path of the TOML
+/// file.
 pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> {
+    let files = export_files(model);
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let write = |name: &str, text: String| -> Result<()> {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| Error::io(&p, e))
+    for f in &files {
+        let p = dir.join(f.name);
+        let mut out = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&p)
+            .map_err(|e| Error::io(&p, e))?;
+        std::io::Write::write_all(&mut out, f.contents.as_bytes()).map_err(|e| Error::io(&p, e))?;
+    }
+    Ok(dir.join(EXPORTED_MODEL_FILE))
+}
+
+/// The files of the export of `model`: `model.toml` (listed last), `mass.mtx`,
+/// `stiffness.mtx` (`damping.mtx`), `harmonic_load.mtx`, `constant_load.mtx` and
+/// `nodes.txt`.
+pub fn export_files(model: &Model) -> Vec<ExportedFile> {
+    let mut files = Vec::new();
+    let mut write = |name: &'static str, contents: String| {
+        files.push(ExportedFile { name, contents });
     };
     let vector = |v: &[f64]| {
         let t: Vec<(usize, usize, f64)> = v
@@ -28,19 +58,19 @@ pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> 
             .collect();
         format_matrix(&SparseMatrix::from_triplets(v.len(), 1, &t))
     };
-    write("mass.mtx", format_matrix(&model.mass))?;
-    write("stiffness.mtx", format_matrix(&model.stiffness))?;
+    write("mass.mtx", format_matrix(&model.mass));
+    write("stiffness.mtx", format_matrix(&model.stiffness));
     if let Some(c) = &model.damping_matrix {
-        write("damping.mtx", format_matrix(c))?;
+        write("damping.mtx", format_matrix(c));
     }
-    write("harmonic_load.mtx", vector(&model.harmonic_load))?;
-    write("constant_load.mtx", vector(&model.constant_load))?;
+    write("harmonic_load.mtx", vector(&model.harmonic_load));
+    write("constant_load.mtx", vector(&model.constant_load));
     let mut nodes = String::from("# node coordinates, one node per line\n");
     for c in &model.coordinates {
         let row: Vec<String> = c.iter().map(|x| format!("{x:.17e}")).collect();
         let _ = writeln!(nodes, "{}", row.join(" "));
     }
-    write("nodes.txt", nodes)?;
+    write("nodes.txt", nodes);
 
     let mut t = String::new();
     let _ = writeln!(
@@ -103,7 +133,6 @@ pub fn export_matrices(model: &Model, dir: &Path) -> Result<std::path::PathBuf> 
     if let Some(z) = d.first_mode_ratio {
         let _ = writeln!(t, "first_mode_ratio = {z:?}");
     }
-    let path = dir.join("model.toml");
-    write("model.toml", t)?;
-    Ok(path)
+    write(EXPORTED_MODEL_FILE, t);
+    files
 }

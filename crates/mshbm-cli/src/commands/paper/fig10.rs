@@ -12,7 +12,7 @@ use mshbm::solve::{solve_periodic, SolveSettings, Solved};
 
 use super::{models, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
 use crate::commands::solve::{period_figure, time_series_csv};
-use crate::output::write_atomic;
+use crate::output::write_csv_atomic;
 
 pub const FREQUENCY_HZ: f64 = 60_000.0;
 pub const HARMONICS: [usize; 4] = [1, 3, 5, 10];
@@ -82,7 +82,7 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
             let _ = writeln!(csv, "{},{line}", s.harmonics);
         }
     }
-    write_atomic(&setup.file(csv_name), csv.as_bytes())?;
+    write_csv_atomic(&setup.file(csv_name), &csv)?;
 
     let mut fig = period_figure(&model, &solutions);
     fig.title = format!(

@@ -19,7 +19,7 @@ use mshbm::stability::StabilityOptions;
 
 use super::{models, percent, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
 use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
-use crate::output::write_atomic;
+use crate::output::write_csv_atomic;
 
 const HARMONICS: usize = 5;
 
@@ -193,7 +193,7 @@ impl Plan {
                 csv.push('\n');
             }
         }
-        write_atomic(&setup.file(csv_name), csv.as_bytes())?;
+        write_csv_atomic(&setup.file(csv_name), &csv)?;
 
         let model = models::load(
             models::CLAMPED_BAR_GAP0,

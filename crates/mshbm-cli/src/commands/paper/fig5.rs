@@ -15,7 +15,7 @@ use mshbm::simulation::contact_intervals;
 use super::run::{Job, Output};
 use super::{models, FigureReport, Setup};
 use crate::commands::simulate::{transient_figures, transient_run, SchemeArg};
-use crate::output::write_atomic;
+use crate::output::write_csv_atomic;
 use crate::plot::Figure;
 
 /// The three contact descriptions of the paper's Fig. 5.
@@ -88,7 +88,7 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
         csv.push('\n');
     }
     let csv_name = "fig5_dropped_bar.csv";
-    write_atomic(&setup.file(csv_name), csv.as_bytes())?;
+    write_csv_atomic(&setup.file(csv_name), &csv)?;
 
     let runs: Vec<(&str, &_)> = RUNS.iter().zip(&recs).map(|(r, rec)| (r.0, rec)).collect();
     let [mut gap, mut energy] = transient_figures(&model, &runs, Some(&analytic));

@@ -9,7 +9,7 @@ use anyhow::Result;
 use super::run::{Job, Output};
 use super::{models, percent, FigureReport, Setup};
 use crate::commands::modes::relative_error_figure;
-use crate::output::write_atomic;
+use crate::output::write_csv_atomic;
 use crate::plot::{Series, Style};
 
 /// CSV header of fig8_eigenfrequencies.csv.
@@ -56,7 +56,7 @@ fn figure(setup: &Setup) -> Result<FigureReport> {
         );
     }
     let csv_name = "fig8_eigenfrequencies.csv";
-    write_atomic(&setup.file(csv_name), csv.as_bytes())?;
+    write_csv_atomic(&setup.file(csv_name), &csv)?;
 
     let mut fig = relative_error_figure(&report);
     fig.title = format!(

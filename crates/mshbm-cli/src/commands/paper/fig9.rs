@@ -30,7 +30,7 @@ use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
 use crate::commands::simulate::{
     scheme_and_mass, SchemeArg, SIMULATE_HARMONICS, SIMULATE_TOLERANCE,
 };
-use crate::output::write_atomic;
+use crate::output::write_csv_atomic;
 use crate::plot::{Series, Style};
 
 /// CSV header of fig9_time_integration.csv.
@@ -337,7 +337,7 @@ impl Plan {
                 csv.push('\n');
             }
         }
-        write_atomic(&setup.file(frd_csv), csv.as_bytes())?;
+        write_csv_atomic(&setup.file(frd_csv), &csv)?;
         let ti_csv = "fig9_time_integration.csv";
         let mut csv = String::from(TI_CSV_HEADER);
         csv.push('\n');
@@ -356,7 +356,7 @@ impl Plan {
                 s.band_min
             );
         }
-        write_atomic(&setup.file(ti_csv), csv.as_bytes())?;
+        write_csv_atomic(&setup.file(ti_csv), &csv)?;
 
         // figure
         let model = models::load(

@@ -25,6 +25,10 @@
 //! written; the error message names the incomplete parts. This is the policy of
 //! `mshbm frf`, which also fails on an incomplete branch after writing every point.
 //!
+//! **Outputs** follow the policy of every command (`crate::output`, docs/safety.md): each
+//! file is written atomically and refused when something other than a regular file is in
+//! its way.
+//!
 //! `--quick` (hidden) shrinks every part (narrow frequency ranges, few time-integration
 //! frequencies and periods, a coarse dropped bar) so that the CLI test runs in seconds; the
 //! files and their formats are the same.
@@ -137,8 +141,19 @@ pub fn run(args: &PaperArgs) -> Result<()> {
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(2, |n| n.get()),
     };
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("{}: cannot create the directory", args.output.display()))?;
+    std::fs::create_dir_all(&args.output).with_context(|| {
+        format!(
+            "--output {}: cannot create the directory",
+            args.output.display()
+        )
+    })?;
+    // the directory must take new files; each file in it is checked when it is written
+    // (a file in the way fails its figure only, the others are written)
+    crate::output::plan::check_target(
+        "--output",
+        &args.output.join("summary.md"),
+        crate::output::OutputKind::Text,
+    )?;
     let setup = Setup {
         dir: args.output.clone(),
         format: args.format,
@@ -214,7 +229,11 @@ pub fn run(args: &PaperArgs) -> Result<()> {
         .flat_map(|(_, r)| r.problems.iter().cloned())
         .collect();
     let summary = summary_text(&setup, &reports, &problems, &timing);
-    crate::output::write_atomic(&setup.file("summary.md"), summary.as_bytes())?;
+    crate::output::write_atomic(
+        &setup.file("summary.md"),
+        summary.as_bytes(),
+        crate::output::OutputKind::Text,
+    )?;
     progress.line(
         "paper",
         &format!(

@@ -84,7 +84,7 @@ impl Progress {
     }
 
     pub fn line(&self, part: &str, message: &str) {
-        eprintln!("[{:7.1} s] {part}: {message}", self.elapsed());
+        crate::note!("[{:7.1} s] {part}: {message}", self.elapsed());
     }
 
     /// An observer of one continuation branch that prints where it is every few seconds.
