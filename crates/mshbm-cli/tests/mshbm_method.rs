@@ -135,7 +135,7 @@ fn frf_traces_the_bar_with_impacts() {
     ]);
     assert_success(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
-    let mut lines = text.lines();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
     let rows: Vec<Vec<f64>> = lines

@@ -142,7 +142,7 @@ fn csv_has_a_header_and_one_row_per_step() {
     ]);
     assert_success(&out);
     let text = std::fs::read_to_string(&csv).unwrap();
-    let mut lines = text.lines();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     assert_eq!(
         lines.next().unwrap(),
         "time_s,gap_c0,force_c0,energy,energy_normalized"
