@@ -116,3 +116,5 @@ pub const SOLVE_FIELDS: [&str; 12] = [
 
 /// The CSV header of `mshbm frf` (the MS-HBM branches alone).
 pub const FRD_HEADER: &str = "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
+
+pub mod resources;
