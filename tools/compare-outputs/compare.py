@@ -43,7 +43,9 @@ for f in sorted(os.listdir(a)):
             continue
         cmp(ja, jb, "", f)
     elif f.endswith(".csv"):
-        ra = list(csv.reader(open(pa))); rb = list(csv.reader(open(pb)))
+        # '#' lines are comments (the status line that ends a streamed CSV): not numbers
+        ra = [r for r in csv.reader(open(pa)) if not (r and r[0].startswith("#"))]
+        rb = [r for r in csv.reader(open(pb)) if not (r and r[0].startswith("#"))]
         if len(ra) != len(rb): notes.append(f"{f}: rows {len(ra)} vs {len(rb)}"); continue
         hdr = ra[0]
         for j, h in enumerate(hdr):

@@ -62,6 +62,7 @@ pub fn run(args: &ModesArgs) -> Result<()> {
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;
     let report = model.compare_masses(args.count)?;
+    crate::output::interrupt::check("nothing was written")?;
     // the table and the plot show the same numbers as the JSON: none may be NaN
     check_json("the eigenfrequencies", &report)?;
     if let Some(path) = &args.plot {

@@ -91,7 +91,7 @@ pub struct SimulateArgs {
 
     /// Integrate period by period until the state (displacements and velocities of the DOFs
     /// with mass) repeats to --tolerance twice in a row, then report the last period like
-    /// `mshbm solve` (exit status 1 if it does not become periodic within --periods).
+    /// `mshbm solve` (exit status 2 if it does not become periodic within --periods).
     #[arg(long)]
     pub steady_state: bool,
 
@@ -526,10 +526,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         let rows = csv.rows();
         let status = match &steady {
             Some(s) if !s.periodic => format!(
-                "finished: {rows} steps; NOT periodic within {} periods (period-to-period change {:.2e})",
+                "finished: {rows} rows; NOT periodic within {} periods (period-to-period change {:.2e})",
                 s.periods_simulated, s.period_change
             ),
-            _ => format!("finished: {rows} steps"),
+            _ => format!("finished: {rows} rows"),
         };
         csv.finish(&status)?;
     }
@@ -635,6 +635,14 @@ fn report_transient(
         .unwrap_or(0.0)
         .max(steps as f64 * dt);
     if args.json {
+        // `json!` would turn a NaN into null: check the numbers themselves
+        crate::output::finite::check_json(
+            "standard output",
+            &(&st.min_gap, &st.max_force, e0, st.energy_last),
+        )?;
+        if st.energy_norm.is_some() {
+            crate::output::finite::check_json("standard output", &st.energy_range)?;
+        }
         let contacts: Vec<serde_json::Value> = (0..st.min_gap.len())
             .map(|c| {
                 serde_json::json!({

@@ -397,6 +397,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         args.frequency,
         &solve_settings(args, &model)?,
     )?;
+    crate::output::interrupt::check("nothing was written")?;
     if let Some(e) = stability_error {
         crate::note!("note: stability not computed: {e}");
     }

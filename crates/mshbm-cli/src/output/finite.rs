@@ -275,7 +275,7 @@ impl<'a> ser::SerializeStructVariant for &'a mut NonFinite {
 mod tests {
     use super::*;
 
-    #[derive(Serialize)]
+    #[derive(serde::Serialize)]
     struct Contact {
         min: f64,
         series: Vec<f64>,
