@@ -557,3 +557,39 @@ fn an_interrupted_simulation_keeps_its_steps_marked_incomplete() {
     );
     assert!(temporaries(dir.path()).is_empty());
 }
+
+#[test]
+fn a_symlink_to_a_regular_file_is_followed_and_a_directory_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = small_model(dir.path());
+    let m = model.display().to_string();
+    // the link stays a link, the file it points to is replaced
+    std::fs::create_dir(dir.path().join("results")).unwrap();
+    let real = dir.path().join("results/period.csv");
+    std::fs::write(&real, "old").unwrap();
+    let link = dir.path().join("period.csv");
+    std::os::unix::fs::symlink(&real, &link).unwrap();
+    let out = measured(dir.path(), &solve_args(&m, &["--output", "period.csv"]));
+    assert_eq!(out.status, 0, "{}", out.stderr);
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert!(std::fs::read_to_string(&real)
+        .unwrap()
+        .starts_with("time_s,"));
+    // a link to a directory, a dangling link and a directory are refused
+    std::os::unix::fs::symlink(dir.path().join("results"), dir.path().join("to_dir.csv")).unwrap();
+    std::os::unix::fs::symlink(dir.path().join("nothing"), dir.path().join("dangling.csv"))
+        .unwrap();
+    for (path, words) in [
+        ("to_dir.csv", "symbolic link to a directory"),
+        ("dangling.csv", "symbolic link to nothing"),
+        ("results", "is a directory"),
+    ] {
+        measured(dir.path(), &solve_args(&m, &["--output", path]))
+            .assert_clean_refusal(&["--output", path, words]);
+    }
+    assert!(temporaries(dir.path()).is_empty());
+    assert!(temporaries(&dir.path().join("results")).is_empty());
+}

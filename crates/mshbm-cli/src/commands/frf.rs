@@ -132,7 +132,13 @@ impl FrdObserver for FrfOutput {
                 .then_some((branch.method.name(), branch.penalty));
             // a write error (full disk, NaN) stops the diagram at once
             csv.row(&frd_csv_row(point, branch.harmonics, method))
-                .map_err(|e| mshbm::Error::io(csv.path(), format!("{e:#}")))?;
+                .map_err(|e| {
+                    // the message names the file already: keep it once
+                    let text = format!("{e:#}");
+                    let prefix = format!("{}: ", csv.path().display());
+                    let message = text.strip_prefix(&prefix).unwrap_or(&text).to_string();
+                    mshbm::Error::io(csv.path(), message)
+                })?;
         }
         if let Some(signal) = interrupt::requested() {
             self.interrupted = Some(signal);
