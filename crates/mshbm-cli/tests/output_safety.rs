@@ -300,6 +300,7 @@ fn an_error_after_the_output_was_opened_leaves_no_temporary_file() {
 }
 
 #[test]
+#[allow(clippy::zombie_processes)] // reaped by wait4 in wait_with_usage
 fn a_full_standard_output_is_an_error_not_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     let model = small_model(dir.path());

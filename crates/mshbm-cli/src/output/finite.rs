@@ -113,7 +113,7 @@ macro_rules! ignore {
     };
 }
 
-impl<'a> ser::Serializer for &'a mut NonFinite {
+impl ser::Serializer for &mut NonFinite {
     type Ok = ();
     type Error = Found;
     type SerializeSeq = Self;
@@ -225,7 +225,7 @@ macro_rules! sequence {
 sequence!(SerializeSeq: serialize_element, SerializeTuple: serialize_element,
     SerializeTupleStruct: serialize_field, SerializeTupleVariant: serialize_field);
 
-impl<'a> ser::SerializeMap for &'a mut NonFinite {
+impl ser::SerializeMap for &mut NonFinite {
     type Ok = ();
     type Error = Found;
     fn serialize_key<T: Serialize + ?Sized>(&mut self, key: &T) -> Result<(), Found> {
@@ -241,7 +241,7 @@ impl<'a> ser::SerializeMap for &'a mut NonFinite {
     }
 }
 
-impl<'a> ser::SerializeStruct for &'a mut NonFinite {
+impl ser::SerializeStruct for &mut NonFinite {
     type Ok = ();
     type Error = Found;
     fn serialize_field<T: Serialize + ?Sized>(
@@ -256,7 +256,7 @@ impl<'a> ser::SerializeStruct for &'a mut NonFinite {
     }
 }
 
-impl<'a> ser::SerializeStructVariant for &'a mut NonFinite {
+impl ser::SerializeStructVariant for &mut NonFinite {
     type Ok = ();
     type Error = Found;
     fn serialize_field<T: Serialize + ?Sized>(

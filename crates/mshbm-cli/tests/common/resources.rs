@@ -20,6 +20,7 @@ pub struct Measured {
 
 /// Run `command` to completion (stdout and stderr into files in `scratch`, stdin empty)
 /// and measure it.
+#[allow(clippy::zombie_processes)] // reaped by wait4 in wait_with_usage
 pub fn run_measured(mut command: Command, scratch: &Path) -> Measured {
     let out_path = scratch.join("measured.stdout");
     let err_path = scratch.join("measured.stderr");
@@ -119,6 +120,7 @@ impl ChildGuard {
     }
 
     /// Reap the child: (exit status or 128 + signal, (CPU seconds, peak RSS in MB)).
+    #[allow(clippy::zombie_processes)] // reaped by wait4 in wait_with_usage
     pub fn wait(mut self) -> (i32, (f64, f64)) {
         let child = self.0.take().expect("not reaped");
         wait_with_usage(child.id() as i32)
