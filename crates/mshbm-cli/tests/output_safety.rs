@@ -182,6 +182,22 @@ fn an_output_that_is_the_model_file_is_refused_and_the_model_kept() {
     ];
     measured(dir.path(), &sim).assert_clean_refusal(&["--output", "model file"]);
     assert_eq!(std::fs::read(&model).unwrap(), before);
+    // the solution a simulation starts from is an input too
+    let start = dir.path().join("start.json");
+    std::fs::write(&start, "{}").unwrap();
+    let st = start.display().to_string();
+    let sim = [
+        "simulate",
+        &m,
+        "--from-solution",
+        &st,
+        "--periods",
+        "1",
+        "--output",
+        &st,
+    ];
+    measured(dir.path(), &sim).assert_clean_refusal(&["--output", "--from-solution"]);
+    assert_eq!(std::fs::read_to_string(&start).unwrap(), "{}");
 }
 
 #[test]
