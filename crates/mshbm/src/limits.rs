@@ -238,6 +238,25 @@ mod tests {
         let small = dir.join("small.txt");
         std::fs::write(&small, "ok").unwrap();
         assert_eq!(read_text_file(&small, &limits).unwrap(), "ok");
+        let err = read_text_file(&dir, &limits).unwrap_err();
+        assert!(err.to_string().contains("a directory"), "{err}");
+        #[cfg(unix)]
+        {
+            // a FIFO without a writer: refused at once, never opened (opening would block)
+            let fifo = dir.join("fifo");
+            let made = std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap();
+            assert!(made.success());
+            let start = std::time::Instant::now();
+            let err = read_text_file(&fifo, &limits).unwrap_err();
+            assert!(err.to_string().contains("a FIFO"), "{err}");
+            assert!(start.elapsed().as_millis() < 500, "{:?}", start.elapsed());
+            // opened non-blocking, a FIFO is refused by the second check as well
+            let file = open_nonblocking(&fifo).unwrap();
+            assert!(!file.metadata().unwrap().is_file());
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

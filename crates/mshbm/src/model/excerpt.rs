@@ -39,16 +39,19 @@ fn excerpt_of(token: &str, max_chars: usize) -> String {
 /// [`MESSAGE_CHARS`] characters, for messages that may quote input text.
 pub fn sanitize_message(message: &str) -> String {
     let mut out = String::new();
-    for (k, c) in message.chars().enumerate() {
-        if k == MESSAGE_CHARS {
+    let mut written = 0;
+    for c in message.chars() {
+        let piece: String = if c.is_control() {
+            c.escape_default().collect()
+        } else {
+            c.to_string()
+        };
+        written += piece.chars().count();
+        if written > MESSAGE_CHARS {
             out.push('…');
             break;
         }
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
+        out.push_str(&piece);
     }
     out
 }
