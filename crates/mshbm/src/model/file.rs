@@ -25,7 +25,8 @@
 //!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
 //!   ```
 //! * `kind = "matrices"` — a general model from Matrix Market files (paths relative to the
-//!   model file; DOFs numbered from 0, DOF = node * dofs_per_node + component):
+//!   model file and inside its directory tree unless [`LoadOptions::allow_outside_paths`];
+//!   DOFs numbered from 0, DOF = node * dofs_per_node + component):
 //!   ```toml
 //!   kind = "matrices"
 //!   [matrices]

@@ -361,7 +361,8 @@ impl Model {
                 "must be at least 1",
             ));
         }
-        if self.coordinates.len() * self.dofs_per_node != n {
+        let mesh_dofs = self.coordinates.len().checked_mul(self.dofs_per_node);
+        if mesh_dofs != Some(n) {
             return Err(Error::field(
                 file,
                 "mesh.coordinates",
@@ -369,7 +370,7 @@ impl Model {
                     "{} nodes × {} DOFs per node = {} DOFs, but the matrices have {n}",
                     self.coordinates.len(),
                     self.dofs_per_node,
-                    self.coordinates.len() * self.dofs_per_node
+                    mesh_dofs.map_or_else(|| "more than 2^64".to_string(), |d| d.to_string())
                 ),
             ));
         }
