@@ -230,7 +230,7 @@ fn model_and_matrix_market_readers_never_panic() {
     let seed: u64 = std::env::var("MSHBM_FUZZ_SEED")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(0x5EED_15);
+        .unwrap_or(0x005E_ED15);
     let mut rng = Rng(seed | 1);
     let scratch = Scratch::new();
     let options = options();

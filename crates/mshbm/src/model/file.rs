@@ -342,7 +342,10 @@ fn parse_toml(text: &str, path: &Path) -> Result<toml::Value> {
             .unwrap_or_default();
         Error::Toml {
             file: path.to_path_buf(),
-            message: format!("{at}{}", sanitize_message(e.message().trim())),
+            message: format!(
+                "{at}{}",
+                sanitize_message(&e.message().trim().replace('\n', "; "))
+            ),
         }
     })
 }
