@@ -61,3 +61,24 @@ pub fn node_coordinates(n_elements: usize, length: f64) -> Vec<Vec<f64>> {
         .map(|i| vec![length * i as f64 / n_elements as f64])
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn absurd_element_counts_are_errors_not_panics() {
+        // n + 1 overflows; 4 n overflows; 4 n triplets cannot be allocated
+        for n in [usize::MAX, usize::MAX / 4 + 1, 1 << 61] {
+            let err = assemble(n, 1.0, 1.0, 1.0, 1.0).unwrap_err();
+            assert!(err.to_string().contains("cannot allocate"), "{n}: {err}");
+        }
+        // two elements of length 1/2: the diagonal of K is EA/l (1 + [middle node] 1)
+        let (m, k) = assemble(2, 1.0, 6.0, 1.0, 1.0).unwrap();
+        assert_eq!(k.get(1, 1), 4.0);
+        assert_eq!(k.get(0, 1), -2.0);
+        // ρAl/6 · (2 + 2) at the middle node, ρAl/6 off the diagonal
+        assert_eq!(m.get(1, 1), 2.0);
+        assert_eq!(m.get(2, 1), 0.5);
+    }
+}

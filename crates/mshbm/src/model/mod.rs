@@ -103,8 +103,8 @@ pub struct Model {
     /// Where the model came from (file path, or a description for built-in models); used
     /// in error messages.
     pub source: PathBuf,
-    /// Canonical paths of every file read to build the model (the model file first, then
-    /// the files it refers to); empty for models built in code. A caller that writes
+    /// Canonical paths of every file read to build the model (the model file first when it
+    /// was read from disk, then the files it refers to); empty for models built in code. A caller that writes
     /// files uses it to refuse to overwrite an input.
     pub input_files: Vec<PathBuf>,
     /// Human-readable name.
@@ -268,8 +268,8 @@ impl Model {
     /// Refuse two elements of `directions` (contacts or friction elements, merged
     /// directions with their indices) on the same DOFs with parallel directions: their
     /// columns of `W` are linearly dependent, so the Delassus matrix `Wᵀ M⁻¹ W` of the
-    /// contact problem (docs/theory.md (T3)–(T5)) is singular. `allowed(a, b, ratio)` may
-    /// accept a pair whose directions are opposite (`w_b = −ratio · w_a`, `ratio > 0`).
+    /// contact problem (docs/theory.md (T3)–(T5)) is singular. `allowed_opposite(a, b, ratio)`
+    /// decides on a pair whose directions are opposite (`w_b = −ratio · w_a`, `ratio > 0`).
     fn check_independent(
         &self,
         directions: &[Vec<(usize, f64)>],
