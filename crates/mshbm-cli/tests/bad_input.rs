@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{example, examples, fails};
+use common::{example, examples, fails, mshbm};
 
 /// A general model in a temporary directory, with the bar's matrices unless replaced.
 struct GeneralModel {
@@ -196,4 +196,159 @@ fn bad_override_syntax() {
     let p = example("clamped_bar.toml");
     let err = fails(&["modes", &p, "--set", "contact.gap"]);
     assert!(err.contains("key=value"), "{err}");
+}
+
+// --- issue 15: inputs that are huge, special files, outside the model's directory,
+// hostile text or degenerate contacts: one clear line, fast, no panic ---
+
+/// `fails` within a time limit, for the reproducers that used to exhaust the machine.
+fn fails_fast(args: &[&str]) -> String {
+    let start = std::time::Instant::now();
+    let err = fails(args);
+    assert!(
+        start.elapsed().as_secs_f64() < 1.0,
+        "{args:?} took {:?}",
+        start.elapsed()
+    );
+    err
+}
+
+#[test]
+fn huge_bar_elements_are_refused_at_once() {
+    let p = example("clamped_bar.toml");
+    for n in ["4611686018427387904", "1000000000"] {
+        let set = format!("bar.elements={n}");
+        let err = fails_fast(&["modes", &p, "--set", &set]);
+        assert!(
+            err.contains("clamped_bar.toml")
+                && err.contains("bar.elements")
+                && err.contains("--max-memory"),
+            "{err}"
+        );
+    }
+    // the memory budget is the one given
+    let err = fails_fast(&["modes", &p, "--max-memory", "0.0001"]);
+    assert!(
+        err.contains("bar.elements") && err.contains("104.9 KiB"),
+        "{err}"
+    );
+    let p = example("dropped_bar.toml");
+    let err = fails_fast(&["simulate", &p, "--set", "bar.elements=1000000000"]);
+    assert!(err.contains("bar.elements"), "{err}");
+}
+
+#[test]
+fn huge_declared_matrix_market_sizes_are_refused_at_once() {
+    let m = GeneralModel::new();
+    for size in [
+        "1000000000 1000000000 1",
+        "4294967296 4294967296 1",
+        "18446744073709551615 18446744073709551615 1",
+        "101 101 18446744073709551615",
+    ] {
+        // the 70-byte file of the issue
+        m.write(
+            "stiffness.mtx",
+            &format!("%%MatrixMarket matrix coordinate real general\n{size}\n1 1 1.0\n"),
+        );
+        let err = fails_fast(&["modes", &m.toml()]);
+        assert!(err.contains("stiffness.mtx"), "{size}: {err}");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn devices_and_fifos_as_referenced_files_are_refused_at_once() {
+    let m = GeneralModel::new();
+    m.edit_toml("\"stiffness.mtx\"", "\"/dev/zero\"");
+    let err = fails_fast(&["modes", &m.toml()]);
+    assert!(
+        err.contains("matrices.stiffness") && err.contains("--allow-outside-paths"),
+        "{err}"
+    );
+    let err = fails_fast(&["modes", &m.toml(), "--allow-outside-paths"]);
+    assert!(
+        err.contains("matrices.stiffness") && err.contains("not a regular file"),
+        "{err}"
+    );
+    m.edit_toml("\"/dev/zero\"", "\"/dev/urandom\"");
+    let err = fails_fast(&["modes", &m.toml(), "--allow-outside-paths"]);
+    assert!(err.contains("not a regular file"), "{err}");
+    m.edit_toml("\"/dev/urandom\"", "\"stiffness.mtx\"");
+    let status = std::process::Command::new("mkfifo")
+        .arg(m.dir.path().join("nodes.fifo"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    m.edit_toml("\"nodes.txt\"", "\"nodes.fifo\"");
+    let err = fails_fast(&["modes", &m.toml()]);
+    assert!(
+        err.contains("mesh.coordinates") && err.contains("FIFO"),
+        "{err}"
+    );
+}
+
+#[test]
+fn paths_outside_the_model_directory_are_refused() {
+    let m = GeneralModel::new();
+    m.edit_toml("\"nodes.txt\"", "\"/etc/passwd\"");
+    let err = fails_fast(&["modes", &m.toml()]);
+    assert!(
+        err.contains("model.toml")
+            && err.contains("mesh.coordinates")
+            && err.contains("\"/etc/passwd\"")
+            && err.contains("--allow-outside-paths"),
+        "{err}"
+    );
+    // allowed, the message quotes at most a short escaped excerpt, never a whole line
+    #[cfg(unix)]
+    if let Ok(passwd) = std::fs::read_to_string("/etc/passwd") {
+        let err = fails_fast(&["modes", &m.toml(), "--allow-outside-paths"]);
+        let first = passwd.lines().next().unwrap_or_default();
+        assert!(first.len() <= 16 || !err.contains(first), "{err}");
+    }
+    m.edit_toml("\"/etc/passwd\"", "\"../nodes.txt\"");
+    let err = fails_fast(&["modes", &m.toml()]);
+    assert!(
+        err.contains("mesh.coordinates") && err.contains("leads outside"),
+        "{err}"
+    );
+}
+
+#[test]
+fn escape_sequences_in_bad_tokens_are_escaped() {
+    let m = GeneralModel::new();
+    m.write(
+        "mass.mtx",
+        "%%MatrixMarket matrix coordinate real symmetric\n101 101 1\n1 1 \u{1b}[31m\u{1b}]0;pwned\u{7}\n",
+    );
+    let out = mshbm(&["modes", &m.toml()]);
+    assert!(!out.stderr.contains(&0x1b) && !out.stderr.contains(&0x07));
+    let err = fails(&["modes", &m.toml()]);
+    assert!(
+        err.contains("mass.mtx, line 3") && err.contains("\\u{1b}[31m"),
+        "{err}"
+    );
+}
+
+#[test]
+fn degenerate_contacts_are_refused() {
+    let m = GeneralModel::new();
+    m.edit_toml("dofs = [100]\nw = [-1.0]", "dofs = [3, 3]\nw = [-1.0, 1.0]");
+    let err = fails(&["modes", &m.toml()]);
+    assert!(
+        err.contains("model.toml") && err.contains("contacts[0].w") && err.contains("vanishes"),
+        "{err}"
+    );
+    let m = GeneralModel::new();
+    let s = std::fs::read_to_string(m.dir.path().join("model.toml")).unwrap();
+    m.write(
+        "model.toml",
+        &format!("{s}\n[[contacts]]\ndofs = [100]\nw = [-1.0]\ngap = 0.2\n"),
+    );
+    let err = fails(&["modes", &m.toml()]);
+    assert!(
+        err.contains("contacts[1]") && err.contains("contacts[0]") && err.contains("singular"),
+        "{err}"
+    );
 }

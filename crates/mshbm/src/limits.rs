@@ -96,11 +96,20 @@ pub fn physical_memory_bytes() -> Option<u64> {
 
 /// Read a text input file: only regular files (never a device, FIFO or directory, which
 /// could be endless or block), at most `limits.file_bytes` bytes, valid UTF-8.
+///
+/// The path is checked with `stat` before it is opened, so a device or a FIFO is refused
+/// without opening it (opening a FIFO for reading blocks until a writer appears); the file
+/// is then opened non-blocking and checked again, so a FIFO swapped in between cannot
+/// block the read either.
 pub fn read_text_file(path: &Path, limits: &Limits) -> Result<String> {
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let before = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if !before.is_file() {
+        return Err(Error::io(path, not_regular(&before)));
+    }
+    let file = open_nonblocking(path).map_err(|e| Error::io(path, e))?;
     let meta = file.metadata().map_err(|e| Error::io(path, e))?;
     if !meta.is_file() {
-        return Err(Error::io(path, "not a regular file"));
+        return Err(Error::io(path, not_regular(&meta)));
     }
     if meta.len() > limits.file_bytes {
         return Err(Error::io(
@@ -112,7 +121,10 @@ pub fn read_text_file(path: &Path, limits: &Limits) -> Result<String> {
             ),
         ));
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    let mut bytes = Vec::new();
+    bytes
+        .try_reserve_exact(meta.len() as usize)
+        .map_err(|_| Error::io(path, "cannot allocate memory to read the file"))?;
     // bounded even if the file grows while it is read
     file.take(limits.file_bytes + 1)
         .read_to_end(&mut bytes)
@@ -132,6 +144,54 @@ pub fn read_text_file(path: &Path, limits: &Limits) -> Result<String> {
             ),
         )
     })
+}
+
+/// Why a file that is not a regular file is refused.
+fn not_regular(meta: &std::fs::Metadata) -> String {
+    let kind = if meta.is_dir() {
+        "a directory"
+    } else {
+        special_file_kind(meta)
+    };
+    format!("not a regular file ({kind}); only regular files are read")
+}
+
+#[cfg(unix)]
+fn special_file_kind(meta: &std::fs::Metadata) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    let t = meta.file_type();
+    if t.is_fifo() {
+        "a FIFO"
+    } else if t.is_char_device() {
+        "a character device"
+    } else if t.is_block_device() {
+        "a block device"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "a special file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_file_kind(_meta: &std::fs::Metadata) -> &'static str {
+    "a special file"
+}
+
+/// Open for reading without blocking on a FIFO (`O_NONBLOCK`; reads of regular files
+/// are not affected) and without making a terminal the controlling one (`O_NOCTTY`).
+#[cfg(unix)]
+fn open_nonblocking(path: &Path) -> std::io::Result<std::fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY)
+        .open(path)
+}
+
+#[cfg(not(unix))]
+fn open_nonblocking(path: &Path) -> std::io::Result<std::fs::File> {
+    std::fs::File::open(path)
 }
 
 #[cfg(test)]
@@ -178,6 +238,25 @@ mod tests {
         let small = dir.join("small.txt");
         std::fs::write(&small, "ok").unwrap();
         assert_eq!(read_text_file(&small, &limits).unwrap(), "ok");
+        let err = read_text_file(&dir, &limits).unwrap_err();
+        assert!(err.to_string().contains("a directory"), "{err}");
+        #[cfg(unix)]
+        {
+            // a FIFO without a writer: refused at once, never opened (opening would block)
+            let fifo = dir.join("fifo");
+            let made = std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .unwrap();
+            assert!(made.success());
+            let start = std::time::Instant::now();
+            let err = read_text_file(&fifo, &limits).unwrap_err();
+            assert!(err.to_string().contains("a FIFO"), "{err}");
+            assert!(start.elapsed().as_millis() < 500, "{:?}", start.elapsed());
+            // opened non-blocking, a FIFO is refused by the second check as well
+            let file = open_nonblocking(&fifo).unwrap();
+            assert!(!file.metadata().unwrap().is_file());
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -25,16 +25,66 @@ impl SparseMatrix {
     /// Assemble from `(row, col, value)` triplets; duplicates are summed.
     ///
     /// # Panics
-    /// If an index is out of range (callers validate user indices first).
+    /// If an index is out of range (callers validate user indices first) or the matrix
+    /// cannot be allocated; [`SparseMatrix::try_from_triplets`] reports these as errors.
     pub fn from_triplets(nrows: usize, ncols: usize, triplets: &[(usize, usize, f64)]) -> Self {
-        let mut sorted: Vec<(usize, usize, f64)> = triplets.to_vec();
-        for &(i, j, _) in &sorted {
-            assert!(i < nrows && j < ncols, "triplet ({i}, {j}) out of range");
+        Self::try_from_triplets(nrows, ncols, triplets).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Bytes that [`SparseMatrix::try_from_triplets`] needs at its peak for `ncols`
+    /// columns and `entries` triplets, the triplets themselves included: the triplets and
+    /// their sorted copy (24 bytes each), row indices and values (16 bytes per entry) and
+    /// the column pointers (`8 (ncols + 1)`); `None` on overflow.
+    pub fn assembly_bytes(ncols: usize, entries: usize) -> Option<u64> {
+        let per_entry = 2 * std::mem::size_of::<(usize, usize, f64)>() as u64 + 16;
+        (entries as u64)
+            .checked_mul(per_entry)?
+            .checked_add((ncols as u64).checked_add(1)?.checked_mul(8)?)
+    }
+
+    /// Assemble from `(row, col, value)` triplets (duplicates are summed), with an error
+    /// instead of a panic when an index is out of range, the sizes overflow or the memory
+    /// cannot be allocated.
+    pub fn try_from_triplets(
+        nrows: usize,
+        ncols: usize,
+        triplets: &[(usize, usize, f64)],
+    ) -> Result<Self> {
+        if let Some(&(i, j, _)) = triplets.iter().find(|&&(i, j, _)| i >= nrows || j >= ncols) {
+            return Err(Error::argument(
+                "triplet",
+                format!("({i}, {j}) out of range of the {nrows}×{ncols} matrix"),
+            ));
         }
+        let no_memory = || {
+            Error::argument(
+                "matrix size",
+                format!(
+                    "cannot allocate a sparse {nrows}×{ncols} matrix with {} entries",
+                    triplets.len()
+                ),
+            )
+        };
+        let pointers = ncols.checked_add(1).ok_or_else(no_memory)?;
+        let mut sorted: Vec<(usize, usize, f64)> = Vec::new();
+        sorted
+            .try_reserve_exact(triplets.len())
+            .map_err(|_| no_memory())?;
+        sorted.extend_from_slice(triplets);
         sorted.sort_by_key(|a| (a.1, a.0));
-        let mut col_ptr = vec![0usize; ncols + 1];
-        let mut row_idx = Vec::with_capacity(sorted.len());
-        let mut values: Vec<f64> = Vec::with_capacity(sorted.len());
+        let mut col_ptr: Vec<usize> = Vec::new();
+        col_ptr
+            .try_reserve_exact(pointers)
+            .map_err(|_| no_memory())?;
+        col_ptr.resize(pointers, 0);
+        let mut row_idx = Vec::new();
+        row_idx
+            .try_reserve_exact(sorted.len())
+            .map_err(|_| no_memory())?;
+        let mut values: Vec<f64> = Vec::new();
+        values
+            .try_reserve_exact(sorted.len())
+            .map_err(|_| no_memory())?;
         let mut last: Option<(usize, usize)> = None;
         for (i, j, v) in sorted {
             if last == Some((i, j)) {
@@ -49,13 +99,13 @@ impl SparseMatrix {
         for j in 0..ncols {
             col_ptr[j + 1] += col_ptr[j];
         }
-        SparseMatrix {
+        Ok(SparseMatrix {
             nrows,
             ncols,
             col_ptr,
             row_idx,
             values,
-        }
+        })
     }
 
     /// Convert a dense matrix, keeping entries with `|a_ij| > 0`.
@@ -342,6 +392,22 @@ mod tests {
         assert_eq!(a.asymmetry(1e-12), Some((2, 1)));
         let f = a.to_faer();
         assert_eq!(f.to_dense()[(1, 2)], 5.0);
+    }
+
+    #[test]
+    fn huge_declared_sizes_are_errors_not_panics() {
+        // `ncols + 1` overflows: an error, not an index panic
+        let err = SparseMatrix::try_from_triplets(1, usize::MAX, &[]).unwrap_err();
+        assert!(err.to_string().contains("cannot allocate"), "{err}");
+        // 2^61 column pointers cannot be allocated: an error, not an abort
+        let err = SparseMatrix::try_from_triplets(1, 1 << 61, &[]).unwrap_err();
+        assert!(err.to_string().contains("cannot allocate"), "{err}");
+        let err = SparseMatrix::try_from_triplets(2, 2, &[(2, 0, 1.0)]).unwrap_err();
+        assert!(err.to_string().contains("out of range"), "{err}");
+        assert_eq!(SparseMatrix::assembly_bytes(usize::MAX, 0), None);
+        assert_eq!(SparseMatrix::assembly_bytes(0, usize::MAX), None);
+        // 3 columns, 2 entries: 2 (24 + 24 + 16) + 4·8 bytes
+        assert_eq!(SparseMatrix::assembly_bytes(3, 2), Some(2 * 64 + 32));
     }
 
     #[test]

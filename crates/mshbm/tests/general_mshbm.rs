@@ -44,6 +44,7 @@ fn friction_chain(n: usize, friction_limit: f64) -> Model {
     harmonic_load[0] = force;
     Model {
         source: "friction chain (test)".into(),
+        input_files: vec![],
         name: "friction chain".into(),
         mass: SparseMatrix::from_triplets(n, n, &mt),
         stiffness: SparseMatrix::from_triplets(n, n, &kt),

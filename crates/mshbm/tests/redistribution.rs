@@ -156,7 +156,7 @@ fn degenerate_free_set_is_a_clear_error() {
     // two-element bar with both non-clamped nodes in contact: only one node keeps mass,
     // so the three moment conditions cannot be met
     let (m, coords) = (
-        mshbm::fe::bar1d::assemble(2, 1.0, 1.0, 1.0, 1.0).0,
+        mshbm::fe::bar1d::assemble(2, 1.0, 1.0, 1.0, 1.0).unwrap().0,
         mshbm::fe::bar1d::node_coordinates(2, 1.0),
     );
     let err = redistribute_scalar_mass(&m, &coords, &[1, 2])

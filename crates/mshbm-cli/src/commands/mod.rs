@@ -24,14 +24,55 @@ pub struct ModelArgs {
     /// `--set contact.gap=0` or `--set damping.first_mode_ratio=0.01`. Repeatable.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
+
+    /// Allow paths in the model file (matrices, load vectors, coordinates) that leave the
+    /// model file's directory tree (`..`, absolute paths, symbolic links pointing out).
+    /// Refused by default, so that a model file from elsewhere cannot make the program
+    /// read arbitrary files.
+    #[arg(long)]
+    pub allow_outside_paths: bool,
+
+    /// Memory budget [GiB] that a model and a computation may plan to use; larger ones are
+    /// refused before anything is allocated. Default: the machine's physical memory.
+    #[arg(long, value_name = "GIB", value_parser = parse_memory_gib)]
+    pub max_memory: Option<f64>,
+}
+
+/// `--max-memory`: a finite positive number of GiB.
+fn parse_memory_gib(text: &str) -> std::result::Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(g) if g.is_finite() && g > 0.0 => Ok(g),
+        _ => Err(format!(
+            "expected a positive number of GiB, got {}",
+            mshbm::model::excerpt::excerpt(text)
+        )),
+    }
 }
 
 impl ModelArgs {
-    /// Read the model with its overrides.
+    /// The resource limits of this run (`--max-memory`), for the model and the solvers.
+    pub fn limits(&self) -> mshbm::limits::Limits {
+        let limits = mshbm::limits::Limits::default();
+        match self.max_memory {
+            Some(gib) => limits.with_memory_gib(gib),
+            None => limits,
+        }
+    }
+
+    /// How the model file is read (`--max-memory`, `--allow-outside-paths`).
+    pub fn load_options(&self) -> mshbm::model::LoadOptions {
+        mshbm::model::LoadOptions {
+            limits: self.limits(),
+            allow_outside_paths: self.allow_outside_paths,
+        }
+    }
+
+    /// Read the model with its overrides and options.
     pub fn load(&self) -> Result<mshbm::Model> {
-        Ok(mshbm::model::file::load_model(
+        Ok(mshbm::model::file::load_model_with(
             &self.model,
             &self.overrides,
+            &self.load_options(),
         )?)
     }
 }

@@ -11,7 +11,8 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::fe::bar1d;
-use crate::model::{Contact, Damping, Model};
+use crate::limits::Limits;
+use crate::model::{Contact, Damping, Model, MODEL_BYTES_PER_DOF};
 
 /// A finite positive parameter `v` of the model from `source`; the error names `field`.
 pub(super) fn check_positive(source: &Path, field: &str, v: f64) -> Result<()> {
@@ -27,10 +28,12 @@ pub(super) fn check_positive(source: &Path, field: &str, v: f64) -> Result<()> {
 }
 
 /// The parameters of a uniform bar of two-node elements (eq. 45) as `bar1d::assemble`
-/// needs them: at least two elements, positive length, density, Young's modulus and area;
-/// errors name the `bar.*` field of `source`.
+/// needs them: at least two elements, few enough for the memory budget (the model's
+/// estimate is [`MODEL_BYTES_PER_DOF`] per node), positive length, density, Young's
+/// modulus and area; errors name the `bar.*` field of `source`.
 pub(super) fn check_uniform_bar(
     source: &Path,
+    limits: &Limits,
     elements: usize,
     length: f64,
     density: f64,
@@ -44,6 +47,14 @@ pub(super) fn check_uniform_bar(
             format!("must be at least 2, got {elements}"),
         ));
     }
+    limits.check_items(
+        &format!(
+            "{}: field `bar.elements`: a bar of {elements} elements",
+            source.display()
+        ),
+        (elements as u64).saturating_add(1),
+        MODEL_BYTES_PER_DOF,
+    )?;
     check_positive(source, "bar.length", length)?;
     check_positive(source, "bar.density", density)?;
     check_positive(source, "bar.young", young)?;
@@ -111,10 +122,19 @@ impl BarParameters {
         (self.young / self.density).sqrt()
     }
 
-    /// Build the model; `source` names the origin in error messages.
+    /// Build the model with the default [`Limits`]; `source` names the origin in error
+    /// messages.
     pub fn build(&self, source: &Path) -> Result<Model> {
+        self.build_with(source, &Limits::default())
+    }
+
+    /// Build the model; `source` names the origin in error messages, and a bar whose
+    /// memory estimate ([`MODEL_BYTES_PER_DOF`] per node) exceeds `limits` is refused
+    /// before anything is allocated.
+    pub fn build_with(&self, source: &Path, limits: &Limits) -> Result<Model> {
         check_uniform_bar(
             source,
+            limits,
             self.elements,
             self.length,
             self.density,
@@ -127,7 +147,7 @@ impl BarParameters {
         let ne = self.elements;
         let n = ne + 1;
         let (mass, stiffness) =
-            bar1d::assemble(ne, self.length, self.density, self.young, self.area);
+            bar1d::assemble(ne, self.length, self.density, self.young, self.area)?;
         let mut harmonic_load = vec![0.0; n];
         match self.force_location {
             ForceLocation::Node(k) => {
@@ -169,6 +189,7 @@ impl BarParameters {
         };
         let model = Model {
             source: source.to_path_buf(),
+            input_files: vec![],
             name: format!("clamped bar, {ne} elements"),
             mass,
             stiffness,

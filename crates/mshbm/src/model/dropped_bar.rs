@@ -19,6 +19,7 @@ use std::path::Path;
 use crate::analytic::DroppedBarSolution;
 use crate::error::{Error, Result};
 use crate::fe::bar1d;
+use crate::limits::Limits;
 use crate::model::bar::{check_positive, check_uniform_bar};
 use crate::model::{Contact, Damping, Model};
 
@@ -82,10 +83,19 @@ impl DroppedBarParameters {
         )
     }
 
-    /// Build the model; `source` names the origin in error messages.
+    /// Build the model with the default [`Limits`]; `source` names the origin in error
+    /// messages.
     pub fn build(&self, source: &Path) -> Result<Model> {
+        self.build_with(source, &Limits::default())
+    }
+
+    /// Build the model; `source` names the origin in error messages, and a bar whose
+    /// memory estimate ([`crate::model::MODEL_BYTES_PER_DOF`] per node) exceeds `limits` is refused
+    /// before anything is allocated.
+    pub fn build_with(&self, source: &Path, limits: &Limits) -> Result<Model> {
         check_uniform_bar(
             source,
+            limits,
             self.elements,
             self.length,
             self.density,
@@ -103,9 +113,10 @@ impl DroppedBarParameters {
         let ne = self.elements;
         let n = ne + 1;
         let (mass, stiffness) =
-            bar1d::assemble(ne, self.length, self.density, self.young, self.area);
+            bar1d::assemble(ne, self.length, self.density, self.young, self.area)?;
         let model = Model {
             source: source.to_path_buf(),
+            input_files: vec![],
             name: format!("bar dropped onto a rigid support, {ne} elements"),
             mass,
             stiffness,

@@ -25,7 +25,8 @@
 //!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
 //!   ```
 //! * `kind = "matrices"` — a general model from Matrix Market files (paths relative to the
-//!   model file; DOFs numbered from 0, DOF = node * dofs_per_node + component):
+//!   model file and inside its directory tree unless [`LoadOptions::allow_outside_paths`];
+//!   DOFs numbered from 0, DOF = node * dofs_per_node + component):
 //!   ```toml
 //!   kind = "matrices"
 //!   [matrices]
@@ -69,16 +70,20 @@
 //!
 //! Unknown keys are errors. Errors name the file and the field.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
+use crate::limits::{read_text_file, Limits};
 use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
 use crate::model::dropped_bar::DroppedBarParameters;
-use crate::model::matrix_market::read_matrix;
+use crate::model::excerpt::{data_excerpt, excerpt, sanitize_message};
+use crate::model::input_files::InputFiles;
+pub use crate::model::input_files::LoadOptions;
+use crate::model::matrix_market::{declared_dimensions, parse_matrix_with};
 use crate::model::overrides::apply_override;
-use crate::model::{Contact, Damping, Friction, FrictionNormal, Model};
+use crate::model::{Contact, Damping, Friction, FrictionNormal, Model, MODEL_BYTES_PER_DOF};
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -253,18 +258,41 @@ struct LoadSection {
     acceleration: Option<Vec<f64>>,
 }
 
-/// Read a model file, apply `overrides` (`key=value`, dotted paths) and build the model.
+/// Read a model file with the default [`LoadOptions`], apply `overrides` (`key=value`,
+/// dotted paths) and build the model.
 pub fn load_model(path: &Path, overrides: &[String]) -> Result<Model> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    parse_model(&text, path, overrides)
+    load_model_with(path, overrides, &LoadOptions::default())
 }
 
-/// Parse model-file text (`path` locates relative matrix files and names errors).
+/// Read a model file, apply `overrides` (`key=value`, dotted paths) and build the model.
+/// Every file is read bounded (regular files only, `options.limits.file_bytes`, UTF-8);
+/// paths in the file resolve relative to its directory and must stay in its directory
+/// tree unless `options.allow_outside_paths`; sizes are checked against
+/// `options.limits.memory_bytes` before anything is allocated. The files read are
+/// recorded in [`Model::input_files`].
+pub fn load_model_with(path: &Path, overrides: &[String], options: &LoadOptions) -> Result<Model> {
+    let text = read_text_file(path, &options.limits)?;
+    let mut model = parse_model_with(&text, path, overrides, options)?;
+    let canonical = path.canonicalize().map_err(|e| Error::io(path, e))?;
+    model.input_files.insert(0, canonical);
+    Ok(model)
+}
+
+/// Parse model-file text with the default [`LoadOptions`] (`path` locates relative
+/// matrix files and names errors).
 pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Model> {
-    let mut value: toml::Value = toml::from_str(text).map_err(|e| Error::Toml {
-        file: path.to_path_buf(),
-        message: e.to_string().trim().replace('\n', " "),
-    })?;
+    parse_model_with(text, path, overrides, &LoadOptions::default())
+}
+
+/// Parse model-file text (`path` locates relative matrix files and names errors); the
+/// files it refers to are read as [`load_model_with`] reads them.
+pub fn parse_model_with(
+    text: &str,
+    path: &Path,
+    overrides: &[String],
+    options: &LoadOptions,
+) -> Result<Model> {
+    let mut value = parse_toml(text, path)?;
     for o in overrides {
         apply_override(&mut value, o)?;
     }
@@ -272,16 +300,16 @@ pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Mode
     match kind.as_str() {
         "bar" => {
             let f: BarFile = deserialize(value, path)?;
-            bar_model(f, path)
+            bar_model(f, path, &options.limits)
         }
         "matrices" => {
             let f: MatricesFile = deserialize(value, path)?;
-            matrices_model(f, path)
+            matrices_model(f, path, &mut InputFiles::new(path, options))
         }
         "dropped_bar" => {
             let f: DroppedBarFile = deserialize(value, path)?;
             let (params, name) = dropped_bar_parameters(f, path)?;
-            let mut model = params.build(path)?;
+            let mut model = params.build_with(path, &options.limits)?;
             if let Some(name) = name {
                 model.name = name;
             }
@@ -290,9 +318,36 @@ pub fn parse_model(text: &str, path: &Path, overrides: &[String]) -> Result<Mode
         other => Err(Error::field(
             path,
             "kind",
-            format!("unknown kind \"{other}\" (expected {KINDS})"),
+            format!("unknown kind {} (expected {KINDS})", excerpt(other)),
         )),
     }
+}
+
+/// Parse TOML text. The message is built from the parser's message and the line and
+/// column of the error, never from the source line the `toml` crate would quote.
+fn parse_toml(text: &str, path: &Path) -> Result<toml::Value> {
+    toml::from_str(text).map_err(|e: toml::de::Error| {
+        let at = e
+            .span()
+            .map(|span| {
+                let mut start = span.start.min(text.len());
+                while !text.is_char_boundary(start) {
+                    start -= 1;
+                }
+                let before = &text[..start];
+                let line = before.matches('\n').count() + 1;
+                let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+                format!("line {line}, column {column}: ")
+            })
+            .unwrap_or_default();
+        Error::Toml {
+            file: path.to_path_buf(),
+            message: format!(
+                "{at}{}",
+                sanitize_message(&e.message().trim().replace('\n', "; "))
+            ),
+        }
+    })
 }
 
 const KINDS: &str = "\"bar\", \"matrices\" or \"dropped_bar\"";
@@ -308,12 +363,20 @@ fn model_kind(value: &toml::Value, path: &Path) -> Result<String> {
 
 /// The parameters of a `kind = "dropped_bar"` model file (with `overrides` applied), or
 /// `None` for any other kind — so that callers can compare with the closed-form solution.
+/// The file is read with the default [`LoadOptions`].
 pub fn load_dropped_bar(path: &Path, overrides: &[String]) -> Result<Option<DroppedBarParameters>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    let mut value: toml::Value = toml::from_str(&text).map_err(|e| Error::Toml {
-        file: path.to_path_buf(),
-        message: e.to_string().trim().replace('\n', " "),
-    })?;
+    load_dropped_bar_with(path, overrides, &LoadOptions::default())
+}
+
+/// [`load_dropped_bar`] with explicit [`LoadOptions`] (a dropped bar refers to no other
+/// file; the options bound the read of the model file).
+pub fn load_dropped_bar_with(
+    path: &Path,
+    overrides: &[String],
+    options: &LoadOptions,
+) -> Result<Option<DroppedBarParameters>> {
+    let text = read_text_file(path, &options.limits)?;
+    let mut value = parse_toml(&text, path)?;
     for o in overrides {
         apply_override(&mut value, o)?;
     }
@@ -371,17 +434,12 @@ fn deserialize<T: serde::de::DeserializeOwned>(value: toml::Value, path: &Path) 
         };
         // the TOML deserializer appends "\nin `table`"; the path already says where
         let message = e.into_inner().to_string();
-        let message = message
-            .lines()
-            .next()
-            .unwrap_or_default()
-            .trim()
-            .to_string();
-        Error::field(path, field, message)
+        let message = sanitize_message(message.lines().next().unwrap_or_default().trim());
+        Error::field(path, sanitize_message(&field), message)
     })
 }
 
-fn bar_model(f: BarFile, path: &Path) -> Result<Model> {
+fn bar_model(f: BarFile, path: &Path, limits: &Limits) -> Result<Model> {
     let force_location = match (f.load.node, f.load.position) {
         (Some(n), None) => ForceLocation::Node(n),
         (None, Some(x)) => ForceLocation::Position(x),
@@ -405,30 +463,59 @@ fn bar_model(f: BarFile, path: &Path) -> Result<Model> {
         gap: f.contact.map(|c| c.gap),
         damping: f.damping.into(),
     };
-    let mut model = params.build(path)?;
+    let mut model = params.build_with(path, limits)?;
     if let Some(name) = f.name {
         model.name = name;
     }
     Ok(model)
 }
 
-fn relative(path: &Path, name: &str) -> PathBuf {
-    path.parent().unwrap_or(Path::new(".")).join(name)
+/// Check the matrix in `text` (of `file`, field `field` of the model file `path`) declares
+/// no more rows and columns than a model of that many DOFs could hold in memory
+/// ([`MODEL_BYTES_PER_DOF`]), before it is parsed.
+fn check_declared_dofs(
+    path: &Path,
+    field: &str,
+    file: &Path,
+    text: &str,
+    limits: &Limits,
+) -> Result<(usize, usize)> {
+    let (rows, cols) = declared_dimensions(text, file)?;
+    limits.check_items(
+        &format!(
+            "{}: field `{field}`: {} declares a {rows}×{cols} matrix; a model of that many DOFs",
+            path.display(),
+            file.display()
+        ),
+        rows.max(cols) as u64,
+        MODEL_BYTES_PER_DOF,
+    )?;
+    Ok((rows, cols))
 }
 
-fn read_vector(path: &Path, field: &str, file: &str, n: usize) -> Result<Vec<f64>> {
-    let a = read_matrix(&relative(path, file))?;
-    if a.ncols() != 1 || a.nrows() != n {
-        return Err(Error::field(
+fn read_vector(
+    inputs: &mut InputFiles,
+    path: &Path,
+    field: &str,
+    file: &str,
+    n: usize,
+) -> Result<Vec<f64>> {
+    let (full, text) = inputs.read(field, file)?;
+    let wrong_size = |rows: usize, cols: usize| {
+        Error::field(
             path,
             field,
             format!(
-                "{file} is {}×{}, expected a {n}×1 vector",
-                a.nrows(),
-                a.ncols()
+                "{} is {rows}×{cols}, expected a {n}×1 vector",
+                full.display()
             ),
-        ));
+        )
+    };
+    let (rows, cols) = declared_dimensions(&text, &full)?;
+    if cols != 1 || rows != n {
+        return Err(wrong_size(rows, cols));
     }
+    let a = parse_matrix_with(&text, &full, inputs.limits())?;
     let mut v = vec![0.0; n];
     for (i, _, x) in a.iter() {
         v[i] += x;
@@ -454,25 +541,47 @@ fn pairs_to_vector(path: &Path, field: &str, pairs: &[(usize, f64)], n: usize) -
     Ok(v)
 }
 
-fn read_coordinates(path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
-    let full = relative(path, file);
-    let text = std::fs::read_to_string(&full).map_err(|e| Error::io(&full, e))?;
-    let mut out = Vec::new();
-    for (k, line) in text.lines().enumerate() {
-        let t = line.trim();
-        if t.is_empty() || t.starts_with('#') || t.starts_with('%') {
-            continue;
-        }
-        let row: std::result::Result<Vec<f64>, _> = t
+/// Node coordinates from a text file: one node per line, 1 to 3 numbers separated by
+/// blanks or commas; blank lines and lines starting with `#` or `%` are skipped.
+fn read_coordinates(inputs: &mut InputFiles, path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
+    let field = "mesh.coordinates";
+    let (full, text) = inputs.read(field, file)?;
+    let node_lines = || {
+        text.lines().enumerate().filter(|(_, l)| {
+            let t = l.trim();
+            !(t.is_empty() || t.starts_with('#') || t.starts_with('%'))
+        })
+    };
+    let nodes = node_lines().count();
+    inputs.limits().check_items(
+        &format!(
+            "{}: field `{field}`: {} with {nodes} nodes; a model of that many DOFs",
+            path.display(),
+            full.display()
+        ),
+        nodes as u64,
+        MODEL_BYTES_PER_DOF,
+    )?;
+    let mut out = Vec::with_capacity(nodes);
+    for (k, line) in node_lines() {
+        let mut row = Vec::with_capacity(3);
+        for w in line
             .split(|c: char| c == ',' || c.is_whitespace())
             .filter(|w| !w.is_empty())
-            .map(str::parse)
-            .collect();
-        let row = row.map_err(|_| Error::MatrixMarket {
-            file: full.clone(),
-            line: k + 1,
-            message: format!("expected 1 to 3 numbers, found `{t}`"),
-        })?;
+        {
+            let bad = |what: &str| Error::MatrixMarket {
+                file: full.clone(),
+                line: k + 1,
+                message: format!("expected 1 to 3 numbers, {what}"),
+            };
+            if row.len() == 3 {
+                return Err(bad("found more"));
+            }
+            let x: f64 = w
+                .parse()
+                .map_err(|_| bad(&format!("found {}", data_excerpt(w))))?;
+            row.push(x);
+        }
         out.push(row);
     }
     Ok(out)
@@ -480,24 +589,28 @@ fn read_coordinates(path: &Path, file: &str) -> Result<Vec<Vec<f64>>> {
 
 /// Read a square symmetric matrix; errors name the model file, the field and the matrix file.
 fn read_square_symmetric(
+    inputs: &mut InputFiles,
     path: &Path,
     field: &str,
     file: &str,
 ) -> Result<crate::sparse::SparseMatrix> {
-    let a = read_matrix(&relative(path, file))?;
-    if a.nrows() != a.ncols() {
+    let (full, text) = inputs.read(field, file)?;
+    let (rows, cols) = check_declared_dofs(path, field, &full, &text, inputs.limits())?;
+    if rows != cols {
         return Err(Error::field(
             path,
             field,
-            format!("{file} is {}×{}, not square", a.nrows(), a.ncols()),
+            format!("{} is {rows}×{cols}, not square", full.display()),
         ));
     }
+    let a = parse_matrix_with(&text, &full, inputs.limits())?;
     if let Some((i, j)) = a.asymmetry(1e-10) {
         return Err(Error::field(
             path,
             field,
             format!(
-                "{file} is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)",
+                "{} is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)",
+                full.display(),
                 i + 1,
                 j + 1,
                 a.get(i, j),
@@ -510,14 +623,15 @@ fn read_square_symmetric(
     Ok(a)
 }
 
-fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
-    let stiffness = read_square_symmetric(path, "matrices.stiffness", &f.matrices.stiffness)?;
-    let mass = read_square_symmetric(path, "matrices.mass", &f.matrices.mass)?;
+fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Result<Model> {
+    let stiffness =
+        read_square_symmetric(inputs, path, "matrices.stiffness", &f.matrices.stiffness)?;
+    let mass = read_square_symmetric(inputs, path, "matrices.mass", &f.matrices.mass)?;
     let damping_matrix = f
         .matrices
         .damping
         .as_ref()
-        .map(|c| read_square_symmetric(path, "matrices.damping", c))
+        .map(|c| read_square_symmetric(inputs, path, "matrices.damping", c))
         .transpose()?;
     for (field, file, a) in [("matrices.mass", &f.matrices.mass, &mass)]
         .into_iter()
@@ -543,14 +657,14 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
     }
     let n = stiffness.nrows();
     let coordinates = match &f.mesh.coordinates {
-        Coordinates::File(file) => read_coordinates(path, file)?,
+        Coordinates::File(file) => read_coordinates(inputs, path, file)?,
         Coordinates::Inline(c) => c.clone(),
     };
-    let load_vector =
+    let mut load_vector =
         |field: &str, pairs: &[(usize, f64)], file: &Option<String>| -> Result<Vec<f64>> {
             match (pairs.is_empty(), file) {
                 (_, None) => pairs_to_vector(path, field, pairs, n),
-                (true, Some(file)) => read_vector(path, &format!("{field}_file"), file, n),
+                (true, Some(file)) => read_vector(inputs, path, &format!("{field}_file"), file, n),
                 (false, Some(_)) => Err(Error::field(
                     path,
                     field,
@@ -582,6 +696,7 @@ fn matrices_model(f: MatricesFile, path: &Path) -> Result<Model> {
     }
     let model = Model {
         source: path.to_path_buf(),
+        input_files: std::mem::take(&mut inputs.read),
         name: f.name.unwrap_or_else(|| path.display().to_string()),
         mass,
         stiffness,

@@ -82,6 +82,7 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
     harmonic_load[2 * idx(nx / 2, ny - 1) + 1] = -force;
     Model {
         source: PathBuf::from("lattice model (built in code)"),
+        input_files: vec![],
         name: "planar lattice with bottom contacts".into(),
         mass,
         stiffness,

@@ -6,6 +6,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::error::{Error, Result};
+use crate::limits::{read_text_file, Limits};
+use crate::model::excerpt::data_excerpt as excerpt;
 use crate::sparse::SparseMatrix;
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -35,15 +37,56 @@ fn mm_error(file: &Path, line: usize, message: impl Into<String>) -> Error {
     }
 }
 
-/// Read a Matrix Market file into a sparse matrix.
+/// Read a Matrix Market file into a sparse matrix, with the default [`Limits`].
 pub fn read_matrix(file: &Path) -> Result<SparseMatrix> {
-    let text = std::fs::read_to_string(file).map_err(|e| Error::io(file, e))?;
-    parse_matrix(&text, file)
+    read_matrix_with(file, &Limits::default())
 }
 
-/// Parse Matrix Market text; `file` is used in error messages only.
+/// Read a Matrix Market file into a sparse matrix: a bounded read of a regular file
+/// ([`read_text_file`]), then [`parse_matrix_with`].
+pub fn read_matrix_with(file: &Path, limits: &Limits) -> Result<SparseMatrix> {
+    let text = read_text_file(file, limits)?;
+    parse_matrix_with(&text, file, limits)
+}
+
+/// Parse Matrix Market text with the default [`Limits`]; `file` is used in error messages
+/// only.
 pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
-    let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l));
+    parse_matrix_with(text, file, &Limits::default())
+}
+
+/// What the header and the size line of a Matrix Market file declare.
+struct Header {
+    layout: Layout,
+    field: Field,
+    symmetry: Symmetry,
+    nrows: usize,
+    ncols: usize,
+    /// Entries announced by a coordinate file.
+    entries: Option<usize>,
+    /// Line number of the size line.
+    size_line: usize,
+}
+
+/// Smallest number of bytes one entry line takes in a coordinate file: `"1 1 1\n"` (a
+/// pattern entry: `"1 1\n"`). The last line may lack its newline, hence `len + 1` below.
+fn min_entry_bytes(field: Field) -> u64 {
+    if field == Field::Pattern {
+        4
+    } else {
+        6
+    }
+}
+
+/// Smallest number of bytes one value takes in an array file: `"1\n"`.
+const MIN_ARRAY_VALUE_BYTES: u64 = 2;
+
+/// Read the header line and the size line from `lines` (comments and blank lines before the
+/// size line are skipped).
+fn parse_header<'t>(
+    lines: &mut impl Iterator<Item = (usize, &'t str)>,
+    file: &Path,
+) -> Result<Header> {
     let (hline, header) = lines
         .next()
         .ok_or_else(|| mm_error(file, 1, "empty file (expected a `%%MatrixMarket` header)"))?;
@@ -65,7 +108,7 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
             return Err(mm_error(
                 file,
                 hline,
-                format!("unsupported format `{other}`"),
+                format!("unsupported format {}", excerpt(other)),
             ))
         }
     };
@@ -76,7 +119,10 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
             return Err(mm_error(
                 file,
                 hline,
-                format!("unsupported field `{other}` (complex matrices are not supported)"),
+                format!(
+                    "unsupported field {} (complex matrices are not supported)",
+                    excerpt(other)
+                ),
             ))
         }
     };
@@ -88,16 +134,15 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
             return Err(mm_error(
                 file,
                 hline,
-                format!("unsupported symmetry `{other}`"),
+                format!("unsupported symmetry {}", excerpt(other)),
             ))
         }
     };
-    let mut data = lines.filter(|(_, l)| {
-        let t = l.trim();
-        !t.is_empty() && !t.starts_with('%')
-    });
-    let (sline, size) = data
-        .next()
+    let (sline, size) = lines
+        .find(|(_, l)| {
+            let t = l.trim();
+            !t.is_empty() && !t.starts_with('%')
+        })
         .ok_or_else(|| mm_error(file, hline, "missing size line"))?;
     let sizes: Vec<usize> = size
         .split_whitespace()
@@ -107,21 +152,13 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
             mm_error(
                 file,
                 sline,
-                format!("malformed size line `{}`", size.trim()),
+                format!(
+                    "malformed size line {} (expected non-negative integers below 2^64)",
+                    excerpt(size.trim())
+                ),
             )
         })?;
-    let parse_f = |line: usize, w: &str| -> Result<f64> {
-        let v: f64 = w
-            .parse()
-            .map_err(|_| mm_error(file, line, format!("`{w}` is not a number")))?;
-        if !v.is_finite() {
-            return Err(mm_error(file, line, format!("`{w}` is not finite")));
-        }
-        Ok(v)
-    };
-    let mut triplets = Vec::new();
-    let (nrows, ncols);
-    match layout {
+    let entries = match layout {
         Layout::Coordinate => {
             if sizes.len() != 3 {
                 return Err(mm_error(
@@ -130,22 +167,155 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
                     "coordinate size line must be `rows cols entries`",
                 ));
             }
-            (nrows, ncols) = (sizes[0], sizes[1]);
-            let nnz = sizes[2];
-            let mut count = 0;
+            Some(sizes[2])
+        }
+        Layout::Array => {
+            if sizes.len() != 2 {
+                return Err(mm_error(file, sline, "array size line must be `rows cols`"));
+            }
+            None
+        }
+    };
+    Ok(Header {
+        layout,
+        field,
+        symmetry,
+        nrows: sizes[0],
+        ncols: sizes[1],
+        entries,
+        size_line: sline,
+    })
+}
+
+/// The `(rows, columns)` a Matrix Market text declares, read from its header and size line
+/// only (nothing is allocated), so that a caller can check them before parsing.
+pub fn declared_dimensions(text: &str, file: &Path) -> Result<(usize, usize)> {
+    let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l));
+    let h = parse_header(&mut lines, file)?;
+    Ok((h.nrows, h.ncols))
+}
+
+/// Parse Matrix Market text; `file` is used in error messages only. The declared sizes are
+/// checked before anything is allocated: the announced entries (coordinate) or values
+/// (array) must fit in the text (at least 6, resp. 2, bytes each), and the matrix's
+/// assembly ([`SparseMatrix::assembly_bytes`]) must fit `limits.memory_bytes`.
+pub fn parse_matrix_with(text: &str, file: &Path, limits: &Limits) -> Result<SparseMatrix> {
+    let mut lines = text.lines().enumerate().map(|(k, l)| (k + 1, l));
+    let h = parse_header(&mut lines, file)?;
+    let (nrows, ncols, sline, symmetry, field) =
+        (h.nrows, h.ncols, h.size_line, h.symmetry, h.field);
+    if symmetry != Symmetry::General && nrows != ncols {
+        return Err(mm_error(file, sline, "a symmetric matrix must be square"));
+    }
+    let text_bytes = text.len() as u64 + 1;
+    let too_many = |what: &str, count: usize, min_bytes: u64| {
+        mm_error(
+            file,
+            sline,
+            format!(
+                "the size line announces {count} {what}, more than the file's {} bytes can hold ({min_bytes} bytes or more each)",
+                text.len()
+            ),
+        )
+    };
+    // values stored in the file, and the triplets they give (mirrored off the diagonal)
+    let (announced, what, min_bytes) = match h.layout {
+        Layout::Coordinate => (h.entries, "entries", min_entry_bytes(field)),
+        Layout::Array => {
+            let n = nrows as u64;
+            let values = match symmetry {
+                Symmetry::General => n.checked_mul(ncols as u64),
+                Symmetry::Symmetric => n.checked_mul(n.saturating_add(1)).map(|v| v / 2),
+                Symmetry::SkewSymmetric => n.checked_mul(n.saturating_sub(1)).map(|v| v / 2),
+            };
+            (
+                values.and_then(|v| usize::try_from(v).ok()),
+                "values",
+                MIN_ARRAY_VALUE_BYTES,
+            )
+        }
+    };
+    let announced = match announced {
+        Some(a)
+            if (a as u64)
+                .checked_mul(min_bytes)
+                .is_some_and(|b| b <= text_bytes) =>
+        {
+            a
+        }
+        Some(a) => return Err(too_many(what, a, min_bytes)),
+        None => {
+            return Err(mm_error(
+                file,
+                sline,
+                format!("the size line announces {nrows}×{ncols} values, more than 2^64"),
+            ))
+        }
+    };
+    let triplets_bound = if symmetry == Symmetry::General {
+        Some(announced)
+    } else {
+        announced.checked_mul(2)
+    };
+    limits.check_memory(
+        &format!(
+            "{}, line {sline}: the {nrows}×{ncols} matrix with {announced} {what}",
+            file.display()
+        ),
+        triplets_bound.and_then(|t| SparseMatrix::assembly_bytes(ncols, t)),
+    )?;
+    let mut triplets: Vec<(usize, usize, f64)> = Vec::new();
+    triplets
+        .try_reserve_exact(triplets_bound.unwrap_or(usize::MAX))
+        .map_err(|_| mm_error(file, sline, "cannot allocate memory for the matrix"))?;
+    let parse_f = |line: usize, w: &str| -> Result<f64> {
+        let v: f64 = w
+            .parse()
+            .map_err(|_| mm_error(file, line, format!("{} is not a number", excerpt(w))))?;
+        if !v.is_finite() {
+            return Err(mm_error(
+                file,
+                line,
+                format!("{} is not finite", excerpt(w)),
+            ));
+        }
+        Ok(v)
+    };
+    let data = lines.filter(|(_, l)| {
+        let t = l.trim();
+        !t.is_empty() && !t.starts_with('%')
+    });
+    let mut count = 0;
+    match h.layout {
+        Layout::Coordinate => {
+            let expected = if field == Field::Pattern { 2 } else { 3 };
             for (line, l) in data {
-                let w: Vec<&str> = l.split_whitespace().collect();
-                let expected = if field == Field::Pattern { 2 } else { 3 };
+                if count == announced {
+                    return Err(mm_error(
+                        file,
+                        line,
+                        format!("more than the {announced} entries the size line announces"),
+                    ));
+                }
+                let w: Vec<&str> = l.split_whitespace().take(expected + 1).collect();
                 if w.len() != expected {
                     return Err(mm_error(
                         file,
                         line,
-                        format!("expected {expected} values per entry, found {}", w.len()),
+                        format!(
+                            "expected {expected} values per entry, found {}",
+                            if w.len() > expected {
+                                "more".to_string()
+                            } else {
+                                w.len().to_string()
+                            }
+                        ),
                     ));
                 }
                 let idx = |s: &str| -> Result<usize> {
-                    s.parse::<usize>()
-                        .map_err(|_| mm_error(file, line, format!("`{s}` is not a 1-based index")))
+                    s.parse::<usize>().map_err(|_| {
+                        mm_error(file, line, format!("{} is not a 1-based index", excerpt(s)))
+                    })
                 };
                 let (i, j) = (idx(w[0])?, idx(w[1])?);
                 if i == 0 || j == 0 || i > nrows || j > ncols {
@@ -163,67 +333,55 @@ pub fn parse_matrix(text: &str, file: &Path) -> Result<SparseMatrix> {
                 push_entry(&mut triplets, i - 1, j - 1, v, symmetry);
                 count += 1;
             }
-            if count != nnz {
+            if count != announced {
                 return Err(mm_error(
                     file,
                     sline,
-                    format!("size line announces {nnz} entries, file has {count}"),
+                    format!("size line announces {announced} entries, file has {count}"),
                 ));
             }
         }
         Layout::Array => {
-            if sizes.len() != 2 {
-                return Err(mm_error(file, sline, "array size line must be `rows cols`"));
-            }
-            (nrows, ncols) = (sizes[0], sizes[1]);
-            let mut positions = Vec::new();
-            for j in 0..ncols {
-                let start = if symmetry == Symmetry::General {
-                    0
-                } else {
-                    j + usize::from(symmetry == Symmetry::SkewSymmetric)
-                };
-                for i in start..nrows {
-                    positions.push((i, j));
-                }
-            }
-            let mut k = 0;
+            // column-major; a symmetric (skew-symmetric) file stores the lower triangle
+            // with (without) the diagonal
+            let first_row = |j: usize| match symmetry {
+                Symmetry::General => 0,
+                Symmetry::Symmetric => j,
+                Symmetry::SkewSymmetric => j + 1,
+            };
+            let (mut i, mut j) = (first_row(0), 0);
             for (line, l) in data {
                 for w in l.split_whitespace() {
-                    if k >= positions.len() {
+                    if count >= announced {
                         return Err(mm_error(
                             file,
                             line,
-                            format!(
-                                "more than the {} values the size line announces",
-                                positions.len()
-                            ),
+                            format!("more than the {announced} values the size line announces"),
                         ));
                     }
-                    let (i, j) = positions[k];
+                    while i >= nrows {
+                        j += 1;
+                        i = first_row(j);
+                    }
                     let v = parse_f(line, w)?;
                     if v != 0.0 {
                         push_entry(&mut triplets, i, j, v, symmetry);
                     }
-                    k += 1;
+                    i += 1;
+                    count += 1;
                 }
             }
-            if k != positions.len() {
+            if count != announced {
                 return Err(mm_error(
                     file,
                     sline,
-                    format!(
-                        "size line announces {} values, file has {k}",
-                        positions.len()
-                    ),
+                    format!("size line announces {announced} values, file has {count}"),
                 ));
             }
         }
     }
-    if symmetry != Symmetry::General && nrows != ncols {
-        return Err(mm_error(file, sline, "a symmetric matrix must be square"));
-    }
-    Ok(SparseMatrix::from_triplets(nrows, ncols, &triplets))
+    SparseMatrix::try_from_triplets(nrows, ncols, &triplets)
+        .map_err(|e| mm_error(file, sline, e.to_string()))
 }
 
 fn push_entry(t: &mut Vec<(usize, usize, f64)>, i: usize, j: usize, v: f64, symmetry: Symmetry) {

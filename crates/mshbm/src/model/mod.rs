@@ -11,20 +11,33 @@
 
 pub mod bar;
 pub mod dropped_bar;
+pub mod excerpt;
 pub mod export;
 pub mod file;
+mod input_files;
 pub mod lattice;
 pub mod matrix_market;
 pub mod overrides;
 mod system;
 
+pub use input_files::LoadOptions;
 pub use system::{MassKind, System, SystemContact, SystemFriction};
 
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
 use crate::error::{Error, Result};
 use crate::modes::{eigenfrequencies_hz, MassComparison};
 use crate::sparse::SparseMatrix;
+
+/// Memory estimate [bytes] per DOF of a model, used to refuse a model before it is built
+/// when it would not fit the memory budget ([`crate::limits::Limits`]): the peak of
+/// reading the paper's bar (1 DOF per node, tridiagonal M and K) and building its
+/// redistributed [`System`], measured by a counting allocator
+/// (tests/input_limits.rs checks that it bounds the measured peak), rounded up. For a
+/// model from Matrix Market files it is a lower bound per DOF; the matrices' entries are
+/// checked separately when they are read.
+pub const MODEL_BYTES_PER_DOF: u64 = 2048;
 
 /// A unilateral contact: gap `g = Σ_i w_i q_{dofs_i} + gap ≥ 0`, force `+w λ` on the
 /// structure with `λ ≥ 0` (paper eqs. 23–24, docs/theory.md (T3)–(T4)).
@@ -90,6 +103,10 @@ pub struct Model {
     /// Where the model came from (file path, or a description for built-in models); used
     /// in error messages.
     pub source: PathBuf,
+    /// Canonical paths of every file read to build the model (the model file first when it
+    /// was read from disk, then the files it refers to); empty for models built in code. A caller that writes
+    /// files uses it to refuse to overwrite an input.
+    pub input_files: Vec<PathBuf>,
     /// Human-readable name.
     pub name: String,
     /// Consistent mass matrix of the unconstrained mesh.
@@ -185,14 +202,19 @@ impl Model {
     /// DOF, every DOF in range and not a Dirichlet DOF, coefficients finite and not all
     /// zero. `field` names a field of the element (`field("dofs")`); `element` and
     /// `direction` name the element and its coefficients in the messages.
+    ///
+    /// The coefficients of a DOF that appears more than once are summed; the direction
+    /// must not vanish after that (`dofs = [3, 3]`, `w = [-1, 1]` would be a contact that
+    /// never acts). Returns the merged direction ([`merged_direction`]).
     fn check_direction(
         &self,
+        dirichlet: &HashSet<usize>,
         dofs: &[usize],
         w: &[f64],
         field: impl Fn(&str) -> String,
         element: &str,
         direction: &str,
-    ) -> Result<()> {
+    ) -> Result<Vec<(usize, f64)>> {
         let file = &self.source;
         let n = self.n_dofs();
         if dofs.is_empty() {
@@ -217,7 +239,7 @@ impl Model {
                     format!("DOF {d} out of range (the model has DOFs 0..{})", n - 1),
                 ));
             }
-            if self.dirichlet.contains(&d) {
+            if dirichlet.contains(&d) {
                 return Err(Error::field(
                     file,
                     field("dofs"),
@@ -231,6 +253,59 @@ impl Model {
                 field("w"),
                 format!("{direction} must be finite and non-zero"),
             ));
+        }
+        let merged = merged_direction(dofs, w);
+        if merged.is_empty() {
+            return Err(Error::field(
+                file,
+                field("w"),
+                format!("{direction} vanishes: the coefficients of each DOF sum to zero (a DOF listed twice with opposite coefficients cancels)"),
+            ));
+        }
+        Ok(merged)
+    }
+
+    /// Refuse two elements of `directions` (contacts or friction elements, merged
+    /// directions with their indices) on the same DOFs with parallel directions: their
+    /// columns of `W` are linearly dependent, so the Delassus matrix `Wᵀ M⁻¹ W` of the
+    /// contact problem (docs/theory.md (T3)–(T5)) is singular. `allowed_opposite(a, b, ratio)`
+    /// decides on a pair whose directions are opposite (`w_b = −ratio · w_a`, `ratio > 0`).
+    fn check_independent(
+        &self,
+        directions: &[Vec<(usize, f64)>],
+        kind: &str,
+        allowed_opposite: impl Fn(usize, usize, f64) -> Result<()>,
+    ) -> Result<()> {
+        let mut groups: HashMap<Vec<usize>, Vec<usize>> = HashMap::new();
+        for (k, d) in directions.iter().enumerate() {
+            groups
+                .entry(d.iter().map(|&(dof, _)| dof).collect())
+                .or_default()
+                .push(k);
+        }
+        let mut groups: Vec<Vec<usize>> = groups.into_values().filter(|g| g.len() > 1).collect();
+        groups.sort_unstable();
+        for group in groups {
+            for (x, &a) in group.iter().enumerate() {
+                for &b in &group[x + 1..] {
+                    let (wa, wb) = (&directions[a], &directions[b]);
+                    let dot: f64 = wa.iter().zip(wb).map(|(p, q)| p.1 * q.1).sum();
+                    let na = wa.iter().map(|p| p.1 * p.1).sum::<f64>().sqrt();
+                    let nb = wb.iter().map(|p| p.1 * p.1).sum::<f64>().sqrt();
+                    if dot.abs() < (1.0 - PARALLEL_TOLERANCE) * na * nb {
+                        continue;
+                    }
+                    if dot < 0.0 {
+                        allowed_opposite(a, b, nb / na)?;
+                        continue;
+                    }
+                    return Err(Error::field(
+                        &self.source,
+                        format!("{kind}[{b}]"),
+                        format!("acts on the same DOFs as {kind}[{a}] in the same direction: the two are one {} given twice, and the contact problem would be singular; give it once", if kind == "contacts" { "contact" } else { "friction element" }),
+                    ));
+                }
+            }
         }
         Ok(())
     }
@@ -286,7 +361,8 @@ impl Model {
                 "must be at least 1",
             ));
         }
-        if self.coordinates.len() * self.dofs_per_node != n {
+        let mesh_dofs = self.coordinates.len().checked_mul(self.dofs_per_node);
+        if mesh_dofs != Some(n) {
             return Err(Error::field(
                 file,
                 "mesh.coordinates",
@@ -294,7 +370,7 @@ impl Model {
                     "{} nodes × {} DOFs per node = {} DOFs, but the matrices have {n}",
                     self.coordinates.len(),
                     self.dofs_per_node,
-                    self.coordinates.len() * self.dofs_per_node
+                    mesh_dofs.map_or_else(|| "more than 2^64".to_string(), |d| d.to_string())
                 ),
             ));
         }
@@ -324,22 +400,47 @@ impl Model {
                 ));
             }
         }
+        let dirichlet: HashSet<usize> = self.dirichlet.iter().copied().collect();
+        let mut contact_directions = Vec::with_capacity(self.contacts.len());
         for (k, c) in self.contacts.iter().enumerate() {
             let field = |f: &str| format!("contacts[{k}].{f}");
-            self.check_direction(&c.dofs, &c.w, field, "a contact", "the gap gradient")?;
+            contact_directions.push(self.check_direction(
+                &dirichlet,
+                &c.dofs,
+                &c.w,
+                field,
+                "a contact",
+                "the gap gradient",
+            )?);
             if !c.gap.is_finite() {
                 return Err(Error::field(file, field("gap"), "must be finite"));
             }
         }
+        // two opposing contacts on the same DOFs (a clearance between two stops) are
+        // allowed while the clearance is positive: g_a + g_b / ratio > 0 for w_b = −ratio w_a
+        self.check_independent(&contact_directions, "contacts", |a, b, ratio| {
+            let clearance = self.contacts[a].gap + self.contacts[b].gap / ratio;
+            if clearance > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::field(
+                    file,
+                    format!("contacts[{b}]"),
+                    format!("opposes contacts[{a}] on the same DOFs with no clearance left between them ({clearance:e}): the two would lock the DOFs or contradict each other"),
+                ))
+            }
+        })?;
+        let mut friction_directions = Vec::with_capacity(self.frictions.len());
         for (k, f) in self.frictions.iter().enumerate() {
             let field = |x: &str| format!("frictions[{k}].{x}");
-            self.check_direction(
+            friction_directions.push(self.check_direction(
+                &dirichlet,
                 &f.dofs,
                 &f.w,
                 field,
                 "a friction element",
                 "the slip direction",
-            )?;
+            )?);
             if !(f.mu.is_finite() && f.mu >= 0.0) {
                 return Err(Error::field(
                     file,
@@ -368,6 +469,14 @@ impl Model {
                 _ => {}
             }
         }
+        // a friction law is odd in the slip direction: opposite directions are duplicates too
+        self.check_independent(&friction_directions, "frictions", |a, b, _| {
+            Err(Error::field(
+                file,
+                format!("frictions[{b}]"),
+                format!("acts on the same DOFs as frictions[{a}] along the same line: the two are one friction element given twice, and the friction problem would be singular; give it once"),
+            ))
+        })?;
         for (name, v) in [
             ("load.harmonic", &self.harmonic_load),
             ("load.constant", &self.constant_load),
@@ -427,4 +536,22 @@ impl Model {
         }
         Ok(())
     }
+}
+
+/// Relative tolerance below which two directions count as parallel (`|cos| ≥ 1 − tol`)
+/// and a merged coefficient counts as cancelled (`|Σ w| ≤ tol · max |w_i|`).
+const PARALLEL_TOLERANCE: f64 = 1e-12;
+
+/// The direction `Σ_i w_i e_{dofs_i}` as `(dof, coefficient)` in DOF order: coefficients
+/// of a repeated DOF are summed, and sums that cancel (`|Σ| ≤ 1e-12 · max |w_i|`) are
+/// dropped.
+fn merged_direction(dofs: &[usize], w: &[f64]) -> Vec<(usize, f64)> {
+    let scale = w.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let mut sums: BTreeMap<usize, f64> = BTreeMap::new();
+    for (&d, &v) in dofs.iter().zip(w) {
+        *sums.entry(d).or_insert(0.0) += v;
+    }
+    sums.into_iter()
+        .filter(|&(_, v)| v.abs() > PARALLEL_TOLERANCE * scale)
+        .collect()
 }

@@ -234,6 +234,7 @@ pub use mshbm::model::lattice::lattice_model;
 pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha: f64) -> Model {
     Model {
         source: PathBuf::from("bilinear oscillator"),
+        input_files: vec![],
         name: "bilinear oscillator".into(),
         mass: SparseMatrix::from_triplets(2, 2, &[(0, 0, m)]),
         stiffness: SparseMatrix::from_triplets(

@@ -14,6 +14,7 @@ fn model(
     let m: Vec<(usize, usize, f64)> = mass.iter().enumerate().map(|(i, &v)| (i, i, v)).collect();
     Model {
         source: "friction unit test".into(),
+        input_files: vec![],
         name: "friction unit test".into(),
         mass: SparseMatrix::from_triplets(n, n, &m),
         stiffness: SparseMatrix::from_triplets(n, n, stiffness),
