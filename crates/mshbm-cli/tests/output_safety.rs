@@ -201,6 +201,28 @@ fn an_output_that_is_the_model_file_is_refused_and_the_model_kept() {
 }
 
 #[test]
+fn an_output_that_is_a_file_the_model_reads_is_refused_and_kept() {
+    // a matrices model reads M, K and load vectors; none of them may be an output
+    let dir = tempfile::tempdir().unwrap();
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/bar_matrices");
+    for entry in std::fs::read_dir(&source).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(entry.path(), dir.path().join(entry.file_name())).unwrap();
+    }
+    let model = dir.path().join("model.toml").display().to_string();
+    let mass = dir.path().join("mass.mtx");
+    let before = std::fs::read(&mass).unwrap();
+    let m = mass.display().to_string();
+    measured(dir.path(), &solve_args(&model, &["--output", &m]))
+        .assert_clean_refusal(&["--output", "a file the model reads"]);
+    let frf = [
+        "frf", &model, "--from", "1000", "--to", "2000", "--output", &m,
+    ];
+    measured(dir.path(), &frf).assert_clean_refusal(&["--output", "a file the model reads"]);
+    assert_eq!(std::fs::read(&mass).unwrap(), before);
+}
+
+#[test]
 fn an_output_equal_to_another_output_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let model = small_model(dir.path());

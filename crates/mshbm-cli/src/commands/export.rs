@@ -51,6 +51,7 @@ pub fn run(args: &ExportArgs) -> Result<()> {
     let files = export_files(&model);
     let mut plan = OutputPlan::new();
     plan.input("the model file", &args.model.model);
+    plan.inputs("a file the model reads", &model.input_files);
     for f in &files {
         let path = dir.join(f.name);
         if args.force {

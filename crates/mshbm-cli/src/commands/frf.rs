@@ -373,6 +373,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     let model = args.model.load()?;
     OutputPlan::new()
         .input("the model file", &args.model.model)
+        .inputs("a file the model reads", &model.input_files)
         .output("--output", args.output.as_deref(), OutputKind::Data)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;

@@ -59,6 +59,7 @@ pub fn run(args: &ModesArgs) -> Result<()> {
     let model = args.model.load()?;
     OutputPlan::new()
         .input("the model file", &args.model.model)
+        .inputs("a file the model reads", &model.input_files)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;
     let report = model.compare_masses(args.count)?;

@@ -12,7 +12,7 @@ use mshbm::analytic::DroppedBarSolution;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
-use mshbm::model::file::load_dropped_bar;
+use mshbm::model::file::load_dropped_bar_with;
 use mshbm::simulation::{reference_period, state_from_solution, TransientStatistics};
 use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
@@ -347,14 +347,18 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let model = args.model.load()?;
     let mut plan = OutputPlan::new();
     plan.input("the model file", &args.model.model);
+    plan.inputs("a file the model reads", &model.input_files);
     if let Some(p) = &args.from_solution {
         plan.input("the --from-solution file", p);
     }
     plan.output("--output", args.output.as_deref(), OutputKind::Data)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;
-    let dropped: Option<DroppedBarParameters> =
-        load_dropped_bar(&args.model.model, &args.model.overrides)?;
+    let dropped: Option<DroppedBarParameters> = load_dropped_bar_with(
+        &args.model.model,
+        &args.model.overrides,
+        &args.model.load_options(),
+    )?;
     let analytic: Option<DroppedBarSolution> = dropped.as_ref().and_then(|p| p.analytic().ok());
     let forced = model.harmonic_load.iter().any(|&f| f != 0.0);
     let start = match &args.from_solution {

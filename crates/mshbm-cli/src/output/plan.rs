@@ -224,7 +224,6 @@ impl OutputPlan {
     }
 
     /// Files the command reads (e.g. the files a model file refers to).
-    #[allow(dead_code)] // for the files a model reads (`Model::input_files`, issue 15)
     pub fn inputs(&mut self, what: &str, paths: &[PathBuf]) -> &mut Self {
         for p in paths {
             self.input(what, p);
