@@ -39,7 +39,7 @@ use criterion::Criterion;
 use mshbm::continuation::arclength::StopReason;
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
 use mshbm::harmonic::Quadrature;
-use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
+use mshbm::integrate::steady_state::{simulate_to_steady_state, Periodicity, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::general::GeneralOptions;
 use mshbm::method::hbm_aft::HbmAftOptions;
@@ -166,6 +166,7 @@ fn simulated_sweep(id: &str, model: &Model) {
                 tolerance: 1e-6,
                 harmonics: HARMONICS,
                 response_dof: 100,
+                periodicity: Periodicity::State,
             },
             |_| {},
             |_, _| {},

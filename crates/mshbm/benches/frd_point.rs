@@ -38,7 +38,7 @@ use std::time::{Duration, Instant};
 use common::{hz, median, show, timed_with_setup};
 use criterion::Criterion;
 use mshbm::harmonic::Quadrature;
-use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
+use mshbm::integrate::steady_state::{simulate_to_steady_state, Periodicity, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
@@ -140,6 +140,7 @@ fn simulate_min(mut it: Integrator, steps: usize) -> Option<(f64, usize)> {
             tolerance: 1e-6,
             harmonics: 10,
             response_dof: CONTACT_DOF,
+            periodicity: Periodicity::State,
         },
         |_| {},
         |_, _| {},

@@ -10,7 +10,9 @@ use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 use mshbm::continuation::arclength::BranchPoint;
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
-use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
+use mshbm::integrate::steady_state::{
+    simulate_to_steady_state, Periodicity, SteadyState, SteadyStateOptions,
+};
 use mshbm::integrate::{Integrator, Scheme, Settings};
 use mshbm::method::general::{GeneralMsHbm, GeneralOptions};
 use mshbm::method::settings::MethodSettings;
@@ -165,6 +167,7 @@ fn steady(
             tolerance: 1e-6,
             harmonics: 10,
             response_dof,
+            periodicity: Periodicity::State,
         },
         |it| {
             for p in it.friction_forces() {

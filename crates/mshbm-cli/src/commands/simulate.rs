@@ -9,7 +9,9 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::analytic::DroppedBarSolution;
-use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyState, SteadyStateOptions};
+use mshbm::integrate::steady_state::{
+    simulate_to_steady_state, Periodicity, SteadyState, SteadyStateOptions,
+};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::load_dropped_bar_with;
@@ -37,7 +39,31 @@ pub enum SchemeArg {
     Redistributed,
 }
 
-/// Default `--tolerance` of the steady state.
+/// What must repeat from period to period for a steady state (`--periodicity`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PeriodicityArg {
+    /// The reported response: the harmonics 0..H (--harmonics) of the displacements of the
+    /// --dof and the contact DOFs repeat, relative to their largest displacement
+    /// (docs/theory.md (T97); default --tolerance 1e-3). High modes that ring without
+    /// moving these harmonics do not count.
+    Response,
+    /// The whole state: displacements and velocities (divided by ω) of every DOF with mass
+    /// repeat, relative to the largest displacement amplitude (docs/theory.md (T70);
+    /// default --tolerance 1e-6).
+    State,
+}
+
+impl PeriodicityArg {
+    fn periodicity(self) -> Periodicity {
+        match self {
+            PeriodicityArg::Response => Periodicity::Response,
+            PeriodicityArg::State => Periodicity::State,
+        }
+    }
+}
+
+/// Default `--tolerance` of the whole-state criterion (`--periodicity state`; also the
+/// criterion of `mshbm paper`'s Fig. 9).
 pub const SIMULATE_TOLERANCE: f64 = 1e-6;
 /// Default `--harmonics` of the steady state's Fourier coefficients.
 pub const SIMULATE_HARMONICS: usize = 10;
@@ -64,7 +90,8 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
 
-    /// Time steps per period (default: 2000 for forced problems, 8000 for free ones).
+    /// Time steps per period (default: 2000 for forced problems and with --steady-state,
+    /// 8000 for free ones).
     #[arg(long, value_name = "N", conflicts_with = "dt")]
     pub steps_per_period: Option<usize>,
 
@@ -89,16 +116,21 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "T")]
     pub theta: Option<f64>,
 
-    /// Integrate period by period until the state (displacements and velocities of the DOFs
-    /// with mass) repeats to --tolerance twice in a row, then report the last period like
-    /// `mshbm solve` (exit status 2 if it does not become periodic within --periods).
+    /// Integrate period by period until the response repeats (--periodicity) to --tolerance
+    /// twice in a row, then report the last period like `mshbm solve` with the measured
+    /// period-to-period scatter (exit status 2 if it does not become periodic within
+    /// --periods). The period is that of --frequency (required, also without load).
     #[arg(long)]
     pub steady_state: bool,
 
-    /// Steady state: largest period-to-period change of the state, relative to the largest
-    /// displacement amplitude (velocities divided by ω).
-    #[arg(long, default_value_t = SIMULATE_TOLERANCE)]
-    pub tolerance: f64,
+    /// Steady state: what must repeat from period to period.
+    #[arg(long, value_enum, default_value_t = PeriodicityArg::Response)]
+    pub periodicity: PeriodicityArg,
+
+    /// Steady state: largest period-to-period change (--periodicity) counted as a repeat
+    /// (default: 1e-3 for the response, 1e-6 for the state).
+    #[arg(long)]
+    pub tolerance: Option<f64>,
 
     /// Steady state: number of harmonics H of the reported Fourier coefficients.
     #[arg(long, default_value_t = SIMULATE_HARMONICS)]
@@ -127,8 +159,9 @@ pub struct SimulateArgs {
     pub plot: Option<PathBuf>,
 
     /// Print one JSON object on stdout: with --steady-state the same object as
-    /// `mshbm solve --json` (method "time-integration") plus "periodic", "period_change",
-    /// "periods_simulated"; otherwise a summary of the run.
+    /// `mshbm solve --json` (method "time-integration") plus "periodic", "periodicity",
+    /// "tolerance", "period_change", "period_scatter", "periods_simulated"; otherwise a
+    /// summary of the run.
     #[arg(long)]
     pub json: bool,
 }
@@ -325,7 +358,11 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             bail!("--theta must lie in [0.5, 1] (theta < 0.5 is unstable), got {t}");
         }
     }
-    positive("--tolerance", args.tolerance)?;
+    let periodicity = args.periodicity.periodicity();
+    let tolerance = match args.tolerance {
+        Some(t) => positive("--tolerance", t)?,
+        None => periodicity.default_tolerance(),
+    };
     if args.harmonics == 0 {
         bail!("--harmonics must be at least 1");
     }
@@ -339,6 +376,9 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         if let Some(p) = args.periods {
             if p.fract() != 0.0 {
                 bail!("--periods must be a whole number with --steady-state, got {p}");
+            }
+            if periodicity == Periodicity::Response && p < 2.0 {
+                bail!("--periods must be at least 2 with --steady-state --periodicity response (it compares whole periods), got {p}");
             }
         }
     }
@@ -386,7 +426,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         bail!("the model has a harmonic load: give its --frequency [Hz]");
     }
     if args.steady_state && frequency.is_none() {
-        bail!("--steady-state needs a forcing --frequency [Hz]");
+        bail!("--steady-state needs --frequency [Hz]: the period of the steady state (also without load)");
     }
     let scheme_arg = args.scheme.unwrap_or(if model.contacts.is_empty() {
         SchemeArg::Moreau
@@ -403,13 +443,15 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
 
     // --- time grid ---
     let period = reference_period(&system, frequency, dropped.as_ref());
+    // a steady state is sampled like a forced response, also without load
+    let default_steps_per_period = if forced || args.steady_state {
+        2000
+    } else {
+        8000
+    };
     let dt = match (args.dt, period) {
         (Some(dt), _) => dt,
-        (None, Some(t)) => {
-            t / args
-                .steps_per_period
-                .unwrap_or(if forced { 2000 } else { 8000 }) as f64
-        }
+        (None, Some(t)) => t / args.steps_per_period.unwrap_or(default_steps_per_period) as f64,
         (None, None) => bail!(
             "no reference period for this model (free structure): give --dt [s] and --duration [s]"
         ),
@@ -425,7 +467,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     }
     let steps = steps as u64;
     let steps_per_period = if args.steady_state {
-        args.steps_per_period.unwrap_or(2000)
+        args.steps_per_period.unwrap_or(default_steps_per_period)
     } else {
         0
     };
@@ -505,9 +547,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         let options = SteadyStateOptions {
             steps_per_period,
             max_periods,
-            tolerance: args.tolerance,
+            tolerance,
             harmonics: args.harmonics,
             response_dof: response_dof.expect("checked"),
+            periodicity,
         };
         let w = omega.expect("checked");
         Some(simulate_to_steady_state(
@@ -530,8 +573,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         let rows = csv.rows();
         let status = match &steady {
             Some(s) if !s.periodic => format!(
-                "finished: {rows} rows; NOT periodic within {} periods (period-to-period change {:.2e})",
-                s.periods_simulated, s.period_change
+                "finished: {rows} rows; NOT periodic within {} periods (period-to-period scatter {:.2e}, --periodicity {})",
+                s.periods_simulated,
+                s.period_scatter,
+                s.periodicity.name()
             ),
             _ => format!("finished: {rows} rows"),
         };
@@ -546,16 +591,17 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     // --- report ---
     let scheme_name = scheme.description();
     match &steady {
-        Some(s) => report_steady(args, &model, &scheme_name, s, json)?,
+        Some(s) => report_steady(&model, &scheme_name, s, json)?,
         None => report_transient(args, &model, &scheme_name, &rec, dt, e0, analytic.as_ref())?,
     }
     if let Some(s) = &steady {
         if !s.periodic {
             return Err(NotConverged(format!(
-                "the response did not become periodic within {} periods: period-to-period change {:.2e} > tolerance {:.1e}",
+                "the response did not become periodic within {} periods: period-to-period scatter {:.2e} >= tolerance {:.1e} (--periodicity {})",
                 s.periods_simulated,
-                s.period_change,
-                args.tolerance
+                s.period_scatter,
+                s.tolerance,
+                s.periodicity.name()
             ))
             .into());
         }
@@ -563,13 +609,29 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-fn report_steady(
-    args: &SimulateArgs,
-    model: &Model,
-    scheme: &str,
-    s: &SteadyState,
-    json: Option<String>,
-) -> Result<()> {
+/// What the periodicity criterion of `s` compares, in words: "the harmonics 0..10 of DOF
+/// 100" or "the state of every DOF with mass".
+fn compared(s: &SteadyState) -> String {
+    match s.periodicity {
+        Periodicity::Response => {
+            let sol = &s.solution;
+            let mut dofs = sol.contact_dofs.clone();
+            if !dofs.contains(&sol.response.dof) {
+                dofs.insert(0, sol.response.dof);
+            }
+            let list: Vec<String> = dofs.iter().map(|d| d.to_string()).collect();
+            format!(
+                "the harmonics 0..{} of DOF{} {}",
+                sol.harmonics,
+                if dofs.len() == 1 { "" } else { "s" },
+                list.join(", ")
+            )
+        }
+        Periodicity::State => "the state of every DOF with mass".to_string(),
+    }
+}
+
+fn report_steady(model: &Model, scheme: &str, s: &SteadyState, json: Option<String>) -> Result<()> {
     if let Some(json) = json {
         crate::outln!("{json}")?;
         return Ok(());
@@ -581,21 +643,33 @@ fn report_steady(
         sol.frequency_hz,
         sol.samples
     )?;
+    let scale = match s.periodicity {
+        Periodicity::Response => "of their largest displacement",
+        Periodicity::State => "of the largest displacement amplitude",
+    };
     if s.periodic {
         crate::outln!(
-            "periodic after {} periods (period-to-period change {:.2e} < tolerance {:.1e})",
+            "periodic after {} periods: {} changed by at most {:.2e} {scale} per period over the last 2 periods \
+             (period-to-period scatter < tolerance {:.1e}, --periodicity {})",
             s.periods_simulated,
-            s.period_change,
-            args.tolerance
+            compared(s),
+            s.period_scatter,
+            s.tolerance,
+            s.periodicity.name()
         )?;
     } else {
         crate::outln!(
-            "NOT periodic after {} periods: period-to-period change {:.2e} > tolerance {:.1e}; \
+            "NOT periodic after {} periods: {} changed by up to {:.2e} {scale} per period over the last 2 periods \
+             (period-to-period scatter >= tolerance {:.1e}, --periodicity {}); \
              the response may be quasi-periodic or chaotic, and the last period below is not a steady state",
-            s.periods_simulated, s.period_change, args.tolerance
+            s.periods_simulated,
+            compared(s),
+            s.period_scatter,
+            s.tolerance,
+            s.periodicity.name()
         )?;
         if let Some(k) = s.subharmonic {
-            crate::outln!("the state repeats after {k} periods (a subharmonic response)")?;
+            crate::outln!("the response repeats after {k} periods (a subharmonic response)")?;
         }
     }
     for c in &sol.contacts {

@@ -387,6 +387,11 @@ impl Integrator {
             .collect()
     }
 
+    /// Initial gap `g0` of each contact.
+    pub fn contact_initial_gaps(&self) -> &[f64] {
+        &self.data.contacts.gap
+    }
+
     /// DOFs with mass (the state that a periodic orbit must repeat).
     pub fn massive_dofs(&self) -> &[usize] {
         &self.data.massive

@@ -50,7 +50,8 @@
 //! (docs/theory.md (T69): `E = ½vᵀMv + ½uᵀKu + g 1ᵀMu + m g h0`), so `E/E(0)` is the normalised
 //! energy of the paper's Fig. 5.
 //!
-//! [`steady_state`] integrates period by period until the state repeats;
+//! [`steady_state`] integrates period by period until the response (or, as an option, the
+//! whole state) repeats (docs/theory.md (T97), (T70));
 //! [`initial`] builds the initial state of a harmonic solution (e.g. from `mshbm solve`);
 //! [`crate::analytic`] has the closed-form references.
 
@@ -59,6 +60,7 @@ pub mod initial;
 mod integrator;
 mod moreau;
 mod newmark;
+mod periodicity;
 pub mod steady_state;
 
 pub(crate) use data::{Data, State};

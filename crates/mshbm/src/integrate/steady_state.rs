@@ -1,23 +1,34 @@
-//! Steady state by simulation: integrate period by period until the state repeats, then
+//! Steady state by simulation: integrate period by period until the response repeats, then
 //! report the last period in the same form as the MS-HBM ([`PeriodicSolution`]).
 //!
 //! The forcing period `T = 2π/ω` is split into `N` steps (`dt = T/N`, so the samples of a
 //! period are the step times `t_p + jT/N`, the MS-HBM's `τ_j = 2πj/N`). After each period
-//! the state of the DOFs with mass (massless DOFs are statically determined) is compared
-//! with the state one period earlier:
+//! the period-to-period change `δ_p` of [`SteadyStateOptions::periodicity`] is measured
+//! ([`Periodicity`]):
 //!
-//! `change = max(‖Δq‖∞, ‖Δv‖∞/ω) / A`, `A = max_i (max_t q_i − min_t q_i)/2` over the period
-//! (the largest displacement amplitude of the structure).
+//! * [`Periodicity::Response`] (default, docs/theory.md (T97)): the harmonics `0..=H` of the
+//!   displacements of the reported DOFs (the response DOF and the first DOF of each contact)
+//!   against those of the previous period, relative to the largest displacement magnitude
+//!   of those DOFs (with a floor of `10⁻⁶` times the largest gap, so that a response at rest
+//!   repeats exactly). This is what an engineer reads off the output: the reported
+//!   harmonics, maxima and minima repeat. Default tolerance `1e-3`.
+//! * [`Periodicity::State`] (docs/theory.md (T70)): the state of the DOFs with mass
+//!   (massless DOFs are statically determined) at the end of the period against the state
+//!   one period earlier, `max(‖Δq‖∞, ‖Δv‖∞/ω) / A`, `A = max_i (max_t q_i − min_t q_i)/2`
+//!   over the period (the largest displacement amplitude of the structure). Every mode
+//!   counts, also high modes that no output shows. Default tolerance `1e-6`.
 //!
-//! The response is **periodic** when `change < tolerance` for two successive periods; the
-//! last period is then reported with `converged = true`. Otherwise, after the period limit,
-//! the last period is still reported, but with `periodic = false` and the last change, so a
-//! quasi-periodic or chaotic response (light damping, contact exciting high modes that
-//! ring) is never presented as a steady state. When such a run ends with the state
-//! repeating after `k = 2, 3, 4` periods instead (to the tolerance, twice in a row), it is
-//! reported as `subharmonic = k`. (Subharmonics do not stop the run early: a decaying
-//! transient whose frequency is close to a rational multiple of the forcing passes that test
-//! long before it has decayed.)
+//! The response is **periodic** when `δ_p < tolerance` for two successive periods; the
+//! last period is then reported with `converged = true`, and the largest of those two
+//! changes as the measured period-to-period scatter ([`SteadyState::period_scatter`]).
+//! Otherwise, after the period limit, the last period is still reported, but with
+//! `periodic = false` and the scatter of the last two periods, so a quasi-periodic or
+//! chaotic response (light damping, contact exciting high modes that ring) is never
+//! presented as a steady state. When such a run ends with the response repeating after
+//! `k = 2, 3, 4` periods instead (to the tolerance, twice in a row), it is reported as
+//! `subharmonic = k`. (Subharmonics do not stop the run early: a decaying transient whose
+//! frequency is close to a rational multiple of the forcing passes that test long before it
+//! has decayed.)
 //!
 //! Fourier coefficients are the DFT of the `N` samples (docs/theory.md (T10), mean `1/N`); max/min are
 //! those of the samples.
@@ -26,19 +37,25 @@
 //! damping alone (`damping.first_mode_ratio`), mode `k` has the damping ratio `ζ₁ ω₁/ω_k`:
 //! the high modes that every impact excites ring for many periods and the next impact
 //! meets them in a different state. On the paper's bar with 1 % at the first mode the
-//! response then does not become periodic anywhere in 30–90 kHz; it wanders around the
-//! MS-HBM orbit (by 0.2 % of the contact DOF's minimum at 30 and 60 kHz, 1.3 % at 90 kHz,
-//! 20–40 % at 45, 55 and 65 kHz). With damping that also reaches the high modes (Rayleigh
-//! damping on the linear block, 1 % at `ω₁` and `10 ω₁`) it becomes periodic within tens of
-//! periods and agrees with the MS-HBM, which converges to it as `H` grows
+//! whole state then does not repeat anywhere in 30–90 kHz (criterion (T70)); the response
+//! wanders around the MS-HBM orbit by 0.2 % of the contact DOF's minimum at 30 and 60 kHz,
+//! 1.3 % at 90 kHz, 20–40 % at 45, 55 and 65 kHz. At 30 kHz its harmonics repeat to about
+//! 0.1 % of the response, so the response criterion (T97) finds it periodic, at 45 and
+//! 90 kHz it does not. With damping that also reaches the high modes (Rayleigh damping on
+//! the linear block, 1 % at `ω₁` and `10 ω₁`) the whole state becomes periodic within tens
+//! of periods and agrees with the MS-HBM, which converges to it as `H` grows
 //! (tests/time_integration.rs).
 
 use serde::{Deserialize, Serialize};
+
+use std::collections::VecDeque;
 
 use crate::error::{Error, Result};
 use crate::harmonic::{n_coefficients, Sampling};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 
+use super::periodicity::PeriodRecord;
+pub use super::periodicity::Periodicity;
 use super::Integrator;
 
 /// Settings of [`simulate_to_steady_state`].
@@ -46,14 +63,20 @@ use super::Integrator;
 pub struct SteadyStateOptions {
     /// Steps per forcing period `N ≥ 2H + 1` (the integrator's `dt` must be `T/N`).
     pub steps_per_period: usize,
-    /// Period limit.
+    /// Period limit (at least 2 for [`Periodicity::Response`], which compares whole
+    /// periods).
     pub max_periods: usize,
-    /// Relative period-to-period change below which the state repeats (default 1e-6).
+    /// Period-to-period change below which the response repeats
+    /// ([`Periodicity::default_tolerance`]: 1e-3 for the response, 1e-6 for the state).
     pub tolerance: f64,
-    /// Harmonics `H` of the reported coefficients (default 10).
+    /// Harmonics `H` of the reported coefficients (default 10); the response criterion
+    /// compares these.
     pub harmonics: usize,
     /// Model DOF of the reported response (e.g. the first contact DOF).
     pub response_dof: usize,
+    /// What must repeat: the reported response (docs/theory.md (T97)) or the whole state
+    /// (T70).
+    pub periodicity: Periodicity,
 }
 
 /// Result of [`simulate_to_steady_state`]: the last period as a [`PeriodicSolution`]
@@ -65,15 +88,25 @@ pub struct SteadyStateOptions {
 pub struct SteadyState {
     #[serde(flatten)]
     pub solution: PeriodicSolution,
-    /// The state repeated after one forcing period (to the tolerance, twice in a row).
+    /// The measure of [`SteadyStateOptions::periodicity`] stayed below the tolerance for two
+    /// successive periods.
     pub periodic: bool,
-    /// Relative change of the state over the last period (see the module docs).
+    /// The criterion used (`"response"` or `"state"` in JSON).
+    pub periodicity: Periodicity,
+    /// The tolerance it was held to.
+    pub tolerance: f64,
+    /// Period-to-period change over the last period (see the module docs).
     pub period_change: f64,
+    /// The measured period-to-period scatter: the largest change of the last two periods
+    /// (periodic exactly when it is below the tolerance).
+    pub period_scatter: f64,
     pub periods_simulated: usize,
-    /// `k ≥ 2` when, at the end of a run that did not become periodic, the state repeated
-    /// after `k` periods (twice in a row).
+    /// `k ≥ 2` when, at the end of a run that did not become periodic, the response
+    /// repeated after `k` periods (twice in a row).
     pub subharmonic: Option<usize>,
-    /// Relative change after each period (index 0: the first period).
+    /// Period-to-period change after each period that has a predecessor to compare with:
+    /// from the first period on for the state criterion (compared with the initial state),
+    /// from the second on for the response criterion.
     pub period_change_history: Vec<f64>,
 }
 
@@ -82,16 +115,12 @@ const SUCCESSIVE: usize = 2;
 /// Largest subharmonic order detected.
 const MAX_SUBHARMONIC: usize = 4;
 
-fn max_abs_diff(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
-}
-
 /// Integrate `integrator` (harmonic load at `omega` rad/s, `dt = 2π/(ω N)`, current time a
-/// multiple of the period) period by period until the state repeats or `max_periods` are
-/// done. `on_step` is called after every step (e.g. to stream output), `on_period` after
-/// every period with `(periods done, change)` (e.g. for progress).
+/// multiple of the period) period by period until the response repeats or `max_periods` are
+/// done. A system without load is fine: `omega` then only sets the period. `on_step` is
+/// called after every step (e.g. to stream output), `on_period` after every period with
+/// `(periods done, change)` (e.g. for progress; the change is `∞` while there is nothing
+/// to compare with).
 pub fn simulate_to_steady_state(
     integrator: &mut Integrator,
     omega: f64,
@@ -139,8 +168,19 @@ pub fn simulate_to_steady_state(
             ),
         ));
     }
-    if options.max_periods == 0 {
-        return Err(Error::argument("periods", "must be at least 1"));
+    let min_periods = match options.periodicity {
+        Periodicity::Response => 2,
+        Periodicity::State => 1,
+    };
+    if options.max_periods < min_periods {
+        return Err(Error::argument(
+            "periods",
+            format!(
+                "must be at least {min_periods} for the {} criterion, got {}",
+                options.periodicity.name(),
+                options.max_periods
+            ),
+        ));
     }
     if !(options.tolerance.is_finite() && options.tolerance > 0.0) {
         return Err(Error::argument(
@@ -151,18 +191,25 @@ pub fn simulate_to_steady_state(
     let system_contacts = integrator.contact_first_dofs();
     let response_system = integrator.system_dof(options.response_dof)?;
     let massive: Vec<usize> = integrator.massive_dofs().to_vec();
-    let snapshot = |it: &Integrator| -> (Vec<f64>, Vec<f64>) {
-        (
-            massive.iter().map(|&i| it.q()[i]).collect(),
-            massive.iter().map(|&i| it.v()[i]).collect(),
-        )
+    let gap_scale = integrator
+        .contact_initial_gaps()
+        .iter()
+        .fold(0.0f64, |m, g| m.max(g.abs()));
+    let sampling = Sampling::new(h, n);
+    let state_record = |it: &Integrator| PeriodRecord::State {
+        q: massive.iter().map(|&i| it.q()[i]).collect(),
+        v: massive.iter().map(|&i| it.v()[i]).collect(),
     };
     let nc = system_contacts.len();
     let mut disp = vec![vec![0.0; n]; nc];
     let mut gaps = vec![vec![0.0; n]; nc];
     let mut forces = vec![vec![0.0; n]; nc];
     let mut response = vec![0.0; n];
-    let mut starts: Vec<(Vec<f64>, Vec<f64>)> = vec![snapshot(integrator)];
+    // the records of the last MAX_SUBHARMONIC periods (state: and of the initial state)
+    let mut records: VecDeque<PeriodRecord> = VecDeque::with_capacity(MAX_SUBHARMONIC + 1);
+    if options.periodicity == Periodicity::State {
+        records.push_back(state_record(integrator));
+    }
     let mut history = Vec::new();
     let mut below = [0usize; MAX_SUBHARMONIC + 1];
     let mut periodic = false;
@@ -195,29 +242,40 @@ pub fn simulate_to_steady_state(
             .iter()
             .zip(&hi)
             .fold(0.0f64, |m, (a, b)| m.max(0.5 * (b - a)));
-        let now = snapshot(integrator);
-        let change_to = |old: &(Vec<f64>, Vec<f64>)| -> f64 {
-            let d = max_abs_diff(&now.0, &old.0).max(max_abs_diff(&now.1, &old.1) / omega);
-            if amplitude > 0.0 {
-                d / amplitude
-            } else if d == 0.0 {
-                0.0
-            } else {
-                f64::INFINITY
+        let now = match options.periodicity {
+            Periodicity::State => state_record(integrator),
+            Periodicity::Response => {
+                // the reported DOFs: every contact's first DOF and the response DOF
+                let reported = disp
+                    .iter()
+                    .chain(response_system.map(|_| &response))
+                    .map(Vec::as_slice);
+                let mut coefficients = Vec::with_capacity(nc + 1);
+                let mut magnitude = 0.0f64;
+                for series in reported {
+                    coefficients.push(sampling.dft(series));
+                    magnitude = series.iter().fold(magnitude, |m, q| m.max(q.abs()));
+                }
+                PeriodRecord::Response {
+                    coefficients,
+                    magnitude,
+                }
             }
         };
         let mut changes = [f64::INFINITY; MAX_SUBHARMONIC + 1];
         for (k, change) in changes.iter_mut().enumerate().skip(1) {
-            if let Some(old) = starts.len().checked_sub(k).map(|i| &starts[i]) {
-                *change = change_to(old);
+            if let Some(old) = records.len().checked_sub(k).map(|i| &records[i]) {
+                *change = now.change_from(old, omega, amplitude, gap_scale);
             }
         }
         let change = changes[1];
-        history.push(change);
+        if !records.is_empty() {
+            history.push(change);
+        }
         on_period(p, change);
-        starts.push(now);
-        if starts.len() > MAX_SUBHARMONIC + 1 {
-            starts.remove(0);
+        records.push_back(now);
+        if records.len() > MAX_SUBHARMONIC {
+            records.pop_front();
         }
         for k in 1..=MAX_SUBHARMONIC {
             below[k] = if changes[k] < options.tolerance {
@@ -236,7 +294,6 @@ pub fn simulate_to_steady_state(
     } else {
         (2..=MAX_SUBHARMONIC).find(|&k| below[k] >= SUCCESSIVE)
     };
-    let sampling = Sampling::new(h, n);
     let dt = integrator.dt();
     let time_s: Vec<f64> = (0..n).map(|j| j as f64 * dt).collect();
     let extremes = |v: &[f64]| -> (f64, f64) {
@@ -261,6 +318,11 @@ pub fn simulate_to_steady_state(
         .collect();
     let (rmax, rmin) = extremes(&response);
     let change = history.last().copied().unwrap_or(f64::INFINITY);
+    let scatter = history
+        .iter()
+        .rev()
+        .take(SUCCESSIVE)
+        .fold(0.0f64, |m, &c| m.max(c));
     Ok(SteadyState {
         solution: PeriodicSolution {
             frequency_hz: omega / (2.0 * std::f64::consts::PI),
@@ -284,7 +346,10 @@ pub fn simulate_to_steady_state(
             stability: None,
         },
         periodic,
+        periodicity: options.periodicity,
+        tolerance: options.tolerance,
         period_change: change,
+        period_scatter: scatter,
         periods_simulated: p,
         subharmonic,
         period_change_history: history,

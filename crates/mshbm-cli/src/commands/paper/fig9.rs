@@ -15,7 +15,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use anyhow::Result;
-use mshbm::integrate::steady_state::{simulate_to_steady_state, SteadyStateOptions};
+use mshbm::integrate::steady_state::{simulate_to_steady_state, Periodicity, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Settings};
 
 use super::run::{Job, Output, Progress};
@@ -230,6 +230,7 @@ impl Plan {
             tolerance: SIMULATE_TOLERANCE,
             harmonics: SIMULATE_HARMONICS,
             response_dof: contact.0,
+            periodicity: Periodicity::State,
         };
         // extremes of the contact DOF in the running period, and per finished period
         let extremes = RefCell::new(((f64::INFINITY, f64::NEG_INFINITY), Vec::new()));
