@@ -48,6 +48,25 @@ impl NewtonOptions {
     }
 }
 
+/// Watches the iterations of one Newton solve ([`solve_observed`]): called with the
+/// iteration number (0 for the start) and `‖R‖_∞` relative to the length scale at each
+/// iterate. The library never prints; a caller may show progress from here.
+#[derive(Clone)]
+pub struct NewtonObserver(pub std::sync::Arc<dyn Fn(usize, f64) + Send + Sync>);
+
+impl NewtonObserver {
+    /// An observer calling `f(iteration, relative residual)`.
+    pub fn new(f: impl Fn(usize, f64) + Send + Sync + 'static) -> Self {
+        NewtonObserver(std::sync::Arc::new(f))
+    }
+}
+
+impl std::fmt::Debug for NewtonObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("NewtonObserver")
+    }
+}
+
 impl Default for NewtonOptions {
     fn default() -> Self {
         NewtonOptions {
@@ -195,6 +214,7 @@ struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
     options: &'a NewtonOptions,
     /// `‖R‖_∞ / scale` at each iterate.
     history: Vec<f64>,
+    observer: Option<&'a NewtonObserver>,
 }
 
 impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
@@ -205,6 +225,9 @@ impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
 
     fn converged(&mut self, _x: &[f64], residual: &[f64], _iterations: usize) -> bool {
         let norm = max_norm(residual) / self.scale;
+        if let Some(observer) = self.observer {
+            (observer.0)(self.history.len(), norm);
+        }
         self.history.push(norm);
         // as the loop `while norm > tolerance` always read: a NaN norm stops it, as converged
         norm <= self.options.tolerance || norm.is_nan()
@@ -237,6 +260,17 @@ pub fn solve<P: PeriodicProblem + ?Sized>(
     omega: f64,
     options: &NewtonOptions,
 ) -> Result<NewtonOutcome> {
+    solve_observed(problem, x0, omega, options, None)
+}
+
+/// [`solve`], reporting every iterate's residual to `observer`.
+pub fn solve_observed<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    x0: &[f64],
+    omega: f64,
+    options: &NewtonOptions,
+    observer: Option<&NewtonObserver>,
+) -> Result<NewtonOutcome> {
     options.validate()?;
     let mut system = AtFrequency {
         scale: problem.length_scale(),
@@ -244,6 +278,7 @@ pub fn solve<P: PeriodicProblem + ?Sized>(
         omega,
         options,
         history: Vec::new(),
+        observer,
     };
     let end = iterate(&mut system, x0.to_vec(), options.max_iterations)?;
     let history = system.history;
@@ -281,8 +316,19 @@ pub fn solve_at_frequency<P: PeriodicProblem + ?Sized>(
     response_dof: usize,
     options: &NewtonOptions,
 ) -> Result<(crate::solution::PeriodicSolution, NewtonOutcome)> {
+    solve_at_frequency_observed(problem, omega, response_dof, options, None)
+}
+
+/// [`solve_at_frequency`], reporting every Newton iterate to `observer`.
+pub fn solve_at_frequency_observed<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    omega: f64,
+    response_dof: usize,
+    options: &NewtonOptions,
+    observer: Option<&NewtonObserver>,
+) -> Result<(crate::solution::PeriodicSolution, NewtonOutcome)> {
     let x0 = problem.initial_guess(omega)?;
-    let outcome = solve(problem, &x0, omega, options)?;
+    let outcome = solve_observed(problem, &x0, omega, options, observer)?;
     let mut solution = problem.solution(&outcome.x, omega, response_dof)?;
     solution.converged = outcome.converged;
     solution.iterations = outcome.iterations;

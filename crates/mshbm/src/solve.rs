@@ -6,7 +6,8 @@ use crate::error::{Error, Result};
 use crate::frd::response_dof;
 use crate::method::settings::MethodSettings;
 use crate::model::Model;
-use crate::newton::{solve_at_frequency, NewtonOptions, NewtonOutcome};
+use crate::limits::Limits;
+use crate::newton::{solve_at_frequency_observed, NewtonObserver, NewtonOptions, NewtonOutcome};
 use crate::solution::PeriodicSolution;
 
 /// Settings of one solve, with their defaults.
@@ -18,6 +19,11 @@ pub struct SolveSettings {
     pub stability: bool,
     /// The model DOF the solution reports (`None`: as [`response_dof`]).
     pub response_dof: Option<usize>,
+    /// The memory budget the method (and its Floquet analysis) is checked against before
+    /// it allocates (default: the machine's memory, [`Limits::default`]).
+    pub limits: Limits,
+    /// Called at every Newton iterate (a progress display for long solves).
+    pub observer: Option<NewtonObserver>,
 }
 
 impl Default for SolveSettings {
@@ -26,6 +32,8 @@ impl Default for SolveSettings {
             newton: NewtonOptions::default(),
             stability: true,
             response_dof: None,
+            limits: Limits::default(),
+            observer: None,
         }
     }
 }
@@ -54,11 +62,16 @@ pub fn solve_periodic(
         ));
     }
     let dof = response_dof(model, settings.response_dof)?;
-    let built = method.build(model)?;
+    let built = method.build_within(model, &settings.limits)?;
     let mut problem = built.problem;
     let omega = 2.0 * std::f64::consts::PI * frequency_hz;
-    let (mut solution, outcome) =
-        solve_at_frequency(problem.as_mut(), omega, dof, &settings.newton)?;
+    let (mut solution, outcome) = solve_at_frequency_observed(
+        problem.as_mut(),
+        omega,
+        dof,
+        &settings.newton,
+        settings.observer.as_ref(),
+    )?;
     let mut stability_error = None;
     if outcome.converged && settings.stability {
         match problem.floquet(&outcome.x, omega) {

@@ -108,6 +108,36 @@ pub const FULL_BASIS_DEFAULT_LIMIT: usize = 200;
 /// Fixed-interface modes of the default reduced basis (see [`ReducedSystem`]).
 pub const DEFAULT_STABILITY_MODES: usize = 100;
 
+/// Largest subspace block `n_L × 2m` (values) that the *default* reduced basis computes:
+/// its fixed-interface modes come from a subspace iteration whose cost grows as
+/// `n_L (2m)²` per iteration. At this size (the bar with 20 000 elements and the default
+/// 100 modes) the Floquet analysis takes about 10 s, fifty times the solve itself; the
+/// 200 000-element bar would take minutes. Above it the default skips the stability with a
+/// note; an explicit number of modes is computed whenever it fits the memory limit.
+pub const DEFAULT_REDUCED_BLOCK_LIMIT: usize = 4_000_000;
+
+/// Dense matrices alive at once in the full-space Floquet analysis, in units of `n_L²`
+/// values: `M̄`, its LU, `K_LL`, `C`, `M̄⁻¹K`, `M̄⁻¹C` (6), the first-order matrix per active
+/// set and its exponential (2 × 4), the complex modal exponential (2 × 8 real).
+const FULL_SPACE_MATRICES: u64 = 30;
+
+/// Subspace blocks of `n_L × 2m` alive at once in the reduced basis (iterate, `M X`,
+/// `K⁻¹ M X`, its thin QR, `K Y`, `M Y`, Ritz vectors, static modes); measured on the bar
+/// with 20 000 elements: 266 MB above the solve for blocks of 32 MB.
+const REDUCED_BASIS_BLOCKS: u64 = 8;
+
+/// Bytes of the full-space Floquet analysis of a linear part of `n_linear` DOFs.
+pub fn full_space_bytes(n_linear: usize) -> Option<u64> {
+    crate::limits::dense_f64_bytes(n_linear, n_linear)?.checked_mul(FULL_SPACE_MATRICES)
+}
+
+/// Bytes of the reduced basis of `modes` fixed-interface modes of a linear part of
+/// `n_linear` DOFs (the subspace iteration's blocks of `n_linear × 2·modes`).
+pub fn reduced_basis_bytes(n_linear: usize, modes: usize) -> Option<u64> {
+    crate::limits::dense_f64_bytes(n_linear, modes.checked_mul(2)?)?
+        .checked_mul(REDUCED_BASIS_BLOCKS)
+}
+
 /// Settings of the Floquet analysis of the redistributed MS-HBM.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct StabilityOptions {

@@ -2,6 +2,7 @@
 
 use crate::continuation::arclength::ContinuationOptions;
 use crate::error::{Error, Result};
+use crate::limits::Limits;
 use crate::model::Model;
 use crate::newton::NewtonOptions;
 
@@ -33,6 +34,9 @@ pub struct FrdSettings {
     pub response_dof: Option<usize>,
     /// Most points per branch (default 20 000): a safety limit.
     pub max_points: usize,
+    /// The memory budget each branch's method is checked against before it allocates
+    /// (default: the machine's memory, [`Limits::default`]).
+    pub limits: Limits,
 }
 
 impl FrdSettings {
@@ -49,6 +53,7 @@ impl FrdSettings {
             stability: false,
             response_dof: None,
             max_points: 20_000,
+            limits: Limits::default(),
         }
     }
 

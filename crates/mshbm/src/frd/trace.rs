@@ -98,7 +98,7 @@ pub fn trace_frd_branch(
 ) -> Result<TracedBranch> {
     settings.validate()?;
     let dof = response_dof(model, settings.response_dof)?;
-    let built = method.build(model)?;
+    let built = method.build_within(model, &settings.limits)?;
     let harmonics = method.harmonics();
     let info = BranchInfo {
         harmonics,

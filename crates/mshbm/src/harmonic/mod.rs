@@ -20,6 +20,11 @@ pub fn n_coefficients(harmonics: usize) -> usize {
     2 * harmonics + 1
 }
 
+/// `2H + 1`, `None` when it overflows `usize` (a user-given `H`).
+pub fn checked_coefficients(harmonics: usize) -> Option<usize> {
+    harmonics.checked_mul(2)?.checked_add(1)
+}
+
 /// Basis row `b(τ) = [1, cos τ, sin τ, …, cos Hτ, sin Hτ]`, written into `out`.
 pub fn basis_into(harmonics: usize, tau: f64, out: &mut [f64]) {
     out[0] = 1.0;
@@ -117,7 +122,33 @@ pub struct Sampling {
 }
 
 impl Sampling {
+    /// Bytes of the sampling of `H` harmonics at `samples` samples (the basis rows
+    /// `b(τ_j)` and the phases), `None` on overflow.
+    pub fn memory_bytes(harmonics: usize, samples: usize) -> Option<u64> {
+        let row = (checked_coefficients(harmonics)? as u64).checked_add(1)?;
+        (samples as u64).checked_mul(row)?.checked_mul(8)
+    }
+
+    /// [`Sampling::new`] for sizes from user input: refuses with
+    /// [`crate::error::Error::ResourceLimit`] (naming the samples and harmonics) when the
+    /// sampling would not fit `limits`, before allocating.
+    pub fn within(
+        harmonics: usize,
+        samples: usize,
+        limits: &crate::limits::Limits,
+    ) -> crate::error::Result<Self> {
+        limits.check_memory(
+            &format!("the Fourier basis at {samples} samples × {harmonics} harmonics"),
+            Self::memory_bytes(harmonics, samples),
+        )?;
+        Ok(Self::new(harmonics, samples))
+    }
+
     /// `samples ≥ 2H + 1` is the caller's responsibility (checked by the methods).
+    ///
+    /// # Panics
+    /// When the sampling does not fit in memory; sizes from user input go through
+    /// [`Sampling::within`].
     pub fn new(harmonics: usize, samples: usize) -> Self {
         let taus: Vec<f64> = (0..samples)
             .map(|j| 2.0 * PI * j as f64 / samples as f64)

@@ -2,6 +2,7 @@
 
 pub mod general;
 pub mod hbm_aft;
+pub mod memory;
 pub(crate) mod partition;
 pub mod redistributed;
 pub mod settings;
@@ -9,7 +10,7 @@ pub mod settings;
 use faer::c64;
 
 use crate::error::{Error, Result};
-use crate::harmonic::{n_coefficients, Quadrature};
+use crate::harmonic::{checked_coefficients, n_coefficients, Quadrature};
 use crate::model::System;
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, MethodKind, PeriodicSolution};
 use partition::Partition;
@@ -22,12 +23,17 @@ pub(crate) fn check_resolution(harmonics: usize, samples: usize, what: &str) -> 
     if harmonics == 0 {
         return Err(Error::argument("harmonics", "must be at least 1"));
     }
-    if samples < n_coefficients(harmonics) {
+    let Some(needed) = checked_coefficients(harmonics) else {
+        return Err(Error::argument(
+            "harmonics",
+            format!("{harmonics} harmonics is too many: 2H+1 overflows"),
+        ));
+    };
+    if samples < needed {
         return Err(Error::argument(
             "samples",
             format!(
-                "{samples} {what} cannot resolve {harmonics} harmonics: need at least 2H+1 = {}",
-                n_coefficients(harmonics)
+                "{samples} {what} cannot resolve {harmonics} harmonics: need at least 2H+1 = {needed}"
             ),
         ));
     }
@@ -43,7 +49,10 @@ pub(crate) fn default_resolution(
     per_coefficient: usize,
     at_least: usize,
 ) -> usize {
-    (per_coefficient * n_coefficients(harmonics)).max(at_least)
+    // saturated: an absurd H then fails the memory estimate, not the arithmetic
+    checked_coefficients(harmonics)
+        .map_or(usize::MAX, |c| per_coefficient.saturating_mul(c))
+        .max(at_least)
 }
 
 /// Default number of samples per period of the harmonic-balance methods (the redistributed

@@ -8,6 +8,7 @@ use super::general::{GeneralMsHbm, GeneralOptions};
 use super::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use super::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use crate::error::{Error, Result};
+use crate::limits::Limits;
 use crate::model::Model;
 use crate::problem::PeriodicProblem;
 use crate::solution::MethodKind;
@@ -107,12 +108,18 @@ impl MethodSettings {
         }
     }
 
-    /// Build the method for `model`.
+    /// Build the method for `model` within the default [`Limits`] (the machine's memory).
     pub fn build(&self, model: &Model) -> Result<BuiltMethod> {
+        self.build_within(model, &Limits::default())
+    }
+
+    /// Build the method for `model`, refusing with [`Error::ResourceLimit`] before
+    /// allocating when its memory estimate ([`super::memory`]) exceeds `limits`.
+    pub fn build_within(&self, model: &Model, limits: &Limits) -> Result<BuiltMethod> {
         self.validate()?;
         Ok(match self {
             MethodSettings::Redistributed { options, stability } => {
-                let mut problem = RedistributedMsHbm::new(model, options)?;
+                let mut problem = RedistributedMsHbm::within(model, options, limits)?;
                 problem.set_stability_options(*stability)?;
                 BuiltMethod {
                     problem: Box::new(problem),
@@ -121,12 +128,12 @@ impl MethodSettings {
                 }
             }
             MethodSettings::General(options) => BuiltMethod {
-                problem: Box::new(GeneralMsHbm::new(model, options)?),
+                problem: Box::new(GeneralMsHbm::within(model, options, limits)?),
                 label: "general MS-HBM".into(),
                 penalty: None,
             },
             MethodSettings::HbmAft(options) => {
-                let problem = HbmAft::new(model, options)?;
+                let problem = HbmAft::within(model, options, limits)?;
                 let kp = problem.penalties()[0];
                 BuiltMethod {
                     label: format!("HBM-AFT kp = {kp:.3e}"),

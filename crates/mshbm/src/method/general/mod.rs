@@ -80,6 +80,7 @@ use rayon::prelude::*;
 use super::partition::{DofLocation, Partition, SingularStiffness};
 use super::{check_dimension, fixed_response, n_dof_coefficients};
 use super::{periodic_solution, store_harmonic, SolutionParts};
+use crate::limits::Limits;
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, n_coefficients, Sampling};
 use crate::linear::PartitionedSystem;
@@ -161,8 +162,15 @@ pub struct GeneralMsHbm {
 }
 
 impl GeneralMsHbm {
-    /// Set up the method for `model` (consistent mass, partition, checks).
+    /// Set up the method for `model` (consistent mass, partition, checks) within the
+    /// default [`Limits`] (the machine's memory).
     pub fn new(model: &Model, options: &GeneralOptions) -> Result<Self> {
+        Self::within(model, options, &Limits::default())
+    }
+
+    /// [`GeneralMsHbm::new`], refusing before allocating when the method's memory estimate
+    /// ([`super::memory::general`]) exceeds `limits`.
+    pub fn within(model: &Model, options: &GeneralOptions, limits: &Limits) -> Result<Self> {
         let h = options.harmonics;
         let steps = options.steps.unwrap_or_else(|| default_steps(h));
         super::check_resolution(h, steps, "steps per period")?;
@@ -180,6 +188,10 @@ impl GeneralMsHbm {
             ));
         }
         let system = model.system(MassKind::Consistent)?;
+        super::memory::general(&system, h, steps).check(
+            &format!("the general MS-HBM with {h} harmonics and {steps} steps per period"),
+            limits,
+        )?;
         let nl_dofs = &system.nonlinear_dofs;
         let n = nl_dofs.len();
         // the N-subsystem is integrated with its mass: a free structure (singular K) is

@@ -96,6 +96,7 @@ use super::partition::{contact_directions, DofLocation, Partition, SingularStiff
 use super::{check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution};
 use super::{store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
+use crate::limits::Limits;
 use crate::harmonic::{n_coefficients, polynomial_extremum, Quadrature, Sampling};
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
@@ -199,8 +200,15 @@ fn mat_vec(a: &Mat<c64>, x: &[c64]) -> Vec<c64> {
 }
 
 impl HbmAft {
-    /// Set up the method for `model` (mass choice, partition, penalty, checks).
+    /// Set up the method for `model` (mass choice, partition, penalty, checks) within the
+    /// default [`Limits`] (the machine's memory).
     pub fn new(model: &Model, options: &HbmAftOptions) -> Result<Self> {
+        Self::within(model, options, &Limits::default())
+    }
+
+    /// [`HbmAft::new`], refusing before allocating when the method's memory estimate
+    /// ([`super::memory::hbm_aft`]) exceeds `limits`.
+    pub fn within(model: &Model, options: &HbmAftOptions, limits: &Limits) -> Result<Self> {
         let h = options.harmonics;
         let samples = options.samples.unwrap_or_else(|| default_samples(h));
         super::check_resolution(h, samples, "samples")?;
@@ -225,6 +233,10 @@ impl HbmAft {
             ));
         }
         let system = model.system(options.mass)?;
+        super::memory::hbm_aft(&system, h, samples).check(
+            &format!("HBM-AFT with {h} harmonics and {samples} samples"),
+            limits,
+        )?;
         let nl_dofs = &system.nonlinear_dofs;
         let n = nl_dofs.len();
         let nc = system.contacts.len();
@@ -260,7 +272,7 @@ impl HbmAft {
             condensation: Box::new(condensation),
             partition,
             harmonics: h,
-            sampling: Sampling::new(h, samples),
+            sampling: Sampling::within(h, samples, limits)?,
             quadrature: options.quadrature,
             w,
             gap,

@@ -30,13 +30,14 @@ use super::{periodic_solution, SolutionParts};
 use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Quadrature, Sampling};
+use crate::limits::Limits;
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
-use crate::stability::{ReducedSystem, StabilityOptions};
+use crate::stability::{self, ReducedSystem, StabilityOptions};
 use quadrature::{integrate, load_at, Integration};
 
 /// Largest linear part for which the dense monodromy matrix is formed.
@@ -81,13 +82,22 @@ pub struct RedistributedMsHbm {
     stability_system: Option<Rc<ReducedSystem>>,
     /// First-order matrix and its eigendecomposition per active set (stability).
     stability_cache: std::collections::HashMap<Vec<bool>, Rc<StabilityData>>,
+    /// The memory budget, also of the Floquet analysis.
+    limits: Limits,
 }
 
 type StabilityData = (Mat<f64>, Option<crate::stability::ModalExponential>);
 
 impl RedistributedMsHbm {
-    /// Set up the method for `model` (mass redistribution, partition, checks).
+    /// Set up the method for `model` (mass redistribution, partition, checks) within the
+    /// default [`Limits`] (the machine's memory).
     pub fn new(model: &Model, options: &RedistributedOptions) -> Result<Self> {
+        Self::within(model, options, &Limits::default())
+    }
+
+    /// [`RedistributedMsHbm::new`], refusing before allocating when the method's memory
+    /// estimate ([`super::memory::redistributed`]) exceeds `limits`.
+    pub fn within(model: &Model, options: &RedistributedOptions, limits: &Limits) -> Result<Self> {
         let h = options.harmonics;
         let samples = options.samples.unwrap_or_else(|| default_samples(h));
         super::check_resolution(h, samples, "samples")?;
@@ -98,6 +108,10 @@ impl RedistributedMsHbm {
             ));
         }
         let system = model.system(MassKind::Redistributed)?;
+        super::memory::redistributed(&system, h, samples).check(
+            &format!("the redistributed MS-HBM with {h} harmonics and {samples} samples"),
+            limits,
+        )?;
         let nl = &system.nonlinear_dofs;
         let all: Vec<usize> = (0..system.n_dofs()).collect();
         if system
@@ -124,7 +138,7 @@ impl RedistributedMsHbm {
         Ok(RedistributedMsHbm {
             partition,
             harmonics: h,
-            sampling: Sampling::new(h, samples),
+            sampling: Sampling::within(h, samples, limits)?,
             quadrature: options.quadrature,
             condensation: Box::new(condensation),
             contact,
@@ -132,6 +146,7 @@ impl RedistributedMsHbm {
             stability_options: StabilityOptions::default(),
             stability_system: None,
             stability_cache: std::collections::HashMap::new(),
+            limits: *limits,
             system,
         })
     }
@@ -330,8 +345,35 @@ impl RedistributedMsHbm {
                     format!("the linear part has {nl} DOFs; the full-space monodromy is limited to {MAX_DENSE_STABILITY_DOFS}: use a reduced basis of fewer modes"),
                 ))
             }
-            None => ReducedSystem::full(&lin.mass, &lin.damping, &lin.stiffness, k_nl)?,
-            Some(m) => ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, k_nl, m)?,
+            None => {
+                self.limits.check_memory(
+                    &format!("the full-space Floquet analysis of {nl} linear DOFs"),
+                    stability::full_space_bytes(nl),
+                )?;
+                ReducedSystem::full(&lin.mass, &lin.damping, &lin.stiffness, k_nl)?
+            }
+            Some(m) => {
+                let block = nl.saturating_mul(m.saturating_mul(2));
+                if self.stability_options.modes.is_none()
+                    && block > stability::DEFAULT_REDUCED_BLOCK_LIMIT
+                {
+                    return Err(Error::argument(
+                        "stability modes",
+                        format!(
+                            "the linear part has {nl} DOFs: the default reduced basis of {m} modes would take minutes \
+                             (a subspace of {nl} × {} values, more than the default's {}); the solution is computed without it. \
+                             Ask for the multipliers with an explicit number of modes (CLI: --stability-modes N; the cost grows with N²)",
+                            2 * m,
+                            stability::DEFAULT_REDUCED_BLOCK_LIMIT
+                        ),
+                    ));
+                }
+                self.limits.check_memory(
+                    &format!("the reduced Floquet basis of {m} modes of {nl} linear DOFs"),
+                    stability::reduced_basis_bytes(nl, m),
+                )?;
+                ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, k_nl, m)?
+            }
         };
         let system = Rc::new(system);
         self.stability_system = Some(system.clone());
