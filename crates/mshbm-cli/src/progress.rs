@@ -16,7 +16,7 @@ pub fn newton_progress() -> NewtonObserver {
     NewtonObserver::new(move |iteration, residual| {
         let elapsed = start.elapsed();
         if elapsed >= QUIET_FOR {
-            eprintln!(
+            crate::note!(
                 "Newton iteration {iteration}: residual {residual:.3e} ({:.1} s)",
                 elapsed.as_secs_f64()
             );

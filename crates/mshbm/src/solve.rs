@@ -4,9 +4,9 @@
 
 use crate::error::{Error, Result};
 use crate::frd::response_dof;
+use crate::limits::Limits;
 use crate::method::settings::MethodSettings;
 use crate::model::Model;
-use crate::limits::Limits;
 use crate::newton::{solve_at_frequency_observed, NewtonObserver, NewtonOptions, NewtonOutcome};
 use crate::solution::PeriodicSolution;
 

@@ -332,6 +332,7 @@ pub fn frd_settings(args: &FrfArgs, model: &Model) -> Result<FrdSettings> {
     settings.newton = args.method.newton()?;
     settings.stability = args.stability;
     settings.response_dof = Some(args.method.response_dof(model)?);
+    settings.limits = args.model.limits();
     Ok(settings)
 }
 

@@ -357,8 +357,7 @@ pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> 
         newton: args.method.newton()?,
         stability: !args.no_stability,
         response_dof: Some(args.method.response_dof(model)?),
-        // TODO(merge): args.model.limits()
-        limits: mshbm::limits::Limits::default(),
+        limits: args.model.limits(),
         observer: Some(crate::progress::newton_progress()),
     })
 }

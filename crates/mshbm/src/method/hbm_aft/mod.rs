@@ -96,8 +96,8 @@ use super::partition::{contact_directions, DofLocation, Partition, SingularStiff
 use super::{check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution};
 use super::{store_harmonic, zero, SolutionParts};
 use crate::error::{Error, Result};
-use crate::limits::Limits;
 use crate::harmonic::{n_coefficients, polynomial_extremum, Quadrature, Sampling};
+use crate::limits::Limits;
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::method::default_samples;
