@@ -14,7 +14,7 @@
 use crate::error::Result;
 use crate::harmonic::checked_coefficients;
 use crate::limits::Limits;
-use crate::model::System;
+use crate::model::{System, MODEL_BYTES_PER_DOF};
 
 /// Copies of the dense Jacobian alive at once: the Jacobian, the LU factor of Newton's
 /// solve and the continuation's bordered matrix.
@@ -92,6 +92,10 @@ fn shared(
     let nc = coefficients(harmonics);
     let s = samples as u64;
     let n_n = system.nonlinear_dofs.len() as u64;
+    plan.add_product(
+        "the system's matrices, partition and condensation",
+        &[system.n_dofs() as u64, MODEL_BYTES_PER_DOF],
+    );
     plan.add_product(
         format!("the Fourier basis at {samples} samples × {harmonics} harmonics"),
         &[s, nc.saturating_add(1), 8],
