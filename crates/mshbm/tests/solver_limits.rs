@@ -187,7 +187,7 @@ fn the_default_stability_of_a_very_large_bar_is_skipped_with_a_reason() {
     let mut built = method.build_within(&model, &Limits::default()).unwrap();
     let omega = 2.0 * std::f64::consts::PI * 30_000.0;
     let x = built.problem.initial_guess(omega).unwrap();
-    let err = built.problem.floquet(&x, omega).err().expect("skipped");
+    let err = built.problem.floquet(&x, omega).expect_err("skipped");
     let text = err.to_string();
     assert!(text.contains("--stability-modes"), "{text}");
 }
