@@ -77,5 +77,9 @@ fn max_memory_lowers_and_raises_the_budget() {
     let args = solve_bar(&["--harmonics", "40", "--max-memory", "1", "--json"]);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let out = mshbm(&args);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

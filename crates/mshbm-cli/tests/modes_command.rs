@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{assert_png, assert_success, example, mshbm, numbers, success_json};
+use common::{assert_png, assert_success, example, mshbm, numbers, one_error_line, success_json};
 
 /// `mshbm modes args… --json`, which must succeed.
 fn modes_json(args: &[&str]) -> serde_json::Value {
@@ -83,4 +83,55 @@ fn set_overrides_work_on_the_example() {
         "damping.alpha=7587.7",
     ]);
     assert!((v["redistributed_hz"][0].as_f64().unwrap() - 60335.0).abs() < 1.0);
+}
+
+/// A free structure has no eigenfrequencies to compare: one line naming the model file and
+/// the rigid-body mode, never a 0 Hz mode with a NaN relative error.
+#[test]
+fn modes_of_a_free_bar_is_one_clear_error() {
+    let out = mshbm(&["modes", &example("dropped_bar.toml"), "--json"]);
+    let line = one_error_line(&out);
+    assert!(
+        line.contains("dropped_bar.toml") && line.contains("rigid-body mode"),
+        "{line}"
+    );
+    assert!(out.stdout.is_empty());
+}
+
+/// A long bar takes the sparse eigensolver (the dense one needed 68 s and 1.2 GB for 5000
+/// elements and panicked at 200 000), and its plan is checked against `--max-memory`.
+#[test]
+fn modes_of_a_long_bar_are_sparse_and_within_the_budget() {
+    let json = success_json(&[
+        "modes",
+        &example("clamped_bar.toml"),
+        "--set",
+        "bar.elements=20000",
+        "--count",
+        "3",
+        "--json",
+    ]);
+    let f = numbers(&json["original_hz"]);
+    // clamped–free continuum: (2k − 1) c / (4L), c = sqrt(E/ρ), L = 20 mm
+    let c = (2.1e5f64 / 9e-9).sqrt();
+    for (k, fk) in f.iter().enumerate() {
+        let exact = (2 * k + 1) as f64 * c / 80.0;
+        assert!(
+            (fk / exact - 1.0).abs() < 1e-6,
+            "mode {}: {fk} vs {exact}",
+            k + 1
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mut command = std::process::Command::new(assert_cmd::cargo::cargo_bin("mshbm"));
+    command.args([
+        "modes",
+        &example("clamped_bar.toml"),
+        "--set",
+        "bar.elements=20000",
+        "--max-memory",
+        "0.06",
+    ]);
+    common::resources::run_measured(command, dir.path())
+        .assert_clean_refusal(&["20000 DOFs", "memory limit"]);
 }

@@ -3,15 +3,18 @@
 //! DOFs without mass (zero rows of `M`, the contact boundary after redistribution) are
 //! condensed statically first, `K* = K_dd − K_dc K_cc⁻¹ K_cd` (docs/theory.md (T30)): a singular
 //! mass never reaches the symmetric-definite eigensolver. The reduced problem is solved
-//! densely through a Cholesky factor of `M_dd` (`L⁻¹ K* L⁻ᵀ ψ = ω² ψ`); this suits models of
-//! up to a few thousand DOFs. [`first_angular_frequency`] uses sparse inverse iteration
-//! and works for large models.
+//! densely through a Cholesky factor of `M_dd` (`L⁻¹ K* L⁻ᵀ ψ = ω² ψ`) up to
+//! [`DENSE_EIGEN_LIMIT`] DOFs with mass; larger models use the sparse subspace iteration
+//! [`lowest_modes`]. Either path refuses a stiffness that is not positive definite (rigid-body
+//! modes, negative stiffness) and plans its memory against [`Limits`] before allocating.
+//! [`first_angular_frequency`] uses sparse inverse iteration and works for large models.
 
 use faer::linalg::solvers::Solve;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 
 use crate::error::{Error, Result};
+use crate::limits::{dense_f64_bytes, Limits};
 use crate::sparse::SparseMatrix;
 
 /// Indices of DOFs whose mass row is identically zero.
@@ -25,18 +28,55 @@ pub fn massless_dofs(mass: &SparseMatrix) -> Vec<usize> {
     (0..mass.nrows()).filter(|&i| !has_mass[i]).collect()
 }
 
-/// The `count` lowest eigenfrequencies (Hz) of `K φ = ω² M φ`, ascending.
+/// Largest number of DOFs with mass solved by the dense path (a dense symmetric
+/// eigenproblem of that size takes about a second and 50 MB); larger models use the sparse
+/// subspace iteration [`lowest_modes`], whose cost grows linearly with the DOFs.
+pub const DENSE_EIGEN_LIMIT: usize = 1500;
+
+/// Eigenvalues `ω²` within this fraction of the largest are zero (rigid-body modes) for the
+/// dense path; below minus this fraction the stiffness is indefinite.
+const ZERO_EIGENVALUE: f64 = 1e-11;
+
+/// Dense `n × n` matrices alive at once in the dense path (`K*`, `M_dd`, its factor, the
+/// symmetric product, eigenvectors and the solver's workspace).
+const DENSE_MATRICES: u64 = 6;
+
+/// Blocks of `n × p` values alive at once in the subspace iteration (`X`, `M X`,
+/// `K⁻¹ M X`, its thin QR, `K Y`, `M Y`, Ritz vectors and a spare).
+const SUBSPACE_BLOCKS: u64 = 8;
+
+/// The `count` lowest eigenfrequencies (Hz) of `K φ = ω² M φ`, ascending, within the
+/// default [`Limits`] (the machine's memory).
 pub fn eigenfrequencies_hz(
     mass: &SparseMatrix,
     stiffness: &SparseMatrix,
     count: usize,
+) -> Result<Vec<f64>> {
+    eigenfrequencies_hz_within(mass, stiffness, count, &Limits::default())
+}
+
+/// The `count` lowest eigenfrequencies (Hz) of `K φ = ω² M φ`, ascending, refusing before
+/// allocating when the solver's memory exceeds `limits`. Up to [`DENSE_EIGEN_LIMIT`] DOFs
+/// with mass the problem is condensed statically (docs/theory.md (T30)) and solved
+/// densely; above, by the sparse subspace iteration [`lowest_modes`] on the whole model
+/// (massless DOFs need no condensation there: `K⁻¹M` maps them to zero, their eigenvalues
+/// are infinite and never among the lowest).
+///
+/// The stiffness must be positive definite with the Dirichlet DOFs fixed: an indefinite
+/// stiffness, or a singular one (rigid-body modes, e.g. a free bar), is an error — never
+/// a frequency of 0 Hz or NaN.
+pub fn eigenfrequencies_hz_within(
+    mass: &SparseMatrix,
+    stiffness: &SparseMatrix,
+    count: usize,
+    limits: &Limits,
 ) -> Result<Vec<f64>> {
     let n = stiffness.nrows();
     let massless = massless_dofs(mass);
     let mut is_massless = vec![false; n];
     massless.iter().for_each(|&i| is_massless[i] = true);
     let massive: Vec<usize> = (0..n).filter(|&i| !is_massless[i]).collect();
-    if count > massive.len() {
+    if count == 0 || count > massive.len() {
         return Err(Error::argument(
             "count",
             format!(
@@ -45,6 +85,25 @@ pub fn eigenfrequencies_hz(
             ),
         ));
     }
+    let to_hz = |lam: f64| lam.sqrt() / (2.0 * std::f64::consts::PI);
+    if massive.len() > DENSE_EIGEN_LIMIT {
+        let p = n.min((2 * count).max(count + 8));
+        let block = dense_f64_bytes(n, p).and_then(|b| b.checked_mul(SUBSPACE_BLOCKS));
+        let factor = (stiffness.nnz() as u64).checked_mul(16 * 4);
+        limits.check_memory(
+            &format!("the lowest {count} modes of {n} DOFs (sparse subspace iteration)"),
+            block.zip(factor).and_then(|(a, b)| a.checked_add(b)),
+        )?;
+        let modes = lowest_modes(mass, stiffness, count).map_err(|e| match e {
+            Error::Singular(_) => not_definite(None),
+            other => other,
+        })?;
+        return Ok(modes.eigenvalues.into_iter().map(to_hz).collect());
+    }
+    limits.check_memory(
+        &format!("the dense eigenproblem of {} DOFs with mass", massive.len()),
+        dense_f64_bytes(massive.len(), massive.len()).and_then(|b| b.checked_mul(DENSE_MATRICES)),
+    )?;
     let mut k_red = stiffness.submatrix(&massive, &massive).to_dense();
     if !massless.is_empty() {
         let k_cc = stiffness.submatrix(&massless, &massless).to_dense();
@@ -74,11 +133,41 @@ pub fn eigenfrequencies_hz(
     let eig = sym
         .self_adjoint_eigenvalues(Side::Lower)
         .map_err(|e| Error::Numerical(format!("eigenvalue solver: {e:?}")))?;
-    Ok(eig
-        .into_iter()
-        .take(count)
-        .map(|lam| lam.max(0.0).sqrt() / (2.0 * std::f64::consts::PI))
-        .collect())
+    let largest = eig.iter().fold(0.0f64, |m, &v| m.max(v.abs()));
+    if eig.iter().any(|v| !v.is_finite()) || largest == 0.0 {
+        return Err(Error::Numerical(
+            "eigenvalue solver: non-finite eigenvalues".into(),
+        ));
+    }
+    let negative = eig
+        .iter()
+        .filter(|&&v| v < -ZERO_EIGENVALUE * largest)
+        .count();
+    let zero = eig
+        .iter()
+        .filter(|&&v| v.abs() <= ZERO_EIGENVALUE * largest)
+        .count();
+    if negative > 0 {
+        return Err(Error::Singular(format!(
+            "the stiffness is indefinite with the Dirichlet DOFs fixed: {negative} negative eigenvalue(s) of K φ = ω² M φ (down to {:.3e} rad²/s²); eigenfrequencies need a positive definite stiffness",
+            eig[0]
+        )));
+    }
+    if zero > 0 {
+        return Err(not_definite(Some(zero)));
+    }
+    Ok(eig.into_iter().take(count).map(to_hz).collect())
+}
+
+/// The error of a stiffness that is not positive definite (`rigid`: the number of
+/// rigid-body modes, when known).
+fn not_definite(rigid: Option<usize>) -> Error {
+    Error::Singular(match rigid {
+        Some(r) => format!(
+            "the stiffness is singular with the Dirichlet DOFs fixed: {r} rigid-body mode(s) of 0 Hz (a free structure); eigenfrequencies need a held structure (Dirichlet DOFs, or a spring)"
+        ),
+        None => "the stiffness is not positive definite with the Dirichlet DOFs fixed: the structure has rigid-body modes or a negative stiffness; eigenfrequencies need a held structure".into(),
+    })
 }
 
 /// Lowest angular eigenfrequency (rad/s) of `K φ = ω² M φ` by inverse iteration with a

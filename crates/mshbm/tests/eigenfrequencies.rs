@@ -129,3 +129,97 @@ fn overrides_change_gap_and_damping() {
     let g0 = load_model(&examples().join("clamped_bar_gap0.toml"), &[]).unwrap();
     assert_eq!(g0.contacts[0].gap, 0.0);
 }
+
+/// The sparse path (subspace iteration on the whole model, above `DENSE_EIGEN_LIMIT` DOFs
+/// with mass) against the dense path on the same bar, with both masses: the redistributed
+/// one has a massless DOF, which the dense path condenses statically and the sparse path
+/// does not need to.
+#[test]
+fn sparse_and_dense_eigenfrequencies_agree_on_both_masses() {
+    let elements = 1200;
+    assert!(elements <= mshbm::modes::DENSE_EIGEN_LIMIT);
+    for kind in [MassKind::Consistent, MassKind::Redistributed] {
+        let mut p = BarParameters::paper();
+        p.elements = elements;
+        let s = p.build(Path::new("bar")).unwrap().system(kind).unwrap();
+        let dense = eigenfrequencies_hz(&s.mass, &s.stiffness, 20).unwrap();
+        let sparse = mshbm::modes::lowest_modes(&s.mass, &s.stiffness, 20).unwrap();
+        for (k, (&d, &lam)) in dense.iter().zip(&sparse.eigenvalues).enumerate() {
+            let f = lam.sqrt() / (2.0 * std::f64::consts::PI);
+            assert!(
+                (f / d - 1.0).abs() < 1e-9,
+                "{kind:?} mode {}: sparse {f}, dense {d}",
+                k + 1
+            );
+        }
+    }
+}
+
+/// A bar far above the dense limit (20 000 elements: a dense path would need 19 GB and
+/// minutes) against the continuum: the FE error of the consistent mass is
+/// `(k h)²/24`-small, below 1e-6 for the first five modes.
+#[test]
+fn a_long_bar_takes_the_sparse_path_and_matches_the_continuum() {
+    let f = bar_frequencies(20_000, MassKind::Consistent, 5);
+    for (k, &fk) in f.iter().enumerate() {
+        let exact = continuum_hz(k + 1);
+        assert!(
+            (fk / exact - 1.0).abs() < 1e-6,
+            "mode {}: {fk} vs {exact}",
+            k + 1
+        );
+    }
+}
+
+/// A stiffness that is not positive definite with the Dirichlet DOFs fixed is an error,
+/// never 0 Hz or NaN: a free bar (the dropped bar: one rigid-body mode), and an indefinite
+/// stiffness, on both paths.
+#[test]
+fn singular_and_indefinite_stiffness_are_refused() {
+    let model = mshbm::model::file::load_model(&examples().join("dropped_bar.toml"), &[]).unwrap();
+    let err = model.compare_masses(3).unwrap_err().to_string();
+    assert!(err.contains("1 rigid-body mode"), "{err}");
+
+    // springs k = 1, -1 between ground and two unit masses (dense path), and a long chain
+    // with one negative spring (sparse path)
+    let m = mshbm::sparse::SparseMatrix::from_triplets(2, 2, &[(0, 0, 1.0), (1, 1, 1.0)]);
+    let k = mshbm::sparse::SparseMatrix::from_triplets(2, 2, &[(0, 0, 1.0), (1, 1, -1.0)]);
+    let err = eigenfrequencies_hz(&m, &k, 1).unwrap_err().to_string();
+    assert!(err.contains("indefinite"), "{err}");
+    let n = mshbm::modes::DENSE_EIGEN_LIMIT + 10;
+    let m = mshbm::sparse::SparseMatrix::from_triplets(
+        n,
+        n,
+        &(0..n).map(|i| (i, i, 1.0)).collect::<Vec<_>>(),
+    );
+    let k = mshbm::sparse::SparseMatrix::from_triplets(
+        n,
+        n,
+        &(0..n)
+            .map(|i| (i, i, if i == n / 2 { -1.0 } else { 1.0 + i as f64 }))
+            .collect::<Vec<_>>(),
+    );
+    let err = eigenfrequencies_hz(&m, &k, 3).unwrap_err().to_string();
+    assert!(err.contains("not positive definite"), "{err}");
+}
+
+/// The eigensolver plans its memory before allocating: a budget below the plan refuses
+/// with the number of DOFs named.
+#[test]
+fn eigenfrequencies_over_the_memory_budget_are_refused() {
+    let mut p = BarParameters::paper();
+    p.elements = 20_000;
+    let s = p
+        .build(Path::new("bar"))
+        .unwrap()
+        .system(MassKind::Consistent)
+        .unwrap();
+    let limits = mshbm::limits::Limits {
+        memory_bytes: 1 << 20,
+        file_bytes: 1 << 20,
+    };
+    let err =
+        mshbm::modes::eigenfrequencies_hz_within(&s.mass, &s.stiffness, 30, &limits).unwrap_err();
+    assert!(matches!(err, mshbm::Error::ResourceLimit { .. }), "{err}");
+    assert!(err.to_string().contains("20000 DOFs"), "{err}");
+}

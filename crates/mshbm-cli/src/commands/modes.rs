@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
 use mshbm::modes::MassComparison;
 
@@ -62,7 +62,9 @@ pub fn run(args: &ModesArgs) -> Result<()> {
         .inputs("a file the model reads", &model.input_files)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;
-    let report = model.compare_masses(args.count)?;
+    let report = model
+        .compare_masses_within(args.count, &args.model.limits())
+        .with_context(|| format!("{}: eigenfrequencies", args.model.model.display()))?;
     crate::output::interrupt::check("nothing was written")?;
     // the table and the plot show the same numbers as the JSON: none may be NaN
     check_json("the eigenfrequencies", &report)?;

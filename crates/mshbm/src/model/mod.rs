@@ -27,7 +27,8 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
 use crate::error::{Error, Result};
-use crate::modes::{eigenfrequencies_hz, MassComparison};
+use crate::limits::Limits;
+use crate::modes::{eigenfrequencies_hz_within, MassComparison};
 use crate::sparse::SparseMatrix;
 
 /// Memory estimate [bytes] per DOF of a model, used to refuse a model before it is built
@@ -142,11 +143,22 @@ impl Model {
     /// The `count` lowest eigenfrequencies with the consistent and with the redistributed
     /// mass (contacts open, Dirichlet DOFs fixed), and the shift redistribution causes.
     pub fn compare_masses(&self, count: usize) -> Result<MassComparison> {
+        self.compare_masses_within(count, &Limits::default())
+    }
+
+    /// [`Model::compare_masses`], refusing before allocating when the eigensolver's memory
+    /// exceeds `limits` ([`eigenfrequencies_hz_within`]).
+    pub fn compare_masses_within(&self, count: usize, limits: &Limits) -> Result<MassComparison> {
         let consistent = self.system(MassKind::Consistent)?;
         let redistributed = self.system(MassKind::Redistributed)?;
-        let original_hz = eigenfrequencies_hz(&consistent.mass, &consistent.stiffness, count)?;
-        let redistributed_hz =
-            eigenfrequencies_hz(&redistributed.mass, &redistributed.stiffness, count)?;
+        let original_hz =
+            eigenfrequencies_hz_within(&consistent.mass, &consistent.stiffness, count, limits)?;
+        let redistributed_hz = eigenfrequencies_hz_within(
+            &redistributed.mass,
+            &redistributed.stiffness,
+            count,
+            limits,
+        )?;
         let relative_error = original_hz
             .iter()
             .zip(&redistributed_hz)
