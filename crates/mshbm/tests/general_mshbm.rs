@@ -47,6 +47,9 @@ fn friction_chain(n: usize, friction_limit: f64) -> Model {
     Model {
         source: "friction chain (test)".into(),
         input_files: vec![],
+        cells: None,
+        node_sets: Default::default(),
+        interfaces: vec![],
         name: "friction chain".into(),
         mass: SparseMatrix::from_triplets(n, n, &mt),
         stiffness: SparseMatrix::from_triplets(n, n, &kt),

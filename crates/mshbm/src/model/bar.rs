@@ -190,6 +190,9 @@ impl BarParameters {
         let model = Model {
             source: source.to_path_buf(),
             input_files: vec![],
+            cells: None,
+            node_sets: Default::default(),
+            interfaces: vec![],
             name: format!("clamped bar, {ne} elements"),
             mass,
             stiffness,

@@ -117,6 +117,9 @@ impl DroppedBarParameters {
         let model = Model {
             source: source.to_path_buf(),
             input_files: vec![],
+            cells: None,
+            node_sets: Default::default(),
+            interfaces: vec![],
             name: format!("bar dropped onto a rigid support, {ne} elements"),
             mass,
             stiffness,

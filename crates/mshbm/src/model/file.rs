@@ -697,6 +697,9 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
     let model = Model {
         source: path.to_path_buf(),
         input_files: std::mem::take(&mut inputs.read),
+        cells: None,
+        node_sets: Default::default(),
+        interfaces: vec![],
         name: f.name.unwrap_or_else(|| path.display().to_string()),
         mass,
         stiffness,

@@ -83,6 +83,9 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
     Model {
         source: PathBuf::from("lattice model (built in code)"),
         input_files: vec![],
+        cells: None,
+        node_sets: Default::default(),
+        interfaces: vec![],
         name: "planar lattice with bottom contacts".into(),
         mass,
         stiffness,

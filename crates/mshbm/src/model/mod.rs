@@ -15,18 +15,21 @@ pub mod excerpt;
 pub mod export;
 pub mod file;
 mod input_files;
+pub mod interface;
 pub mod lattice;
 pub mod matrix_market;
 pub mod overrides;
 mod system;
 
 pub use input_files::LoadOptions;
+pub use interface::ContactInterface;
 pub use system::{MassKind, System, SystemContact, SystemFriction};
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 
 use crate::error::{Error, Result};
+use crate::fe::mesh::{Cells, NodeSets};
 use crate::limits::Limits;
 use crate::modes::{eigenfrequencies_hz_within, MassComparison};
 use crate::sparse::SparseMatrix;
@@ -120,10 +123,18 @@ pub struct Model {
     pub coordinates: Vec<Vec<f64>>,
     /// DOFs per node.
     pub dofs_per_node: usize,
+    /// The mesh's cells when known (built-in solids, or a model file that gives them): for
+    /// outputs such as VTK files; the methods never need them.
+    pub cells: Option<Cells>,
+    /// Named node sets (faces of a structured mesh, or read from a file).
+    pub node_sets: NodeSets,
     /// DOFs fixed to zero.
     pub dirichlet: Vec<usize>,
     /// Unilateral contacts.
     pub contacts: Vec<Contact>,
+    /// Named groups of [`Model::contacts`] generated from node sets (contact interfaces of
+    /// many nodes), for outputs along the interface.
+    pub interfaces: Vec<ContactInterface>,
     /// Coulomb friction elements (used by the time integration and the general MS-HBM;
     /// the redistributed MS-HBM refuses them).
     pub frictions: Vec<Friction>,
@@ -442,6 +453,26 @@ impl Model {
                 ))
             }
         })?;
+        for (k, i) in self.interfaces.iter().enumerate() {
+            let count = i.contacts.len();
+            if i.contacts.end > self.contacts.len()
+                || i.positions.len() != count
+                || i.nodes.len() != count
+            {
+                return Err(Error::field(
+                    file,
+                    format!("interfaces[{k}]"),
+                    format!(
+                        "interface {:?} refers to contacts {:?} with {} positions and {} node lists, but the model has {} contacts",
+                        i.name,
+                        i.contacts,
+                        i.positions.len(),
+                        i.nodes.len(),
+                        self.contacts.len()
+                    ),
+                ));
+            }
+        }
         let mut friction_directions = Vec::with_capacity(self.frictions.len());
         for (k, f) in self.frictions.iter().enumerate() {
             let field = |x: &str| format!("frictions[{k}].{x}");

@@ -15,6 +15,9 @@ fn model(
     Model {
         source: "friction unit test".into(),
         input_files: vec![],
+        cells: None,
+        node_sets: Default::default(),
+        interfaces: vec![],
         name: "friction unit test".into(),
         mass: SparseMatrix::from_triplets(n, n, &m),
         stiffness: SparseMatrix::from_triplets(n, n, stiffness),
