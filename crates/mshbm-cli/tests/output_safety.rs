@@ -519,7 +519,15 @@ fn a_solve_that_does_not_converge_is_marked_everywhere_and_exits_2() {
         dir.path(),
         &solve_args(
             &m,
-            &["--max-iterations", "1", "--json", "--output", "period.csv"],
+            &[
+                "--start",
+                "linear",
+                "--max-iterations",
+                "1",
+                "--json",
+                "--output",
+                "period.csv",
+            ],
         ),
     );
     assert_eq!(out.status, 2, "{}", out.stderr);
@@ -536,7 +544,10 @@ fn a_solve_that_does_not_converge_is_marked_everywhere_and_exits_2() {
         "{last}"
     );
     // the plain-text report says so too
-    let out = measured(dir.path(), &solve_args(&m, &["--max-iterations", "1"]));
+    let out = measured(
+        dir.path(),
+        &solve_args(&m, &["--start", "linear", "--max-iterations", "1"]),
+    );
     assert_eq!(out.status, 2);
     assert!(out.stdout.contains("converged: false"), "{}", out.stdout);
     // and a converged solve is unmarked with status 0

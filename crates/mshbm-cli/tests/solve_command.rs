@@ -120,6 +120,8 @@ fn non_convergence_is_reported_with_the_solution_and_a_non_zero_exit() {
         "60000",
         "--set",
         "damping.first_mode_ratio=0.01",
+        "--start",
+        "linear",
         "--max-iterations",
         "1",
         "--json",
@@ -152,4 +154,132 @@ fn stiffness_proportional_damping_is_refused_with_the_reason() {
 fn dof_out_of_range_is_an_error() {
     let err = one_error_line(&run(&[&bar(), "--frequency", "60000", "--dof", "101"]));
     assert!(err.contains("--dof"), "{err}");
+}
+
+/// `--from-solution` starts Newton from the unknowns that `solve --json` writes: at the same
+/// frequency Newton has nothing left to do; a solution with another number of harmonics is
+/// refused naming the file; the file is an input that no output may overwrite.
+#[test]
+fn a_solve_starts_from_an_earlier_solution() {
+    let dir = tempfile::tempdir().unwrap();
+    let first = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--no-stability",
+        "--json",
+    ]);
+    assert_success(&first);
+    let v = stdout_json(&first);
+    // H = 5 on the bar's one contact node (1 DOF): 11 unknowns
+    assert_eq!(v["unknowns"].as_array().unwrap().len(), 11);
+    let file = dir.path().join("solution.json");
+    std::fs::write(&file, &first.stdout).unwrap();
+    let f = file.display().to_string();
+    let again = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--no-stability",
+        "--from-solution",
+        &f,
+        "--json",
+    ]);
+    assert_success(&again);
+    let w = stdout_json(&again);
+    assert_eq!(w["iterations"], 0);
+    // the same coefficients; the extremes found by a search over the period to round-off
+    assert_eq!(w["response"]["coefficients"], v["response"]["coefficients"]);
+    let min = |x: &serde_json::Value| x["response"]["min"].as_f64().unwrap();
+    assert!((min(&w) - min(&v)).abs() < 1e-12, "{} {}", min(&w), min(&v));
+    let near = run(&[
+        &bar(),
+        "--frequency",
+        "60500",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--no-stability",
+        "--from-solution",
+        &f,
+    ]);
+    assert_success(&near);
+    let other_h = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--harmonics",
+        "3",
+        "--from-solution",
+        &f,
+    ]);
+    let err = one_error_line(&other_h);
+    assert!(
+        err.contains("solution.json") && err.contains("5 harmonics"),
+        "{err}"
+    );
+    let overwrite = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--from-solution",
+        &f,
+        "--output",
+        &f,
+    ]);
+    let err = one_error_line(&overwrite);
+    assert!(err.contains("--from-solution"), "{err}");
+    assert_eq!(
+        std::fs::read(&file).unwrap(),
+        first.stdout,
+        "the input was kept"
+    );
+}
+
+/// `--sweep-from` traces the branch and says how many solutions it met; a frequency outside
+/// the swept range is refused before anything is computed.
+#[test]
+fn a_sweep_lists_the_solutions_it_met() {
+    let model = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../mshbm/tests/data/cantilever_q4/model.toml")
+        .display()
+        .to_string();
+    let out = run(&[
+        &model,
+        "--frequency",
+        "1040",
+        "--sweep-from",
+        "500",
+        "--sweep-to",
+        "1100",
+        "--no-stability",
+    ]);
+    assert_success(&out);
+    assert!(
+        out_text(&out.stderr).contains("3 periodic solutions coexist at 1040 Hz"),
+        "{}",
+        out_text(&out.stderr)
+    );
+    assert!(out_text(&out.stderr).contains("solution 3:"));
+    let out = run(&[
+        &model,
+        "--frequency",
+        "1040",
+        "--sweep-from",
+        "1100",
+        "--sweep-to",
+        "1200",
+    ]);
+    let err = one_error_line(&out);
+    assert!(
+        err.contains("--frequency 1040 Hz must lie between"),
+        "{err}"
+    );
+}
+
+fn out_text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
 }

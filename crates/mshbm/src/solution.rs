@@ -109,6 +109,11 @@ pub struct PeriodicSolution {
     /// Floquet multipliers and stability, when computed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stability: Option<crate::stability::Floquet>,
+    /// The method's unknowns `x` (e.g. the harmonics of every contact-node DOF of the
+    /// redistributed MS-HBM, eq. 31), so that a later solve can start from this solution
+    /// (`mshbm solve --from-solution`); set by [`crate::solve::solve_periodic`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unknowns: Option<Vec<f64>>,
 }
 
 impl DofResponse {

@@ -7,10 +7,11 @@ pub mod paper;
 pub mod simulate;
 pub mod solve;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Args;
+use mshbm::solution::PeriodicSolution;
 
 /// Arguments shared by every command that reads a model.
 #[derive(Args, Debug, Clone)]
@@ -75,4 +76,17 @@ impl ModelArgs {
             &self.load_options(),
         )?)
     }
+}
+
+/// A periodic solution written by `mshbm solve --json` (the start of `simulate` or `solve`
+/// `--from-solution`).
+pub(crate) fn read_solution(path: &Path) -> Result<PeriodicSolution> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not a periodic solution (JSON of `mshbm solve --json`)",
+            path.display()
+        )
+    })
 }

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::analytic::DroppedBarSolution;
@@ -16,7 +16,6 @@ use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::load_dropped_bar_with;
 use mshbm::simulation::{reference_period, state_from_solution, TransientStatistics};
-use mshbm::solution::PeriodicSolution;
 use mshbm::{MassKind, Model};
 
 use super::ModelArgs;
@@ -272,17 +271,6 @@ fn positive(name: &str, v: f64) -> Result<f64> {
     }
 }
 
-fn read_solution(path: &Path) -> Result<PeriodicSolution> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    serde_json::from_str(&text).with_context(|| {
-        format!(
-            "{}: not a periodic solution (JSON of `mshbm solve --json`)",
-            path.display()
-        )
-    })
-}
-
 /// The scheme and the mass it integrates: Moreau–Jean (default θ = ½, e_N = 0) on the
 /// consistent mass, or position-level Newmark on the redistributed mass.
 pub(crate) fn scheme_and_mass(
@@ -402,7 +390,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let analytic: Option<DroppedBarSolution> = dropped.as_ref().and_then(|p| p.analytic().ok());
     let forced = model.harmonic_load.iter().any(|&f| f != 0.0);
     let start = match &args.from_solution {
-        Some(path) => Some((path.clone(), read_solution(path)?)),
+        Some(path) => Some((path.clone(), super::read_solution(path)?)),
         None => None,
     };
     let frequency = match (&start, args.frequency) {

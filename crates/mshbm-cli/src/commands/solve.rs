@@ -12,7 +12,7 @@ use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
 use mshbm::newton::NewtonOptions;
 use mshbm::solution::{MethodKind, PeriodicSolution};
-use mshbm::solve::{solve_periodic, SolveSettings, Solved};
+use mshbm::solve::{solve_periodic, SolvePath, SolveSettings, SolveStart, Solved};
 use mshbm::stability::StabilityOptions;
 use mshbm::{MassKind, Model};
 
@@ -290,6 +290,41 @@ pub struct SolveArgs {
     /// Fig. 10); .svg or .png.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+
+    /// Start Newton from this solution (the `--json` output of an earlier `solve` of the
+    /// same model, method and number of harmonics, at this or another frequency) instead of
+    /// the linear response.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["sweep_from", "start"])]
+    pub from_solution: Option<PathBuf>,
+
+    /// Where Newton starts: auto (the contact-free linear response; if Newton does not
+    /// converge from it, the branch is continued in frequency from f/2, or f/4, … f/64,
+    /// whichever is the highest at which Newton converges, up to f) or linear (the linear
+    /// response only, the paper's start).
+    #[arg(long, value_enum, default_value_t = StartArg::Auto)]
+    pub start: StartArg,
+
+    /// Trace the branch from this frequency [Hz] (Newton from the linear response there) to
+    /// --sweep-to, and report every solution at --frequency the branch crosses: where the
+    /// branch folds, several solutions coexist (e.g. above a resonance bent by contact,
+    /// where the contact-free solution coexists with contacting ones). The first one met
+    /// is written; the others are listed.
+    #[arg(long, value_name = "HZ", conflicts_with = "start")]
+    pub sweep_from: Option<f64>,
+
+    /// End of the sweep [Hz] (default: 1.5 × --frequency, or --frequency / 1.5 when the
+    /// sweep starts above it).
+    #[arg(long, value_name = "HZ", requires = "sweep_from")]
+    pub sweep_to: Option<f64>,
+}
+
+/// `--start` values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum StartArg {
+    /// The linear response, then continuation from a lower frequency if Newton fails.
+    Auto,
+    /// The linear response only.
+    Linear,
 }
 
 /// The time series over one period as CSV: time_s, then q_dof{d},gap_c{k},force_c{k} per
@@ -351,6 +386,15 @@ pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
     fig
 }
 
+/// `", stable"` / `", unstable"` when the multipliers are known.
+fn stability_word(s: &PeriodicSolution) -> &'static str {
+    match &s.stability {
+        Some(st) if st.stable => ", stable",
+        Some(_) => ", unstable",
+        None => "",
+    }
+}
+
 /// The library's settings of `mshbm solve`.
 pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> {
     Ok(SolveSettings {
@@ -359,6 +403,49 @@ pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> 
         response_dof: Some(args.method.response_dof(model)?),
         limits: args.model.limits(),
         observer: Some(crate::progress::newton_progress()),
+        start: solve_start(args)?,
+    })
+}
+
+/// Where `mshbm solve` starts Newton (`--from-solution`, `--start`, `--sweep-from`).
+fn solve_start(args: &SolveArgs) -> Result<SolveStart> {
+    if let Some(path) = &args.from_solution {
+        let s = super::read_solution(path)?;
+        let Some(x) = s.unknowns else {
+            bail!("{}: the solution has no `unknowns` (written by an older mshbm, or not by `solve --json`); solve it again with `solve --json`", path.display());
+        };
+        if s.harmonics != args.harmonics {
+            bail!(
+                "{}: the solution has {} harmonics, --harmonics is {}",
+                path.display(),
+                s.harmonics,
+                args.harmonics
+            );
+        }
+        return Ok(SolveStart::Unknowns(x));
+    }
+    if let Some(from) = args.sweep_from {
+        if !(from.is_finite() && from > 0.0) {
+            bail!("--sweep-from must be a positive number of Hz, got {from}");
+        }
+        let f = args.frequency;
+        let to = args
+            .sweep_to
+            .unwrap_or(if from < f { 1.5 * f } else { f / 1.5 });
+        if !(to.is_finite() && to > 0.0) {
+            bail!("--sweep-to must be a positive number of Hz, got {to}");
+        }
+        if !((from < f && f <= to) || (to <= f && f < from)) {
+            bail!("--frequency {f} Hz must lie between --sweep-from {from} Hz (excluded) and --sweep-to {to} Hz");
+        }
+        return Ok(SolveStart::Sweep {
+            from_hz: from,
+            to_hz: to,
+        });
+    }
+    Ok(match args.start {
+        StartArg::Auto => SolveStart::Auto,
+        StartArg::Linear => SolveStart::Linear,
     })
 }
 
@@ -383,8 +470,11 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     }
     let method = args.method.single_method(args.harmonics)?;
     let model = args.model.load()?;
-    OutputPlan::new()
-        .input("the model file", &args.model.model)
+    let mut plan = OutputPlan::new();
+    if let Some(p) = &args.from_solution {
+        plan.input("the --from-solution file", p);
+    }
+    plan.input("the model file", &args.model.model)
         .inputs("a file the model reads", &model.input_files)
         .output("--output", args.output.as_deref(), OutputKind::Data)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
@@ -394,6 +484,8 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         label,
         outcome,
         stability_error,
+        path,
+        others,
     } = solve_periodic(
         &model,
         &method,
@@ -403,6 +495,46 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     crate::output::interrupt::check("nothing was written")?;
     if let Some(e) = stability_error {
         crate::note!("note: stability not computed: {e}");
+    }
+    if let SolvePath::Continuation {
+        from_hz,
+        points,
+        folds,
+    } = path
+    {
+        crate::note!(
+            "note: reached by continuation in frequency from {} Hz ({points} points, {folds} fold{} on the way{})",
+            (from_hz * 1e6).round() / 1e6,
+            if folds == 1 { "" } else { "s" },
+            if folds > 0 {
+                ": the branch turns, so several solutions coexist over part of the range"
+            } else {
+                ""
+            }
+        );
+    }
+    if !others.is_empty() {
+        crate::note!(
+            "note: {} periodic solutions coexist at {} Hz on the traced branch; written: the first met (response max {:.6e}, min {:.6e}{}); the others:",
+            others.len() + 1,
+            args.frequency,
+            solution.response.max,
+            solution.response.min,
+            stability_word(&solution)
+        );
+        for (k, o) in others.iter().enumerate() {
+            crate::note!(
+                "  solution {}: response max {:.6e}, min {:.6e}, largest contact force {:.6e}{}",
+                k + 2,
+                o.response.max,
+                o.response.min,
+                o.contacts
+                    .iter()
+                    .flat_map(|c| c.force.iter())
+                    .fold(0.0f64, |m, v| m.max(*v)),
+                stability_word(o)
+            );
+        }
     }
     let not_converged = (!outcome.converged).then(|| {
         format!(

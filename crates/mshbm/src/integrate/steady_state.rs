@@ -344,6 +344,7 @@ pub fn simulate_to_steady_state(
                 min: rmin,
             },
             stability: None,
+            unknowns: None,
         },
         periodic,
         periodicity: options.periodicity,

@@ -122,6 +122,7 @@ pub(crate) fn periodic_solution(
         frictions: parts.frictions,
         response: parts.response,
         stability: None,
+        unknowns: None,
     }
 }
 

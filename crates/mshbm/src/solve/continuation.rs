@@ -1,0 +1,130 @@
+//! Solves that follow the branch in frequency (docs/theory.md (T118)–(T119)): the default's
+//! fallback, which continues from a lower frequency up to the target, and the sweep, which
+//! collects every solution at the target frequency that the branch crosses.
+
+use super::SolvePath;
+use crate::continuation::arclength::{trace_branch, ContinuationOptions, Event, StopReason};
+use crate::error::Result;
+use crate::frd::describe_stop;
+use crate::newton::{solve, NewtonOptions, NewtonOutcome};
+use crate::problem::PeriodicProblem;
+
+/// Two solutions closer than this (max-norm relative to the length scale) are one.
+const SAME_SOLUTION: f64 = 1e-6;
+
+/// Lowest start of the fallback: the target frequency divided by `2^MAX_HALVINGS`.
+const MAX_HALVINGS: i32 = 6;
+
+/// The solution at the target found by continuation, and how.
+pub struct ContinuationStart {
+    pub outcome: NewtonOutcome,
+    pub path: SolvePath,
+}
+
+/// The solutions at a target frequency met by a sweep.
+pub struct Crossings {
+    /// Converged solutions at the target, distinct, in the order the branch met them.
+    pub solutions: Vec<NewtonOutcome>,
+    /// Accepted points of the traced branch.
+    pub points: usize,
+    /// Turning points of the branch.
+    pub folds: usize,
+    /// Why the branch ended, as a sentence.
+    pub stop: String,
+}
+
+fn options(omega_from: f64, omega_to: f64, newton: &NewtonOptions) -> ContinuationOptions {
+    let mut options = ContinuationOptions::new(omega_from, omega_to);
+    options.newton.tolerance = newton.tolerance;
+    options
+}
+
+/// Continue the branch up to `omega` from the highest of `ω/2, ω/4, …, ω/64` at which
+/// Newton from the linear response converges (docs/theory.md (T118)); `None` when no start
+/// converges or the branch stops before `omega`.
+pub(super) fn from_below(
+    problem: &mut dyn PeriodicProblem,
+    omega: f64,
+    newton: &NewtonOptions,
+) -> Result<Option<ContinuationStart>> {
+    for halvings in 1..=MAX_HALVINGS {
+        let omega_from = omega / 2f64.powi(halvings);
+        let branch = trace_branch(problem, &options(omega_from, omega, newton), |_, _| Ok(()))?;
+        match branch.stop {
+            StopReason::StartFailed(_) => continue,
+            StopReason::ReachedEnd => {
+                let last = branch
+                    .points
+                    .last()
+                    .expect("a branch that reached its end has points");
+                let outcome = NewtonOutcome {
+                    x: last.x.clone(),
+                    converged: true,
+                    iterations: branch.points.iter().map(|p| p.iterations).sum(),
+                    residual_norm: last.residual_norm,
+                    history: vec![last.residual_norm],
+                    reason: None,
+                };
+                return Ok(Some(ContinuationStart {
+                    outcome,
+                    path: SolvePath::Continuation {
+                        from_hz: omega_from / (2.0 * std::f64::consts::PI),
+                        points: branch.points.len(),
+                        folds: branch.folds.len(),
+                    },
+                }));
+            }
+            _ => return Ok(None),
+        }
+    }
+    Ok(None)
+}
+
+/// Trace the branch from `omega_from` to `omega_to` and solve at `omega` wherever the
+/// branch crosses it: Newton at `omega` from the linear interpolation between the two
+/// points on either side (docs/theory.md (T119)).
+pub(super) fn sweep(
+    problem: &mut dyn PeriodicProblem,
+    omega_from: f64,
+    omega_to: f64,
+    omega: f64,
+    newton: &NewtonOptions,
+) -> Result<Crossings> {
+    let mut points: Vec<(f64, Vec<f64>)> = Vec::new();
+    let branch = trace_branch(
+        problem,
+        &options(omega_from, omega_to, newton),
+        |_, event| {
+            if let Event::Point(p) = event {
+                points.push((p.omega, p.x.clone()));
+            }
+            Ok(())
+        },
+    )?;
+    let scale = problem.length_scale();
+    let mut solutions: Vec<NewtonOutcome> = Vec::new();
+    for pair in points.windows(2) {
+        let ((w0, x0), (w1, x1)) = (&pair[0], &pair[1]);
+        // a crossing, counted once: the point after it may lie on the target, the one before not
+        if *w0 == omega || (w0 - omega) * (w1 - omega) > 0.0 {
+            continue;
+        }
+        let r = (omega - w0) / (w1 - w0);
+        let guess: Vec<f64> = x0.iter().zip(x1).map(|(a, b)| a + r * (b - a)).collect();
+        let found = solve(problem, &guess, omega, newton)?;
+        let known = solutions.iter().any(|s| {
+            s.x.iter()
+                .zip(&found.x)
+                .all(|(a, b)| (a - b).abs() <= SAME_SOLUTION * scale)
+        });
+        if found.converged && !known {
+            solutions.push(found);
+        }
+    }
+    Ok(Crossings {
+        solutions,
+        points: points.len(),
+        folds: branch.folds.len(),
+        stop: describe_stop(&branch.stop, omega_to / (2.0 * std::f64::consts::PI)),
+    })
+}
