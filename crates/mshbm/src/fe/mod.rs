@@ -1,5 +1,9 @@
-//! Small built-in finite elements and the mass redistribution of the paper (Section 3).
+//! Finite elements — bars (paper eq. 45), linear-elastic quadrilaterals and hexahedra with
+//! structured meshes (docs/theory.md §15) — and the mass redistribution of the paper
+//! (Section 3).
 
 pub mod bar1d;
 pub mod mesh;
 pub mod redistribution;
+pub mod solid;
+pub mod structured;

@@ -1,0 +1,380 @@
+//! Linear-elastic solid elements (docs/theory.md §15, (T100)–(T104)): bilinear 4-node
+//! quadrilaterals in plane stress or plane strain (2 DOFs per node) and trilinear 8-node
+//! hexahedra (3 DOFs per node), both isoparametric, with full Gauss integration (2×2 and
+//! 2×2×2 points) of the stiffness `K = ∫ Bᵀ D B dV` and of the consistent mass
+//! `M = ∫ ρ Nᵀ N dV`. The mass is `m ⊗ I_d` exactly (the same scalar matrix for every
+//! component), as the mass redistribution requires.
+//!
+//! The fully integrated bilinear element locks in bending (parasitic shear, (T104)): use
+//! several elements through the thickness of a bent member (the parasitic part of the
+//! strain energy falls like `1/n²` with `n` elements through the thickness).
+//!
+//! DOF numbering: `node · d + component`.
+
+use crate::error::{Error, Result};
+use crate::fe::mesh::{CellKind, Cells};
+use crate::sparse::SparseMatrix;
+
+/// Plane stress (thin plates loaded in their plane) or plane strain (long bodies).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlaneKind {
+    Stress,
+    Strain,
+}
+
+/// Isotropic linear-elastic material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElasticMaterial {
+    /// Young's modulus `E > 0`.
+    pub young: f64,
+    /// Poisson's ratio `ν ∈ (−1, ½)`.
+    pub poisson: f64,
+    /// Density `ρ > 0`.
+    pub density: f64,
+}
+
+impl ElasticMaterial {
+    /// Refuse a material no element can use, naming the property.
+    pub fn validate(&self) -> Result<()> {
+        let ElasticMaterial {
+            young,
+            poisson,
+            density,
+        } = *self;
+        if !(young.is_finite() && young > 0.0) {
+            return Err(Error::argument(
+                "Young's modulus",
+                format!("must be positive, got {young}"),
+            ));
+        }
+        if !(poisson.is_finite() && poisson > -1.0 && poisson < 0.5) {
+            return Err(Error::argument(
+                "Poisson's ratio",
+                format!("must lie in (-1, 0.5), got {poisson}"),
+            ));
+        }
+        if !(density.is_finite() && density > 0.0) {
+            return Err(Error::argument(
+                "density",
+                format!("must be positive, got {density}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The elasticity matrix `D` (T101): 3×3 (Voigt `ε_xx, ε_yy, γ_xy`) for plane stress or
+    /// strain, 6×6 (`ε_xx, ε_yy, ε_zz, γ_yz, γ_xz, γ_xy`) in 3D (`plane = None`).
+    pub fn elasticity(&self, plane: Option<PlaneKind>) -> Vec<Vec<f64>> {
+        let (e, nu) = (self.young, self.poisson);
+        let mu = e / (2.0 * (1.0 + nu));
+        match plane {
+            Some(PlaneKind::Stress) => {
+                let c = e / (1.0 - nu * nu);
+                vec![
+                    vec![c, c * nu, 0.0],
+                    vec![c * nu, c, 0.0],
+                    vec![0.0, 0.0, mu],
+                ]
+            }
+            Some(PlaneKind::Strain) => {
+                let c = e / ((1.0 + nu) * (1.0 - 2.0 * nu));
+                vec![
+                    vec![c * (1.0 - nu), c * nu, 0.0],
+                    vec![c * nu, c * (1.0 - nu), 0.0],
+                    vec![0.0, 0.0, mu],
+                ]
+            }
+            None => {
+                let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+                let mut d = vec![vec![0.0; 6]; 6];
+                for i in 0..3 {
+                    for j in 0..3 {
+                        d[i][j] = lambda;
+                    }
+                    d[i][i] = lambda + 2.0 * mu;
+                    d[i + 3][i + 3] = mu;
+                }
+                d
+            }
+        }
+    }
+}
+
+/// Reference coordinates of the nodes of a quadrilateral (counter-clockwise) and of a
+/// hexahedron (bottom face counter-clockwise, then the top face), as VTK orders them.
+const QUAD_NODES: [[f64; 2]; 4] = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]];
+const HEX_NODES: [[f64; 3]; 8] = [
+    [-1.0, -1.0, -1.0],
+    [1.0, -1.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, 1.0],
+    [1.0, -1.0, 1.0],
+    [1.0, 1.0, 1.0],
+    [-1.0, 1.0, 1.0],
+];
+
+/// Shape functions `N_a(ξ) = Π_i (1 + ξ_i ξ_i^a)/2^d` and their reference derivatives
+/// `∂N_a/∂ξ_i` (T100) at `xi`, for the element whose reference nodes are `nodes`.
+fn shape<const D: usize>(nodes: &[[f64; D]], xi: [f64; D]) -> (Vec<f64>, Vec<[f64; D]>) {
+    let scale = 0.5f64.powi(D as i32);
+    let n = nodes
+        .iter()
+        .map(|a| scale * (0..D).map(|i| 1.0 + xi[i] * a[i]).product::<f64>())
+        .collect();
+    let dn = nodes
+        .iter()
+        .map(|a| {
+            let mut g = [0.0; D];
+            for (i, gi) in g.iter_mut().enumerate() {
+                *gi = scale
+                    * a[i]
+                    * (0..D)
+                        .filter(|&j| j != i)
+                        .map(|j| 1.0 + xi[j] * a[j])
+                        .product::<f64>();
+            }
+            g
+        })
+        .collect();
+    (n, dn)
+}
+
+/// Element stiffness and mass (`n_nodes·D` square, row-major) of one cell with node
+/// coordinates `x` (T102)–(T103), integrated with the tensor Gauss rule of 2 points per
+/// direction; `thickness` multiplies both in 2D.
+fn element<const D: usize>(
+    reference: &[[f64; D]],
+    x: &[[f64; D]],
+    d: &[Vec<f64>],
+    density: f64,
+    thickness: f64,
+    cell: usize,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let nn = reference.len();
+    let size = nn * D;
+    let nstrain = d.len();
+    let g = 1.0 / 3f64.sqrt();
+    let mut k = vec![0.0; size * size];
+    let mut m = vec![0.0; size * size];
+    for point in 0..(1usize << D) {
+        let mut xi = [0.0; D];
+        for (i, v) in xi.iter_mut().enumerate() {
+            *v = if point >> i & 1 == 1 { g } else { -g };
+        }
+        let (n, dn) = shape(reference, xi);
+        // Jacobian J_ij = ∂x_j/∂ξ_i
+        let mut jac = [[0.0; D]; D];
+        for a in 0..nn {
+            for i in 0..D {
+                for j in 0..D {
+                    jac[i][j] += dn[a][i] * x[a][j];
+                }
+            }
+        }
+        let (det, inv) = invert(&jac);
+        if !(det > 0.0 && det.is_finite()) {
+            return Err(Error::argument(
+                "mesh",
+                format!("cell {cell} is degenerate or inverted (Jacobian determinant {det:e} at a Gauss point)"),
+            ));
+        }
+        // physical derivatives ∂N_a/∂x_j = Σ_i (J⁻¹)_ji ∂N_a/∂ξ_i
+        let dx: Vec<[f64; D]> = dn
+            .iter()
+            .map(|g| {
+                let mut out = [0.0; D];
+                for (j, o) in out.iter_mut().enumerate() {
+                    *o = (0..D).map(|i| inv[j][i] * g[i]).sum();
+                }
+                out
+            })
+            .collect();
+        // strain–displacement matrix B (T102)
+        let mut b = vec![vec![0.0; size]; nstrain];
+        for a in 0..nn {
+            let c = a * D;
+            if D == 2 {
+                b[0][c] = dx[a][0];
+                b[1][c + 1] = dx[a][1];
+                b[2][c] = dx[a][1];
+                b[2][c + 1] = dx[a][0];
+            } else {
+                b[0][c] = dx[a][0];
+                b[1][c + 1] = dx[a][1];
+                b[2][c + 2] = dx[a][2];
+                b[3][c + 1] = dx[a][2];
+                b[3][c + 2] = dx[a][1];
+                b[4][c] = dx[a][2];
+                b[4][c + 2] = dx[a][0];
+                b[5][c] = dx[a][1];
+                b[5][c + 1] = dx[a][0];
+            }
+        }
+        let w = det * thickness;
+        // K += Bᵀ D B w
+        let db: Vec<Vec<f64>> = (0..nstrain)
+            .map(|r| {
+                (0..size)
+                    .map(|c| (0..nstrain).map(|s| d[r][s] * b[s][c]).sum())
+                    .collect()
+            })
+            .collect();
+        for p in 0..size {
+            for q in 0..size {
+                k[p * size + q] += w * (0..nstrain).map(|r| b[r][p] * db[r][q]).sum::<f64>();
+            }
+        }
+        // M += ρ Nᵀ N w, the same for every component (T103)
+        for a in 0..nn {
+            for c in 0..nn {
+                let v = density * w * n[a] * n[c];
+                for comp in 0..D {
+                    m[(a * D + comp) * size + c * D + comp] += v;
+                }
+            }
+        }
+    }
+    Ok((k, m))
+}
+
+/// Determinant and inverse of a 2×2 or 3×3 matrix.
+fn invert<const D: usize>(a: &[[f64; D]; D]) -> (f64, [[f64; D]; D]) {
+    let mut inv = [[0.0; D]; D];
+    if D == 2 {
+        let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+        inv[0][0] = a[1][1] / det;
+        inv[0][1] = -a[0][1] / det;
+        inv[1][0] = -a[1][0] / det;
+        inv[1][1] = a[0][0] / det;
+        return (det, inv);
+    }
+    let c = |i: usize, j: usize| {
+        let (r1, r2) = ((i + 1) % 3, (i + 2) % 3);
+        let (c1, c2) = ((j + 1) % 3, (j + 2) % 3);
+        a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]
+    };
+    let det: f64 = (0..3).map(|j| a[0][j] * c(0, j)).sum();
+    for i in 0..3 {
+        for j in 0..3 {
+            inv[j][i] = c(i, j) / det;
+        }
+    }
+    (det, inv)
+}
+
+/// Assemble `(M, K)` of `D`-dimensional cells.
+fn assemble<const D: usize>(
+    coordinates: &[Vec<f64>],
+    cells: &Cells,
+    kind: CellKind,
+    reference: &[[f64; D]],
+    d: &[Vec<f64>],
+    density: f64,
+    thickness: f64,
+) -> Result<(SparseMatrix, SparseMatrix)> {
+    if cells.kind != kind {
+        return Err(Error::argument(
+            "mesh",
+            format!("expected {kind:?} cells, got {:?}", cells.kind),
+        ));
+    }
+    if coordinates.iter().any(|c| c.len() != D) {
+        return Err(Error::argument(
+            "mesh",
+            format!("every node needs {D} coordinates"),
+        ));
+    }
+    let nn = reference.len();
+    let size = nn * D;
+    let n = coordinates
+        .len()
+        .checked_mul(D)
+        .ok_or_else(|| Error::argument("mesh", "too many nodes"))?;
+    let entries = cells
+        .len()
+        .checked_mul(size * size)
+        .ok_or_else(|| Error::argument("mesh", "too many cells"))?;
+    let too_large = || Error::argument("mesh", format!("cannot allocate {entries} matrix entries"));
+    let mut kt = Vec::new();
+    let mut mt = Vec::new();
+    kt.try_reserve_exact(entries).map_err(|_| too_large())?;
+    mt.try_reserve_exact(entries).map_err(|_| too_large())?;
+    for c in 0..cells.len() {
+        let nodes = cells.cell(c);
+        if let Some(&bad) = nodes.iter().find(|&&p| p >= coordinates.len()) {
+            return Err(Error::argument(
+                "mesh",
+                format!(
+                    "cell {c} refers to node {bad}, the mesh has {} nodes",
+                    coordinates.len()
+                ),
+            ));
+        }
+        let x: Vec<[f64; D]> = nodes
+            .iter()
+            .map(|&p| std::array::from_fn(|i| coordinates[p][i]))
+            .collect();
+        let (ke, me) = element::<D>(reference, &x, d, density, thickness, c)?;
+        for a in 0..size {
+            for b in 0..size {
+                let (ga, gb) = (nodes[a / D] * D + a % D, nodes[b / D] * D + b % D);
+                kt.push((ga, gb, ke[a * size + b]));
+                let v = me[a * size + b];
+                if v != 0.0 {
+                    mt.push((ga, gb, v));
+                }
+            }
+        }
+    }
+    Ok((
+        SparseMatrix::try_from_triplets(n, n, &mt)?,
+        SparseMatrix::try_from_triplets(n, n, &kt)?,
+    ))
+}
+
+/// Consistent mass and stiffness `(M, K)` of a plane mesh of 4-node quadrilaterals
+/// (2 DOFs per node), plane stress or plane strain, uniform `thickness` (T100)–(T103).
+pub fn assemble_plane(
+    coordinates: &[Vec<f64>],
+    cells: &Cells,
+    material: &ElasticMaterial,
+    thickness: f64,
+    plane: PlaneKind,
+) -> Result<(SparseMatrix, SparseMatrix)> {
+    material.validate()?;
+    if !(thickness.is_finite() && thickness > 0.0) {
+        return Err(Error::argument(
+            "thickness",
+            format!("must be positive, got {thickness}"),
+        ));
+    }
+    assemble::<2>(
+        coordinates,
+        cells,
+        CellKind::Quad4,
+        &QUAD_NODES,
+        &material.elasticity(Some(plane)),
+        material.density,
+        thickness,
+    )
+}
+
+/// Consistent mass and stiffness `(M, K)` of a mesh of 8-node hexahedra (3 DOFs per node)
+/// (T100)–(T103).
+pub fn assemble_solid(
+    coordinates: &[Vec<f64>],
+    cells: &Cells,
+    material: &ElasticMaterial,
+) -> Result<(SparseMatrix, SparseMatrix)> {
+    material.validate()?;
+    assemble::<3>(
+        coordinates,
+        cells,
+        CellKind::Hex8,
+        &HEX_NODES,
+        &material.elasticity(None),
+        material.density,
+        1.0,
+    )
+}
