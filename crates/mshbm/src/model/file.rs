@@ -1,6 +1,8 @@
 //! Model files (TOML) and `--set key=value` overrides.
 //!
-//! Three kinds, chosen by the top-level `kind` key:
+//! Four kinds, chosen by the top-level `kind` key (the fourth, `kind = "solid"`, a meshed
+//! linear-elastic rectangle or box with contact interfaces, is described in
+//! [`crate::model::solid`]):
 //!
 //! * `kind = "bar"` — the paper's clamped bar (see [`crate::model::bar`]):
 //!   ```toml
@@ -87,7 +89,7 @@ use crate::model::{Contact, Damping, Friction, FrictionNormal, Model, MODEL_BYTE
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
-struct DampingSection {
+pub(super) struct DampingSection {
     #[serde(default)]
     alpha: f64,
     #[serde(default)]
@@ -306,6 +308,10 @@ pub fn parse_model_with(
             let f: MatricesFile = deserialize(value, path)?;
             matrices_model(f, path, &mut InputFiles::new(path, options))
         }
+        "solid" => {
+            let f: super::solid::SolidFile = deserialize(value, path)?;
+            super::solid::solid_model(f, path, &options.limits)
+        }
         "dropped_bar" => {
             let f: DroppedBarFile = deserialize(value, path)?;
             let (params, name) = dropped_bar_parameters(f, path)?;
@@ -350,7 +356,7 @@ fn parse_toml(text: &str, path: &Path) -> Result<toml::Value> {
     })
 }
 
-const KINDS: &str = "\"bar\", \"matrices\" or \"dropped_bar\"";
+const KINDS: &str = "\"bar\", \"matrices\", \"solid\" or \"dropped_bar\"";
 
 fn model_kind(value: &toml::Value, path: &Path) -> Result<String> {
     Ok(value

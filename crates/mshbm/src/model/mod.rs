@@ -19,6 +19,7 @@ pub mod interface;
 pub mod lattice;
 pub mod matrix_market;
 pub mod overrides;
+pub mod solid;
 mod system;
 
 pub use input_files::LoadOptions;

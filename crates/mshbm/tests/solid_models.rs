@@ -1,0 +1,316 @@
+//! `kind = "solid"` model files ([`mshbm::model::solid`]): the model they build (DOFs,
+//! supports, loads, contact interfaces), the mass redistribution on 2D and 3D meshes with
+//! many contact nodes against its defining properties, the linear limit against a direct
+//! complex solve, and clear errors.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use faer::Side;
+use mshbm::fe::redistribution::{moments, scalar_mass};
+use mshbm::method::settings::MethodSettings;
+use mshbm::model::file::{load_model, parse_model};
+use mshbm::solve::{solve_periodic, SolveSettings};
+use mshbm::{MassKind, Model};
+
+fn example() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cantilever_stop/model.toml")
+}
+
+fn parse(text: &str) -> mshbm::Result<Model> {
+    parse_model(text, Path::new("solid.toml"), &[])
+}
+
+const BEAM: &str = r#"
+kind = "solid"
+[solid]
+dimension = 2
+size = [20.0, 4.0]
+divisions = [10, 4]
+young = 2.1e5
+poisson = 0.3
+density = 7.85e-9
+crack = { x = 10.0, from = 0.0, to = 2.0 }
+clamped = ["x0"]
+[[loads]]
+set = "x1"
+harmonic = [0.0, -3.0]
+[[interfaces]]
+name = "crack"
+kind = "pairs"
+sets = ["crack_a", "crack_b"]
+normal = [1.0, 0.0]
+gap = 0.0
+[damping]
+alpha = 100.0
+"#;
+
+const BLOCK: &str = r#"
+kind = "solid"
+[solid]
+dimension = 3
+size = [10.0, 10.0, 4.0]
+divisions = [10, 10, 4]
+young = 2.1e5
+poisson = 0.3
+density = 7.85e-9
+clamped = ["x0"]
+[[node_sets]]
+name = "patch"
+box = [[2.0, 8.0], [2.0, 8.0], [0.0, 0.0]]
+[[loads]]
+set = "z1"
+harmonic = [0.0, 0.0, -5.0]
+[[interfaces]]
+name = "foundation"
+kind = "obstacle"
+set = "patch"
+normal = [0.0, 0.0, 1.0]
+gap = 0.01
+"#;
+
+/// The cantilever example: its mesh, supports, load resultant and its interface of ten
+/// contacts `g = u_y + 0.05` on the lower face near the tip, ordered along x.
+#[test]
+fn the_cantilever_example_is_the_model_its_file_describes() {
+    let m = load_model(&example(), &[]).unwrap();
+    assert_eq!(
+        (m.n_nodes(), m.dofs_per_node, m.n_dofs()),
+        (81 * 9, 2, 1458)
+    );
+    assert_eq!(m.cells.as_ref().unwrap().len(), 640);
+    assert_eq!(m.dirichlet.len(), 18);
+    assert!(m.dirichlet.iter().all(|&d| m.coordinates[d / 2][0] == 0.0));
+    let fy: f64 = (0..m.n_nodes()).map(|p| m.harmonic_load[2 * p + 1]).sum();
+    let fx: f64 = (0..m.n_nodes()).map(|p| m.harmonic_load[2 * p]).sum();
+    assert!(
+        (fy + 1.0).abs() < 1e-14 && fx == 0.0,
+        "resultant ({fx}, {fy})"
+    );
+    assert!(
+        (0..m.n_nodes()).all(|p| m.harmonic_load[2 * p + 1] == 0.0 || m.coordinates[p][0] == 100.0)
+    );
+    assert_eq!(m.contacts.len(), 10);
+    let i = &m.interfaces[0];
+    assert_eq!((i.name.as_str(), i.contacts.clone()), ("stop", 0..10));
+    for (k, c) in m.contacts.iter().enumerate() {
+        let p = i.nodes[k][0];
+        assert_eq!(m.coordinates[p][1], 0.0);
+        assert!(m.coordinates[p][0] >= 88.0);
+        assert_eq!(
+            (c.dofs.clone(), c.w.clone(), c.gap),
+            (vec![2 * p + 1], vec![1.0], 0.05)
+        );
+        assert_eq!(i.positions[k], m.coordinates[p][0]);
+    }
+    assert!(i.positions.windows(2).all(|w| w[0] < w[1]));
+}
+
+/// Pairs across a crack: `g = n·(u_b − u_a) + g0` with `n` from lip a to lip b, for every
+/// doubled node; the lips coincide.
+#[test]
+fn crack_lips_are_paired_node_to_node() {
+    let m = parse(BEAM).unwrap();
+    let i = &m.interfaces[0];
+    assert_eq!(
+        m.contacts.len(),
+        2,
+        "an edge crack over two of four elements"
+    );
+    for (c, nodes) in m.contacts.iter().zip(&i.nodes) {
+        let (a, b) = (nodes[0], nodes[1]);
+        assert_eq!(m.coordinates[a], m.coordinates[b]);
+        assert_eq!(c.dofs, vec![2 * b, 2 * a]);
+        assert_eq!(c.w, vec![1.0, -1.0]);
+        assert_eq!(c.gap, 0.0);
+    }
+}
+
+/// The redistributed mass of `m` (docs/theory.md §4): every DOF of every contact node
+/// massless, total mass and first and second moments of each component kept to 1e-12,
+/// symmetric, no entry outside the consistent pattern, positive definite on the rest.
+fn assert_redistribution(m: &Model, case: &str) {
+    let consistent = m.mass_matrix(MassKind::Consistent).unwrap();
+    let redistributed = m.mass_matrix(MassKind::Redistributed).unwrap();
+    let d = m.dofs_per_node;
+    let contact_nodes = m.contact_nodes();
+    for (i, j, v) in redistributed.iter() {
+        if contact_nodes.contains(&(i / d)) || contact_nodes.contains(&(j / d)) {
+            assert_eq!(v, 0.0, "{case}: entry ({i}, {j}) of a contact node");
+        }
+        assert!(
+            consistent.is_stored(i, j),
+            "{case}: ({i}, {j}) outside the pattern"
+        );
+        let scale = redistributed.max_abs();
+        assert!(
+            (v - redistributed.get(j, i)).abs() <= 1e-14 * scale,
+            "{case}: not symmetric"
+        );
+    }
+    let (before, after) = (
+        moments(&scalar_mass(&consistent, d).unwrap(), &m.coordinates),
+        moments(&scalar_mass(&redistributed, d).unwrap(), &m.coordinates),
+    );
+    // an independent evaluation of the same moments, per component, from the DOF matrix
+    for c in 0..d {
+        let phi = |p: usize, a: usize| if a == 0 { 1.0 } else { m.coordinates[p][a - 1] };
+        for a in 0..=d {
+            for b in 0..=d {
+                let direct: f64 = redistributed
+                    .iter()
+                    .filter(|&(i, j, _)| i % d == c && j % d == c)
+                    .map(|(i, j, v)| phi(i / d, a) * v * phi(j / d, b))
+                    .sum();
+                let k = a * (d + 1) + b;
+                let scale = before[k].abs().max(before[0] * 1e-3);
+                assert!((direct - after[k]).abs() <= 1e-12 * scale.max(before[0]));
+                assert!(
+                    (after[k] - before[k]).abs() <= 1e-12 * scale.max(before[0]),
+                    "{case}: moment ({a}, {b}) {} vs {}",
+                    after[k],
+                    before[k]
+                );
+            }
+        }
+    }
+    let keep: Vec<usize> = (0..m.n_dofs())
+        .filter(|&i| !contact_nodes.contains(&(i / d)))
+        .collect();
+    assert!(
+        redistributed
+            .submatrix(&keep, &keep)
+            .to_faer()
+            .sp_cholesky(Side::Lower)
+            .is_ok(),
+        "{case}: not positive definite"
+    );
+}
+
+/// A 7 × 7 contact patch under a block is redistributed; a whole face of 110 contact nodes
+/// is not (the global moment-preserving correction makes the rest indefinite, refused with
+/// the reason; issue 16 leaves this open).
+#[test]
+fn redistribution_on_the_cantilever_the_cracked_beam_and_a_block() {
+    let cantilever = load_model(&example(), &[]).unwrap();
+    let beam = parse(BEAM).unwrap();
+    let block = parse(BLOCK).unwrap();
+    assert_eq!(block.contacts.len(), 49);
+    for (m, case) in [
+        (&cantilever, "cantilever"),
+        (&beam, "cracked beam"),
+        (&block, "block"),
+    ] {
+        assert_redistribution(m, case);
+    }
+    let whole_face = parse(&BLOCK.replace(
+        "box = [[2.0, 8.0], [2.0, 8.0], [0.0, 0.0]]",
+        "box = [[0.5, 10.0], [0.0, 10.0], [0.0, 0.0]]",
+    ))
+    .unwrap();
+    assert_eq!(whole_face.contacts.len(), 110);
+    let e = whole_face
+        .mass_matrix(MassKind::Redistributed)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("not positive definite"), "{e}");
+    // the shifts of the lowest eigenfrequencies (reported in examples/cantilever_stop/README.md)
+    let shift = cantilever.compare_masses(3).unwrap();
+    println!(
+        "cantilever: {:?} Hz -> {:?} Hz",
+        shift.original_hz, shift.redistributed_hz
+    );
+    assert!(
+        shift.relative_error.iter().all(|e| e.abs() < 0.01),
+        "{:?}",
+        shift.relative_error
+    );
+}
+
+/// With gaps no response reaches, the redistributed MS-HBM's solution is the linear
+/// response: at every contact node it equals a direct dense complex solve to 1e-9 (the
+/// condensation onto the interface, whose stiffness spans the ratio of the local to the
+/// global stiffness, ~1e4 here, costs that much of double precision; measured 4e-10).
+#[test]
+fn with_huge_gaps_every_contact_node_moves_as_the_linear_response() {
+    let mut m = load_model(&example(), &[]).unwrap();
+    m.contacts.iter_mut().for_each(|c| c.gap = 1000.0);
+    let f = 700.0;
+    let s = solve_periodic(
+        &m,
+        &MethodSettings::redistributed(3),
+        f,
+        &SolveSettings {
+            stability: false,
+            ..SolveSettings::default()
+        },
+    )
+    .unwrap();
+    assert!(s.outcome.converged);
+    let alpha = m.system(MassKind::Redistributed).unwrap().alpha;
+    let mut m2 = m.clone();
+    m2.damping.first_mode_ratio = None;
+    m2.damping.alpha = alpha;
+    let (model_dof, z) = common::direct_linear_response(
+        &m2,
+        MassKind::Redistributed,
+        2.0 * std::f64::consts::PI * f,
+    );
+    for c in &s.solution.contacts {
+        let k = model_dof.iter().position(|&d| d == c.dof).unwrap();
+        common::assert_is_linear_response(&c.coefficients, z[k], 1e-9, &format!("DOF {}", c.dof));
+    }
+}
+
+/// Errors name the file and the field.
+#[test]
+fn bad_solid_files_are_refused_naming_the_field() {
+    let cases: &[(&str, &str, &str)] = &[
+        (
+            "set = \"x1\"\nharmonic",
+            "set = \"tip\"\nharmonic",
+            "loads[0].set",
+        ),
+        (
+            "normal = [1.0, 0.0]",
+            "normal = [0.0, 0.0]",
+            "interfaces[0].normal",
+        ),
+        (
+            "normal = [1.0, 0.0]",
+            "normal = [1.0, 0.0, 0.0]",
+            "interfaces[0].normal",
+        ),
+        (
+            "divisions = [10, 4]",
+            "divisions = [0, 4]",
+            "solid.divisions",
+        ),
+        (
+            "divisions = [10, 4]",
+            "divisions = [100000000, 100000000]",
+            "solid.divisions",
+        ),
+        (
+            "clamped = [\"x0\"]",
+            "clamped = [\"crack_a\"]",
+            "interfaces[0]",
+        ),
+        (
+            "sets = [\"crack_a\", \"crack_b\"]",
+            "sets = [\"crack_a\", \"x1\"]",
+            "interfaces[0].sets",
+        ),
+        ("dimension = 2", "dimension = 4", "solid.dimension"),
+        ("poisson = 0.3", "poisson = 0.5", "solid"),
+    ];
+    for (from, to, field) in cases {
+        assert!(BEAM.contains(from), "{from}");
+        let e = parse(&BEAM.replacen(from, to, 1))
+            .err()
+            .unwrap_or_else(|| panic!("{to}: accepted"))
+            .to_string();
+        assert!(e.contains("solid.toml") && e.contains(field), "{to}: {e}");
+    }
+}
