@@ -164,6 +164,14 @@ fn distort(mesh: &mut StructuredMesh, size: &[f64]) {
     }
 }
 
+/// Stiffness, mesh, DOFs per node and the exact linear field of one patch test.
+type PatchCase<'a> = (
+    SparseMatrix,
+    &'a StructuredMesh,
+    usize,
+    &'a dyn Fn(&[f64]) -> Vec<f64>,
+);
+
 /// Patch test: on a distorted mesh, the boundary displacements of a linear field give the
 /// linear field at every interior node (K u = 0 there), in plane stress, plane strain and 3D.
 #[test]
@@ -185,12 +193,7 @@ fn patch_tests_reproduce_linear_fields_on_distorted_meshes() {
             1e-3 * (-0.4 * x[0] + 0.1 * x[1] + 0.9 * x[2] + 0.5),
         ]
     };
-    let cases: Vec<(
-        SparseMatrix,
-        &StructuredMesh,
-        usize,
-        &dyn Fn(&[f64]) -> Vec<f64>,
-    )> = vec![
+    let cases: Vec<PatchCase> = vec![
         (
             assemble_plane(
                 &quad.coordinates,

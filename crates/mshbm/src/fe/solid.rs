@@ -11,6 +11,9 @@
 //!
 //! DOF numbering: `node · d + component`.
 
+// index loops mirror the formulas (B, D, J⁻¹) they implement
+#![allow(clippy::needless_range_loop)]
+
 use crate::error::{Error, Result};
 use crate::fe::mesh::{CellKind, Cells};
 use crate::sparse::SparseMatrix;

@@ -283,7 +283,7 @@ pub fn face_weights(mesh: &StructuredMesh, nodes: &[usize]) -> Result<Vec<f64>> 
         }
     }
     let total: f64 = weights.iter().sum();
-    if !(total > 0.0) {
+    if total <= 0.0 || total.is_nan() {
         return Err(Error::argument(
             "load",
             "the node set holds no face of a cell; distribute the load uniformly instead",
