@@ -58,10 +58,13 @@ fn small(memory_bytes: u64) -> Limits {
     }
 }
 
+/// One Newton solve from the linear response (the plan is the method's; the default start's
+/// fallback, a continuation in frequency, also keeps the points of its branch).
 fn no_stability(limits: Limits) -> SolveSettings {
     SolveSettings {
         stability: false,
         limits,
+        start: mshbm::solve::SolveStart::Linear,
         ..SolveSettings::default()
     }
 }
