@@ -3,6 +3,7 @@
 //! `mshbm` library; this binary parses arguments, reports progress and writes files.
 
 mod commands;
+mod contact_map;
 mod output;
 mod plot;
 mod progress;

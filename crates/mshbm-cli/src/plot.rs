@@ -120,7 +120,7 @@ fn encode_png(rgb: &[u8], size: (u32, u32)) -> Result<Vec<u8>> {
 
 /// Render with `draw` in memory (an SVG text or a PNG image, by the extension of `path`)
 /// and write the file atomically: a full disk never leaves a truncated plot behind.
-fn render_to_file(
+pub(crate) fn render_to_file(
     path: &Path,
     size: (u32, u32),
     draw_svg: impl FnOnce(&DrawingArea<SVGBackend, Shift>) -> Result<()>,

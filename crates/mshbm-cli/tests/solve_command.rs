@@ -283,3 +283,68 @@ fn a_sweep_lists_the_solutions_it_met() {
 fn out_text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(bytes).into_owned()
 }
+
+/// `--contacts-csv` writes one row per contact and time sample with the interface's name,
+/// the node and its position along the interface, equal to the JSON series; `--contact-map`
+/// draws a force and a gap panel per interface; neither may overwrite an input.
+#[test]
+fn contact_state_along_an_interface() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/cantilever_stop/model.toml")
+        .display()
+        .to_string();
+    let csv = dir.path().join("contacts.csv");
+    let map = dir.path().join("map.png");
+    let out = run(&[
+        &model,
+        "--frequency",
+        "600",
+        "--harmonics",
+        "3",
+        "--no-stability",
+        "--json",
+        "--contacts-csv",
+        &csv.display().to_string(),
+        "--contact-map",
+        &map.display().to_string(),
+    ]);
+    assert_success(&out);
+    let v = stdout_json(&out);
+    let samples = v["time_s"].as_array().unwrap().len();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "interface,contact,nodes,position,time_s,gap,force"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 10 * samples);
+    for (r, row) in rows.iter().enumerate() {
+        let (c, j) = (r / samples, r % samples);
+        assert_eq!(row[0], "stop");
+        assert_eq!(row[1], c.to_string());
+        let series = &v["contacts"][c];
+        // the contact's DOF is u_y of its node (2 DOFs per node)
+        assert_eq!(
+            row[2].parse::<u64>().unwrap() * 2 + 1,
+            series["dof"].as_u64().unwrap()
+        );
+        let num = |k: usize| row[k].parse::<f64>().unwrap();
+        assert!(num(3) >= 88.0 && num(3) <= 100.0);
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-11 * b.abs().max(1e-3);
+        assert!(close(num(5), series["gap"][j].as_f64().unwrap()), "row {r}");
+        assert!(
+            close(num(6), series["force"][j].as_f64().unwrap()),
+            "row {r}"
+        );
+    }
+    let png = std::fs::read(&map).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    // IHDR: width and height, big-endian, after the signature and the chunk header
+    let be = |k: usize| u32::from_be_bytes(png[k..k + 4].try_into().unwrap());
+    assert_eq!((be(16), be(20)), (1000, 840), "two panels of 420 px");
+    let clash = run(&[&model, "--frequency", "600", "--contacts-csv", &model]);
+    let err = one_error_line(&clash);
+    assert!(err.contains("--contacts-csv"), "{err}");
+}

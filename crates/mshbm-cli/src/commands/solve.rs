@@ -291,6 +291,18 @@ pub struct SolveArgs {
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
 
+    /// Write the contact state along each contact interface as CSV, one row per contact
+    /// and time sample: interface, contact index, node(s), position along the interface,
+    /// time [s], gap, force (a model without interfaces: every contact, by index).
+    #[arg(long, value_name = "FILE")]
+    pub contacts_csv: Option<PathBuf>,
+
+    /// Draw the contact state along each interface over one period (position × time /
+    /// period, coloured by the contact force and, in a second panel, by the gap); .svg or
+    /// .png.
+    #[arg(long, value_name = "FILE")]
+    pub contact_map: Option<PathBuf>,
+
     /// Start Newton from this solution (the `--json` output of an earlier `solve` of the
     /// same model, method and number of harmonics, at this or another frequency) instead of
     /// the linear response.
@@ -478,6 +490,16 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         .inputs("a file the model reads", &model.input_files)
         .output("--output", args.output.as_deref(), OutputKind::Data)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
+        .output(
+            "--contacts-csv",
+            args.contacts_csv.as_deref(),
+            OutputKind::Data,
+        )
+        .output(
+            "--contact-map",
+            args.contact_map.as_deref(),
+            OutputKind::Plot,
+        )
         .check()?;
     let Solved {
         solution,
@@ -557,6 +579,16 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
         }
         write_csv_atomic(path, &csv)?;
+    }
+    if let Some(path) = &args.contacts_csv {
+        let mut csv = crate::contact_map::contacts_csv(&model, &solution);
+        if let Some(why) = &not_converged {
+            csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
+        }
+        write_csv_atomic(path, &csv)?;
+    }
+    if let Some(path) = &args.contact_map {
+        crate::contact_map::save_contact_map(&model, &solution, path)?;
     }
     if let Some(path) = &args.plot {
         let mut fig = period_figure(&model, std::slice::from_ref(&solution));
