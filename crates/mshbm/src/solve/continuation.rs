@@ -12,8 +12,14 @@ use crate::problem::PeriodicProblem;
 /// Two solutions closer than this (max-norm relative to the length scale) are one.
 const SAME_SOLUTION: f64 = 1e-6;
 
-/// Lowest start of the fallback: the target frequency divided by `2^MAX_HALVINGS`.
-const MAX_HALVINGS: i32 = 6;
+/// The starts the fallback tries, as fractions of the target frequency: `2^-k` for
+/// `k = 1 … 6`, below the contact resonance, where Newton from the linear response converges.
+/// (A start close to the target shortens the path only where Newton fails in a narrow band:
+/// measured on the cracked beam at 765 Hz, 2455 points from 15/16 of it against 2639 from
+/// half of it.)
+fn start_fractions() -> impl Iterator<Item = f64> {
+    (1..=6).map(|k| 0.5f64.powi(k))
+}
 
 /// The solution at the target found by continuation, and how.
 pub struct ContinuationStart {
@@ -39,16 +45,17 @@ fn options(omega_from: f64, omega_to: f64, newton: &NewtonOptions) -> Continuati
     options
 }
 
-/// Continue the branch up to `omega` from the highest of `ω/2, ω/4, …, ω/64` at which
-/// Newton from the linear response converges (docs/theory.md (T118)); `None` when no start
-/// converges or the branch stops before `omega`.
+/// Continue the branch up to `omega` from the first of `ω/2, ω/4, …, ω/64` at which Newton
+/// from the linear response converges (docs/theory.md (T118));
+/// `None` when no start converges or every branch from a converged start stops before
+/// `omega`.
 pub(super) fn from_below(
     problem: &mut dyn PeriodicProblem,
     omega: f64,
     newton: &NewtonOptions,
 ) -> Result<Option<ContinuationStart>> {
-    for halvings in 1..=MAX_HALVINGS {
-        let omega_from = omega / 2f64.powi(halvings);
+    for fraction in start_fractions() {
+        let omega_from = omega * fraction;
         let branch = trace_branch(problem, &options(omega_from, omega, newton), |_, _| Ok(()))?;
         match branch.stop {
             StopReason::StartFailed(_) => continue,
@@ -74,7 +81,8 @@ pub(super) fn from_below(
                     },
                 }));
             }
-            _ => return Ok(None),
+            // stopped on the way (a singular point): a start further away may pass elsewhere
+            _ => continue,
         }
     }
     Ok(None)
