@@ -33,9 +33,12 @@ pub fn reference_period(
 }
 
 /// The initial state `(q(0), q̇(0))` (system numbering) of the periodic `solution` at
-/// `omega` [rad/s]: the harmonics of its contact DOFs extended to all DOFs
-/// ([`state_from_harmonics`]; docs/theory.md (T17) and the end of §3). `source` names where
-/// the solution came from, for errors.
+/// `omega` [rad/s]: the harmonics of its contact-node DOFs extended to all DOFs
+/// ([`state_from_harmonics`]; docs/theory.md (T17) and the end of §3). The harmonics of
+/// every DOF of the contact nodes come from the solution's unknowns when it has them (they
+/// are `x = q̂_N` of every method, harmonic-major, eq. 31), else from its contact series
+/// (enough when each contact node has one DOF). `source` names where the solution came
+/// from, for errors.
 pub fn state_from_solution(
     system: &System,
     model: &Model,
@@ -43,6 +46,23 @@ pub fn state_from_solution(
     omega: f64,
     source: &Path,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    let n = system.nonlinear_dofs.len();
+    let nc = 2 * solution.harmonics + 1;
+    if let Some(x) = solution.unknowns.as_ref().filter(|x| x.len() == n * nc) {
+        let known: Vec<(usize, Vec<f64>)> = system
+            .nonlinear_dofs
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| (d, (0..nc).map(|c| x[c * n + i]).collect()))
+            .collect();
+        return state_from_harmonics(system, omega, &known).map_err(|e| {
+            Error::field(
+                source,
+                "unknowns",
+                format!("cannot start from this solution: {e}"),
+            )
+        });
+    }
     let mut known = Vec::new();
     for c in &solution.contacts {
         if c.dof >= model.n_dofs() {
