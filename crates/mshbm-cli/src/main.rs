@@ -7,6 +7,7 @@ mod contact_map;
 mod output;
 mod plot;
 mod progress;
+mod vtk;
 
 use std::process::ExitCode;
 

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::integrate::initial::state_from_harmonics;
+use crate::integrate::initial::{harmonics_from_known, state_from_harmonics};
 use crate::integrate::Integrator;
 use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::{Model, System};
@@ -34,11 +34,8 @@ pub fn reference_period(
 
 /// The initial state `(q(0), q̇(0))` (system numbering) of the periodic `solution` at
 /// `omega` [rad/s]: the harmonics of its contact-node DOFs extended to all DOFs
-/// ([`state_from_harmonics`]; docs/theory.md (T17) and the end of §3). The harmonics of
-/// every DOF of the contact nodes come from the solution's unknowns when it has them (they
-/// are `x = q̂_N` of every method, harmonic-major, eq. 31), else from its contact series
-/// (enough when each contact node has one DOF). `source` names where the solution came
-/// from, for errors.
+/// ([`state_from_harmonics`]; docs/theory.md (T17) and the end of §3). `source` names where
+/// the solution came from, for errors.
 pub fn state_from_solution(
     system: &System,
     model: &Model,
@@ -46,22 +43,61 @@ pub fn state_from_solution(
     omega: f64,
     source: &Path,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (known, field) = known_harmonics(system, model, solution, source)?;
+    state_from_harmonics(system, omega, &known).map_err(|e| {
+        Error::field(
+            source,
+            field,
+            format!("cannot start from this solution: {e}"),
+        )
+    })
+}
+
+/// The Fourier coefficients `[a0, a1, b1, …]` of every **model** DOF of the periodic
+/// `solution` at `omega` [rad/s] (Dirichlet DOFs zero): its contact-node harmonics extended
+/// by the linear equations ([`harmonics_from_known`], docs/theory.md (T17)). `system` is
+/// the system of the solution's method (its mass).
+pub fn field_harmonics(
+    system: &System,
+    model: &Model,
+    solution: &PeriodicSolution,
+    omega: f64,
+    source: &Path,
+) -> Result<Vec<Vec<f64>>> {
+    let (known, field) = known_harmonics(system, model, solution, source)?;
+    let coef = harmonics_from_known(system, omega, &known)
+        .map_err(|e| Error::field(source, field, format!("cannot extend this solution: {e}")))?;
+    let nc = 2 * solution.harmonics + 1;
+    let mut out = vec![vec![0.0; nc]; system.n_model_dofs];
+    for (s, c) in coef.into_iter().enumerate() {
+        out[system.model_dof[s]] = c;
+    }
+    Ok(out)
+}
+
+/// `(system DOF, [a0, a1, b1, …])` pairs.
+type KnownHarmonics = Vec<(usize, Vec<f64>)>;
+
+/// The harmonics of every contact-node DOF of `solution` (system numbering) and the field
+/// of the solution they come from: its unknowns when it has them (`x = q̂_N` of every
+/// method, harmonic-major, eq. 31), else its contact series (enough when each contact node
+/// has one DOF).
+fn known_harmonics(
+    system: &System,
+    model: &Model,
+    solution: &PeriodicSolution,
+    source: &Path,
+) -> Result<(KnownHarmonics, &'static str)> {
     let n = system.nonlinear_dofs.len();
     let nc = 2 * solution.harmonics + 1;
     if let Some(x) = solution.unknowns.as_ref().filter(|x| x.len() == n * nc) {
-        let known: Vec<(usize, Vec<f64>)> = system
+        let known = system
             .nonlinear_dofs
             .iter()
             .enumerate()
             .map(|(i, &d)| (d, (0..nc).map(|c| x[c * n + i]).collect()))
             .collect();
-        return state_from_harmonics(system, omega, &known).map_err(|e| {
-            Error::field(
-                source,
-                "unknowns",
-                format!("cannot start from this solution: {e}"),
-            )
-        });
+        return Ok((known, "unknowns"));
     }
     let mut known = Vec::new();
     for c in &solution.contacts {
@@ -85,13 +121,7 @@ pub fn state_from_solution(
         };
         known.push((s, c.coefficients.clone()));
     }
-    state_from_harmonics(system, omega, &known).map_err(|e| {
-        Error::field(
-            source,
-            "contacts",
-            format!("cannot start from this solution: {e}"),
-        )
-    })
+    Ok((known, "contacts"))
 }
 
 /// Statistics of a run, updated step by step ([`TransientStatistics::record`]).

@@ -32,6 +32,13 @@ pub struct ModesArgs {
     /// (the paper's Fig. 8); format by extension, .svg or .png.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+
+    /// Write the mode shapes of the consistent mass (contacts open) for ParaView into this
+    /// directory (created if missing): `mode_0000.vtu …` (point data `mode_shape`, scaled
+    /// to a largest displacement of 1 in the model's length unit) and `mode.pvd`, whose
+    /// time steps are the eigenfrequencies [Hz].
+    #[arg(long, value_name = "DIR")]
+    pub vtk: Option<PathBuf>,
 }
 
 /// Fig. 8: relative error of the redistributed eigenfrequencies vs mode number.
@@ -57,8 +64,21 @@ pub fn relative_error_figure(report: &MassComparison) -> Figure {
 
 pub fn run(args: &ModesArgs) -> Result<()> {
     let model = args.model.load()?;
-    OutputPlan::new()
-        .input("the model file", &args.model.model)
+    let vtk_files = match &args.vtk {
+        Some(dir) => {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("--vtk {}: cannot create the directory", dir.display()))?;
+            Some(crate::vtk::collection_paths(dir, "mode", args.count))
+        }
+        None => None,
+    };
+    let mut plan = OutputPlan::new();
+    if let Some((files, pvd)) = &vtk_files {
+        for f in files.iter().chain(std::iter::once(pvd)) {
+            plan.output("--vtk", Some(f), OutputKind::Text);
+        }
+    }
+    plan.input("the model file", &args.model.model)
         .inputs("a file the model reads", &model.input_files)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;
@@ -70,6 +90,9 @@ pub fn run(args: &ModesArgs) -> Result<()> {
     check_json("the eigenfrequencies", &report)?;
     if let Some(path) = &args.plot {
         relative_error_figure(&report).save(path)?;
+    }
+    if let Some((files, pvd)) = &vtk_files {
+        write_mode_shapes(&model, args.count, files, pvd)?;
     }
     if args.json {
         crate::outln!("{}", to_json("standard output", &report)?)?;
@@ -96,4 +119,33 @@ pub fn run(args: &ModesArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The mode shapes of the consistent mass with the contacts open, one `.vtu` each.
+fn write_mode_shapes(
+    model: &mshbm::Model,
+    count: usize,
+    files: &[PathBuf],
+    pvd: &std::path::Path,
+) -> Result<()> {
+    let system = model.system(mshbm::MassKind::Consistent)?;
+    let modes = mshbm::modes::lowest_modes(&system.mass, &system.stiffness, count)
+        .context("mode shapes")?;
+    let mut grids = Vec::with_capacity(count);
+    for k in 0..count {
+        let mut shape = vec![0.0; model.n_dofs()];
+        for (s, &d) in system.model_dof.iter().enumerate() {
+            shape[d] = modes.shapes[(s, k)];
+        }
+        let largest = shape.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if largest > 0.0 {
+            shape.iter_mut().for_each(|v| *v /= largest);
+        }
+        let hz = modes.eigenvalues[k].sqrt() / (2.0 * std::f64::consts::PI);
+        grids.push((
+            hz,
+            crate::vtk::unstructured_grid(model, &[("mode_shape", &shape)])?,
+        ));
+    }
+    crate::vtk::write_collection(files, pvd, grids)
 }

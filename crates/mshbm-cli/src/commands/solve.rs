@@ -3,7 +3,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, ValueEnum};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::general::GeneralOptions;
@@ -303,6 +303,17 @@ pub struct SolveArgs {
     #[arg(long, value_name = "FILE")]
     pub contact_map: Option<PathBuf>,
 
+    /// Write the deformed mesh over one period for ParaView into this directory (created if
+    /// missing): `solution_0000.vtu …` (point data `displacement`, every DOF of the model,
+    /// from the solution's harmonics extended to the whole model) and `solution.pvd`, whose
+    /// time steps are the sample times [s].
+    #[arg(long, value_name = "DIR")]
+    pub vtk: Option<PathBuf>,
+
+    /// Time samples over the period written by --vtk.
+    #[arg(long, value_name = "N", default_value_t = 32, requires = "vtk")]
+    pub vtk_samples: usize,
+
     /// Start Newton from this solution (the `--json` output of an earlier `solve` of the
     /// same model, method and number of harmonics, at this or another frequency) instead of
     /// the linear response.
@@ -398,6 +409,53 @@ pub fn period_figure(model: &Model, solutions: &[PeriodicSolution]) -> Figure {
     fig
 }
 
+/// The deformed mesh over one period (`--vtk`): the solution's harmonics on every DOF of
+/// the model, evaluated at `--vtk-samples` times.
+fn write_vtk(
+    model: &Model,
+    method: &MethodSettings,
+    solution: &PeriodicSolution,
+    files: &[PathBuf],
+    pvd: &std::path::Path,
+) -> Result<()> {
+    let mass = match method {
+        MethodSettings::Redistributed { .. } => MassKind::Redistributed,
+        MethodSettings::HbmAft(o) => o.mass,
+        MethodSettings::General(_) => MassKind::Consistent,
+    };
+    let system = model.system(mass)?;
+    let omega = 2.0 * std::f64::consts::PI * solution.frequency_hz;
+    let field = mshbm::simulation::field_harmonics(
+        &system,
+        model,
+        solution,
+        omega,
+        std::path::Path::new("the solution"),
+    )?;
+    let h = solution.harmonics;
+    let period = 1.0 / solution.frequency_hz;
+    let mut grids = Vec::with_capacity(files.len());
+    for j in 0..files.len() {
+        let t = period * j as f64 / files.len() as f64;
+        let displacement: Vec<f64> = field
+            .iter()
+            .map(|c| {
+                c[0] + (1..=h)
+                    .map(|k| {
+                        let phase = k as f64 * omega * t;
+                        c[2 * k - 1] * phase.cos() + c[2 * k] * phase.sin()
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        grids.push((
+            t,
+            crate::vtk::unstructured_grid(model, &[("displacement", &displacement)])?,
+        ));
+    }
+    crate::vtk::write_collection(files, pvd, grids)
+}
+
 /// `", stable"` / `", unstable"` when the multipliers are known.
 fn stability_word(s: &PeriodicSolution) -> &'static str {
     match &s.stability {
@@ -482,7 +540,27 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     }
     let method = args.method.single_method(args.harmonics)?;
     let model = args.model.load()?;
+    let vtk_files = match &args.vtk {
+        Some(dir) => {
+            if args.vtk_samples == 0 {
+                bail!("--vtk-samples must be at least 1");
+            }
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("--vtk {}: cannot create the directory", dir.display()))?;
+            Some(crate::vtk::collection_paths(
+                dir,
+                "solution",
+                args.vtk_samples,
+            ))
+        }
+        None => None,
+    };
     let mut plan = OutputPlan::new();
+    if let Some((files, pvd)) = &vtk_files {
+        for f in files.iter().chain(std::iter::once(pvd)) {
+            plan.output("--vtk", Some(f), OutputKind::Text);
+        }
+    }
     if let Some(p) = &args.from_solution {
         plan.input("the --from-solution file", p);
     }
@@ -589,6 +667,9 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     }
     if let Some(path) = &args.contact_map {
         crate::contact_map::save_contact_map(&model, &solution, path)?;
+    }
+    if let Some((files, pvd)) = &vtk_files {
+        write_vtk(&model, &method, &solution, files, pvd)?;
     }
     if let Some(path) = &args.plot {
         let mut fig = period_figure(&model, std::slice::from_ref(&solution));

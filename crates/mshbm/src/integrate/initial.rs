@@ -24,6 +24,27 @@ pub fn state_from_harmonics(
     omega: f64,
     known: &[(usize, Vec<f64>)],
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    let coef = harmonics_from_known(system, omega, known)?;
+    let h = (coef.first().map_or(1, Vec::len) - 1) / 2;
+    let q0 = coef
+        .iter()
+        .map(|c| c[0] + (1..=h).map(|k| c[2 * k - 1]).sum::<f64>())
+        .collect();
+    let v0 = coef
+        .iter()
+        .map(|c| omega * (1..=h).map(|k| k as f64 * c[2 * k]).sum::<f64>())
+        .collect();
+    Ok((q0, v0))
+}
+
+/// The coefficients `[a0, a1, b1, …, aH, bH]` of every system DOF of the harmonic solution
+/// whose DOFs `known` are given (module docs; the same requirements as
+/// [`state_from_harmonics`]).
+pub fn harmonics_from_known(
+    system: &System,
+    omega: f64,
+    known: &[(usize, Vec<f64>)],
+) -> Result<Vec<Vec<f64>>> {
     let n = system.n_dofs();
     if !(omega.is_finite() && omega > 0.0) {
         return Err(Error::argument(
@@ -79,15 +100,11 @@ pub fn state_from_harmonics(
     }
     let kk: Vec<usize> = (0..n).filter(|&d| is_known[d]).collect();
     let uu: Vec<usize> = (0..n).filter(|&d| !is_known[d]).collect();
-    let mut q0 = vec![0.0; n];
-    let mut v0 = vec![0.0; n];
-    for &d in &kk {
-        let c = &coef[d];
-        q0[d] = c[0] + (1..=h).map(|k| c[2 * k - 1]).sum::<f64>();
-        v0[d] = omega * (1..=h).map(|k| k as f64 * c[2 * k]).sum::<f64>();
-    }
     if uu.is_empty() {
-        return Ok((q0, v0));
+        return Ok(coef);
+    }
+    for &d in &uu {
+        coef[d] = vec![0.0; nc];
     }
     let part = LinearPart::new(StructuralBlock::of(
         &system.stiffness,
@@ -135,10 +152,14 @@ pub fn state_from_harmonics(
         factors.solve_in_place(k, &mut rhs)?;
         for (r, &d) in uu.iter().enumerate() {
             let zu = rhs[(r, 0)];
-            q0[d] += zu.re;
-            // b_k = −Im z
-            v0[d] += kw * -zu.im;
+            if k == 0 {
+                coef[d][0] = zu.re;
+            } else {
+                // z = a − i b
+                coef[d][2 * k - 1] = zu.re;
+                coef[d][2 * k] = -zu.im;
+            }
         }
     }
-    Ok((q0, v0))
+    Ok(coef)
 }

@@ -1,0 +1,163 @@
+//! `solve --vtk`: the deformed mesh over one period for ParaView, read back with `vtkio`
+//! (the reader, not the writer's code): the mesh, the displacement at the contact nodes
+//! against the solution's own series, zero displacement on the clamp, the `.pvd` collection,
+//! and the output checks.
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::{assert_success, mshbm, one_error_line, stdout_json};
+use vtkio::model::{Attribute, CellType, DataSet, Piece, VertexNumbers, Vtk};
+
+fn cantilever() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/cantilever_stop/model.toml")
+        .display()
+        .to_string()
+}
+
+/// Points, cells with their types, and the point data `field` of a `.vtu`.
+fn read_field(
+    path: &std::path::Path,
+    field: &str,
+) -> (Vec<f64>, Vec<u64>, Vec<CellType>, Vec<f64>) {
+    let vtk = Vtk::import(path).unwrap();
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("not an unstructured grid")
+    };
+    let Piece::Inline(piece) = pieces.into_iter().next().unwrap() else {
+        panic!("not inline")
+    };
+    let points = piece.points.cast_into::<f64>().unwrap();
+    let VertexNumbers::XML { connectivity, .. } = piece.cells.cell_verts else {
+        panic!("not XML cells")
+    };
+    let displacement = piece
+        .data
+        .point
+        .into_iter()
+        .find_map(|a| match a {
+            Attribute::DataArray(d) if d.name == field => d.data.cast_into::<f64>(),
+            _ => None,
+        })
+        .unwrap_or_else(|| panic!("no point data {field:?}"));
+    (points, connectivity, piece.cells.types, displacement)
+}
+
+fn read(path: &std::path::Path) -> (Vec<f64>, Vec<u64>, Vec<CellType>, Vec<f64>) {
+    read_field(path, "displacement")
+}
+
+#[test]
+fn the_deformed_mesh_over_one_period() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("vtk");
+    let model = cantilever();
+    let out = mshbm(&[
+        "solve",
+        &model,
+        "--frequency",
+        "600",
+        "--harmonics",
+        "3",
+        "--no-stability",
+        "--json",
+        "--vtk",
+        out_dir.to_str().unwrap(),
+        "--vtk-samples",
+        "4",
+    ]);
+    assert_success(&out);
+    let v = stdout_json(&out);
+    let pvd = std::fs::read_to_string(out_dir.join("solution.pvd")).unwrap();
+    let times: Vec<f64> = pvd
+        .lines()
+        .filter_map(|l| l.split("timestep=\"").nth(1))
+        .map(|t| t.split('"').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(times.len(), 4);
+    assert!((times[1] - 1.0 / 600.0 / 4.0).abs() < 1e-15);
+    for k in 0..4 {
+        assert!(pvd.contains(&format!("file=\"solution_{k:04}.vtu\"")));
+    }
+    let (points, connectivity, types, u) = read(&out_dir.join("solution_0000.vtu"));
+    assert_eq!(points.len(), 729 * 3);
+    assert_eq!(types.len(), 640);
+    assert!(types.iter().all(|t| *t == CellType::Quad));
+    assert_eq!(connectivity.len(), 640 * 4);
+    assert_eq!(u.len(), 729 * 3);
+    // at t = 0 every contact DOF moves as the solution's series says at its first sample
+    for c in v["contacts"].as_array().unwrap() {
+        let dof = c["dof"].as_u64().unwrap() as usize;
+        let (node, comp) = (dof / 2, dof % 2);
+        let want = c["displacement"][0].as_f64().unwrap();
+        assert!(
+            (u[3 * node + comp] - want).abs() < 1e-12 * want.abs().max(1e-3),
+            "DOF {dof}: {} vs {want}",
+            u[3 * node + comp]
+        );
+    }
+    // the clamped face x = 0 does not move; the third component is zero in 2D
+    for p in 0..729 {
+        if points[3 * p] == 0.0 {
+            assert_eq!((u[3 * p], u[3 * p + 1]), (0.0, 0.0));
+        }
+        assert_eq!(u[3 * p + 2], 0.0);
+    }
+    // a quarter period later the field has moved
+    let (_, _, _, u1) = read(&out_dir.join("solution_0001.vtu"));
+    assert!(u.iter().zip(&u1).any(|(a, b)| (a - b).abs() > 1e-6));
+    // two outputs may not be one file
+    let clash = mshbm(&[
+        "solve",
+        &model,
+        "--frequency",
+        "600",
+        "--vtk",
+        dir.path().to_str().unwrap(),
+        "--output",
+        dir.path().join("solution.pvd").to_str().unwrap(),
+    ]);
+    let err = one_error_line(&clash);
+    assert!(err.contains("solution.pvd"), "{err}");
+}
+
+/// `modes --vtk`: each mode shape, read back, has the eigenfrequency the `.pvd` gives as its
+/// Rayleigh quotient with the model's own K and M (an independent check of the shape), is
+/// scaled to a largest displacement of 1, and vanishes on the clamp.
+#[test]
+fn mode_shapes_for_paraview() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = cantilever();
+    let out = mshbm(&[
+        "modes",
+        &model,
+        "--count",
+        "2",
+        "--vtk",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert_success(&out);
+    let pvd = std::fs::read_to_string(dir.path().join("mode.pvd")).unwrap();
+    let hz: Vec<f64> = pvd
+        .lines()
+        .filter_map(|l| l.split("timestep=\"").nth(1))
+        .map(|t| t.split('"').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(hz.len(), 2);
+    let m = mshbm::model::file::load_model(std::path::Path::new(&model), &[]).unwrap();
+    for (k, f) in hz.iter().enumerate() {
+        let (_, _, _, u) = read_field(&dir.path().join(format!("mode_{k:04}.vtu")), "mode_shape");
+        let phi: Vec<f64> = (0..m.n_dofs()).map(|d| u[3 * (d / 2) + d % 2]).collect();
+        let largest = phi.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!((largest - 1.0).abs() < 1e-12);
+        assert!(m.dirichlet.iter().all(|&d| phi[d] == 0.0));
+        let omega2 = m.stiffness.quadratic_form(&phi) / m.mass.quadratic_form(&phi);
+        let rayleigh = omega2.sqrt() / (2.0 * std::f64::consts::PI);
+        assert!(
+            (rayleigh / f - 1.0).abs() < 1e-8,
+            "mode {k}: {rayleigh} vs {f} Hz"
+        );
+    }
+}
