@@ -314,3 +314,77 @@ fn bad_solid_files_are_refused_naming_the_field() {
         assert!(e.contains("solid.toml") && e.contains(field), "{to}: {e}");
     }
 }
+
+/// A Matrix Market model's contacts from files: an obstacle interface on a node set read
+/// from a CSV file, or a `contacts_file`, give exactly the contacts its `[[contacts]]`
+/// tables give (tests/data/cantilever_q4: ten nodes, `g = u_y + 0.05`), and bad rows are
+/// refused naming the file and the line.
+#[test]
+fn matrices_models_take_contacts_and_node_sets_from_files() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/cantilever_q4");
+    let tables = load_model(&data.join("model.toml"), &[]).unwrap();
+    let dir = tempfile_dir();
+    for f in ["K.mtx", "M.mtx", "nodes.txt"] {
+        std::fs::copy(data.join(f), dir.join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(data.join("model.toml")).unwrap();
+    let head = &text[..text.find("[[contacts]]").unwrap()];
+    let tail = &text[text.find("[load]").unwrap()..];
+    let nodes: Vec<usize> = tables.contacts.iter().map(|c| c.dofs[0] / 2).collect();
+    std::fs::write(
+        dir.join("stop.csv"),
+        nodes
+            .iter()
+            .map(|p| p.to_string())
+            .collect::<Vec<_>>()
+            .join("\n"),
+    )
+    .unwrap();
+    let with_interface = format!(
+        "{head}[[node_sets]]\nname = \"stop\"\nfile = \"stop.csv\"\n[[interfaces]]\nname = \"stop\"\nkind = \"obstacle\"\nset = \"stop\"\nnormal = [0.0, 1.0]\ngap = 0.05\n{tail}"
+    );
+    std::fs::write(dir.join("interface.toml"), with_interface).unwrap();
+    let rows: String = tables
+        .contacts
+        .iter()
+        .map(|c| format!("{}, {}, {}\n", c.gap, c.dofs[0], c.w[0]))
+        .collect();
+    std::fs::write(dir.join("contacts.csv"), format!("# gap, dof, w\n{rows}")).unwrap();
+    std::fs::write(
+        dir.join("file.toml"),
+        // a top-level key, before the first table
+        format!("contacts_file = \"contacts.csv\"\n{head}{tail}"),
+    )
+    .unwrap();
+    for name in ["interface.toml", "file.toml"] {
+        let m = load_model(&dir.join(name), &[]).unwrap();
+        assert_eq!(m.contacts, tables.contacts, "{name}");
+        assert!(m
+            .input_files
+            .iter()
+            .any(|f| f.ends_with("stop.csv") || f.ends_with("contacts.csv")));
+    }
+    let m = load_model(&dir.join("interface.toml"), &[]).unwrap();
+    assert_eq!(m.interfaces[0].contacts, 0..10);
+    std::fs::write(dir.join("contacts.csv"), "0.05, 41\n").unwrap();
+    let e = load_model(&dir.join("file.toml"), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("contacts.csv, line 1") && e.contains("contacts_file"),
+        "{e}"
+    );
+    std::fs::write(dir.join("stop.csv"), "3\n99999\n").unwrap();
+    let e = load_model(&dir.join("interface.toml"), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("node_sets[0]") && e.contains("99999"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A fresh directory under the system's temporary directory.
+fn tempfile_dir() -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mshbm-solid-models-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}

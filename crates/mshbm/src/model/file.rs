@@ -43,6 +43,16 @@
 //!   dofs = [100]
 //!   w = [-1.0]
 //!   gap = 0.2
+//!   # contacts_file = "contacts.csv"   # more contacts, one per line: gap, dof, w[, dof, w …]
+//!   # [[node_sets]]             # named node sets: nodes = [..], or file = "set.csv" (node
+//!   # name = "stop"             # numbers separated by commas, blanks or line breaks)
+//!   # file = "stop_nodes.csv"
+//!   # [[interfaces]]            # contact interfaces of many nodes on node sets, as for
+//!   # name = "stop"             # kind = "solid" (crate::model::solid): obstacle or pairs
+//!   # kind = "obstacle"
+//!   # set = "stop"
+//!   # normal = [0.0, 1.0]
+//!   # gap = 0.05
 //!   [[frictions]]               # Coulomb friction: slip velocity sum_i w_i qdot_{dofs_i},
 //!   dofs = [3]                  # force in [-mu F_N, mu F_N] along w
 //!   w = [1.0]
@@ -193,6 +203,12 @@ struct MatricesFile {
     mesh: MeshSection,
     #[serde(default)]
     contacts: Vec<ContactSection>,
+    /// Contacts from a CSV file, after `contacts` (module docs).
+    contacts_file: Option<String>,
+    #[serde(default)]
+    node_sets: Vec<NodeSetSection>,
+    #[serde(default)]
+    interfaces: Vec<super::solid::InterfaceSection>,
     #[serde(default)]
     frictions: Vec<FrictionSection>,
     #[serde(default)]
@@ -236,6 +252,14 @@ struct ContactSection {
     dofs: Vec<usize>,
     w: Vec<f64>,
     gap: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct NodeSetSection {
+    name: String,
+    nodes: Option<Vec<usize>>,
+    file: Option<String>,
 }
 
 #[derive(Deserialize)]
@@ -700,12 +724,68 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
             normal,
         });
     }
+    let mut contacts: Vec<Contact> = f
+        .contacts
+        .into_iter()
+        .map(|c| Contact {
+            dofs: c.dofs,
+            w: c.w,
+            gap: c.gap,
+        })
+        .collect();
+    if let Some(file) = &f.contacts_file {
+        contacts.extend(read_contacts(inputs, path, file)?);
+    }
+    let mut node_sets = crate::fe::mesh::NodeSets::new();
+    for (k, sec) in f.node_sets.iter().enumerate() {
+        let field = format!("node_sets[{k}]");
+        let nodes = match (&sec.nodes, &sec.file) {
+            (Some(list), None) => list.clone(),
+            (None, Some(file)) => read_node_list(inputs, path, &format!("{field}.file"), file)?,
+            _ => {
+                return Err(Error::field(
+                    path,
+                    field,
+                    "give exactly one of `nodes` and `file`",
+                ))
+            }
+        };
+        if let Some(&bad) = nodes.iter().find(|&&p| p >= coordinates.len()) {
+            return Err(Error::field(
+                path,
+                field,
+                format!(
+                    "node {bad} does not exist (the mesh has {} nodes)",
+                    coordinates.len()
+                ),
+            ));
+        }
+        if node_sets.insert(sec.name.clone(), nodes).is_some() {
+            return Err(Error::field(
+                path,
+                format!("{field}.name"),
+                format!("node set {:?} given twice", sec.name),
+            ));
+        }
+    }
+    let mut dirichlet_sorted = f.mesh.dirichlet.clone();
+    dirichlet_sorted.sort_unstable();
+    let (interface_contacts, interfaces) = super::solid::build_interfaces(
+        &f.interfaces,
+        &coordinates,
+        &node_sets,
+        f.mesh.dofs_per_node,
+        &dirichlet_sorted,
+        contacts.len(),
+        path,
+    )?;
+    contacts.extend(interface_contacts);
     let model = Model {
         source: path.to_path_buf(),
         input_files: std::mem::take(&mut inputs.read),
         cells: None,
-        node_sets: Default::default(),
-        interfaces: vec![],
+        node_sets,
+        interfaces,
         name: f.name.unwrap_or_else(|| path.display().to_string()),
         mass,
         stiffness,
@@ -713,15 +793,7 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
         coordinates,
         dofs_per_node: f.mesh.dofs_per_node,
         dirichlet: f.mesh.dirichlet,
-        contacts: f
-            .contacts
-            .into_iter()
-            .map(|c| Contact {
-                dofs: c.dofs,
-                w: c.w,
-                gap: c.gap,
-            })
-            .collect(),
+        contacts,
         harmonic_load,
         constant_load,
         frictions,
@@ -730,4 +802,88 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
     };
     model.validate()?;
     Ok(model)
+}
+
+/// Contacts from a CSV file (`contacts_file`): one contact per line, `gap, dof, w, dof, w, …`
+/// (the gap `g0`, then the pairs of DOF and coefficient of `W`); blank lines and lines
+/// starting with `#` are skipped. Errors name the file and the line.
+fn read_contacts(inputs: &mut InputFiles, path: &Path, file: &str) -> Result<Vec<Contact>> {
+    let (shown, text) = inputs.read("contacts_file", file)?;
+    let mut contacts = Vec::new();
+    for (line_number, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let bad = |why: String| {
+            Error::field(
+                path,
+                "contacts_file",
+                format!("{}, line {}: {why}", shown.display(), line_number + 1),
+            )
+        };
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() < 3 || fields.len() % 2 == 0 {
+            return Err(bad(format!(
+                "expected `gap, dof, w[, dof, w …]`, found {} fields",
+                fields.len()
+            )));
+        }
+        let gap: f64 = fields[0]
+            .parse()
+            .map_err(|_| bad(format!("gap {} is not a number", data_excerpt(fields[0]))))?;
+        let mut dofs = Vec::new();
+        let mut w = Vec::new();
+        for pair in fields[1..].chunks(2) {
+            dofs.push(pair[0].parse::<usize>().map_err(|_| {
+                bad(format!(
+                    "DOF {} is not a non-negative integer",
+                    data_excerpt(pair[0])
+                ))
+            })?);
+            w.push(pair[1].parse::<f64>().map_err(|_| {
+                bad(format!(
+                    "coefficient {} is not a number",
+                    data_excerpt(pair[1])
+                ))
+            })?);
+        }
+        contacts.push(Contact { dofs, w, gap });
+    }
+    Ok(contacts)
+}
+
+/// Node numbers from a file: separated by commas, blanks or line breaks; `#` starts a
+/// comment line.
+fn read_node_list(
+    inputs: &mut InputFiles,
+    path: &Path,
+    field: &str,
+    file: &str,
+) -> Result<Vec<usize>> {
+    let (shown, text) = inputs.read(field, file)?;
+    let mut nodes = Vec::new();
+    for (line_number, line) in text.lines().enumerate() {
+        if line.trim_start().starts_with('#') {
+            continue;
+        }
+        for token in line
+            .split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+        {
+            nodes.push(token.parse::<usize>().map_err(|_| {
+                Error::field(
+                    path,
+                    field,
+                    format!(
+                        "{}, line {}: node {} is not a non-negative integer",
+                        shown.display(),
+                        line_number + 1,
+                        data_excerpt(token)
+                    ),
+                )
+            })?);
+        }
+    }
+    Ok(nodes)
 }

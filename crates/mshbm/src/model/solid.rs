@@ -139,7 +139,7 @@ enum Distribution {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct InterfaceSection {
+pub(super) struct InterfaceSection {
     name: String,
     kind: InterfaceKind,
     set: Option<String>,
@@ -334,7 +334,15 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, limits: &Limits) -> Result<
             }
         }
     }
-    let (contacts, interfaces) = build_interfaces(&f.interfaces, &mesh, d, &dirichlet, path)?;
+    let (contacts, interfaces) = build_interfaces(
+        &f.interfaces,
+        &mesh.coordinates,
+        &mesh.node_sets,
+        d,
+        &dirichlet,
+        0,
+        path,
+    )?;
     let model = Model {
         source: PathBuf::from(path),
         input_files: vec![],
@@ -430,17 +438,19 @@ fn add_node_sets(
     Ok(())
 }
 
-/// The contacts of the `[[interfaces]]` and their groups.
-fn build_interfaces(
+/// The contacts of the `[[interfaces]]` and their groups, numbered from `first` (the
+/// contacts the model has before them); `dirichlet` sorted.
+pub(super) fn build_interfaces(
     sections: &[InterfaceSection],
-    mesh: &StructuredMesh,
+    x: &[Vec<f64>],
+    node_sets: &crate::fe::mesh::NodeSets,
     d: usize,
     dirichlet: &[usize],
+    first: usize,
     path: &Path,
 ) -> Result<(Vec<crate::model::Contact>, Vec<ContactInterface>)> {
     let mut contacts = Vec::new();
     let mut interfaces = Vec::new();
-    let x = &mesh.coordinates;
     for (k, sec) in sections.iter().enumerate() {
         let field = |f: &str| format!("interfaces[{k}].{f}");
         let normal = unit_normal(&sec.normal, d, path, &field("normal"))?;
@@ -448,7 +458,7 @@ fn build_interfaces(
             return Err(Error::field(path, field("gap"), "must be finite"));
         }
         let get = |name: &str, f: String| {
-            mesh.node_sets
+            node_sets
                 .get(name)
                 .ok_or_else(|| Error::field(path, f, format!("unknown node set {name:?}")))
         };
@@ -524,16 +534,16 @@ fn build_interfaces(
             ));
         }
         // position along the interface: the coordinate that varies most over its nodes
-        let first: Vec<usize> = nodes.iter().map(|n| n[0]).collect();
+        let lead: Vec<usize> = nodes.iter().map(|n| n[0]).collect();
         let axis = (0..d)
-            .max_by(|&a, &b| spread(x, &first, a).total_cmp(&spread(x, &first, b)))
+            .max_by(|&a, &b| spread(x, &lead, a).total_cmp(&spread(x, &lead, b)))
             .unwrap_or(0);
-        let start = contacts.len();
+        let start = first + contacts.len();
         contacts.extend(new);
         interfaces.push(ContactInterface {
             name: sec.name.clone(),
-            contacts: start..contacts.len(),
-            positions: first.iter().map(|&p| x[p][axis]).collect(),
+            contacts: start..first + contacts.len(),
+            positions: lead.iter().map(|&p| x[p][axis]).collect(),
             nodes,
         });
     }
