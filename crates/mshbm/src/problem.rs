@@ -91,3 +91,37 @@ pub trait PeriodicProblem {
         Ok(None)
     }
 }
+
+/// A problem whose initial guess is a given point (a continuation started from a known
+/// solution, e.g. one reached by another path); everything else is the wrapped method's.
+pub struct StartingAt<'a> {
+    pub problem: &'a mut dyn PeriodicProblem,
+    pub x0: Vec<f64>,
+}
+
+impl PeriodicProblem for StartingAt<'_> {
+    fn dimension(&self) -> usize {
+        self.problem.dimension()
+    }
+    fn length_scale(&self) -> f64 {
+        self.problem.length_scale()
+    }
+    fn initial_guess(&mut self, _omega: f64) -> Result<Vec<f64>> {
+        Ok(self.x0.clone())
+    }
+    fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+        self.problem.residual(x, omega)
+    }
+    fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+        self.problem.linearize(x, omega)
+    }
+    fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+        self.problem.solution(x, omega, response_dof)
+    }
+    fn continuation_policy(&self) -> ContinuationPolicy {
+        self.problem.continuation_policy()
+    }
+    fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
+        self.problem.floquet(x, omega)
+    }
+}

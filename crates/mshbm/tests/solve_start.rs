@@ -219,3 +219,27 @@ fn a_sweep_outside_its_range_is_refused() {
         assert!(e.to_string().contains("swept range"), "{e}");
     }
 }
+
+/// A frequency response diagram that starts where Newton from the linear response fails
+/// takes its first point from the same continuation as a solve, and completes.
+#[test]
+fn a_diagram_starts_where_newton_from_the_linear_response_fails() {
+    let model = cantilever();
+    let method = MethodSettings::redistributed(5);
+    let linear = solve_periodic(&model, &method, 850.0, &settings(SolveStart::Linear)).unwrap();
+    assert!(!linear.outcome.converged);
+    let mut frd = FrdSettings::new(850.0, 950.0);
+    frd.stability = false;
+    let mut branch = Points::default();
+    let traced = trace_frd_branch(&model, &method, &frd, false, &mut branch).unwrap();
+    assert!(traced.report.completed, "{}", traced.report.stop);
+    let auto = solve_periodic(&model, &method, 850.0, &settings(SolveStart::Auto)).unwrap();
+    let first = &branch.0[0];
+    assert!((first.frequency_hz - 850.0).abs() < 1e-9);
+    assert!(
+        (first.max_qn - auto.solution.response.max).abs() < 1e-9,
+        "{} vs {}",
+        first.max_qn,
+        auto.solution.response.max
+    );
+}

@@ -8,7 +8,10 @@ use crate::continuation::arclength::{trace_branch, Branch, Event};
 use crate::error::Result;
 use crate::method::settings::MethodSettings;
 use crate::model::Model;
+use crate::newton::NewtonOptions;
+use crate::problem::{PeriodicProblem, StartingAt};
 use crate::solution::{MethodKind, PeriodicSolution};
+use crate::solve::start_by_continuation;
 use crate::stability::{crossings, Floquet};
 
 /// Which branch an observer is told about.
@@ -114,13 +117,37 @@ pub fn trace_frd_branch(
     let mut problem = built.problem;
     // the method's continuation policy comes with the problem
     let options = settings.continuation();
+    // where Newton from the linear response fails at the start frequency, the first point
+    // comes from a continuation from below, as for a solve (docs/theory.md (T118))
+    let fixed = NewtonOptions {
+        max_iterations: options.newton.max_iterations.max(50),
+        ..options.newton.clone()
+    };
+    let linear = problem.initial_guess(options.omega_start)?;
+    let direct = crate::newton::solve(problem.as_mut(), &linear, options.omega_start, &fixed)?;
+    let started = if direct.converged {
+        None
+    } else {
+        start_by_continuation(problem.as_mut(), options.omega_start, &options.newton)?
+    };
+    let mut from_elsewhere;
+    let problem: &mut dyn PeriodicProblem = match started {
+        Some(x0) => {
+            from_elsewhere = StartingAt {
+                problem: problem.as_mut(),
+                x0,
+            };
+            &mut from_elsewhere
+        }
+        None => problem.as_mut(),
+    };
 
     let mut points: Vec<FrdPoint> = Vec::new();
     let mut folds = Vec::new();
     let mut bifurcations = Vec::new();
     // the last point's multipliers and frequency [Hz], for stability changes
     let mut previous: Option<(Floquet, f64)> = None;
-    let branch = trace_branch(problem.as_mut(), &options, |p, event| {
+    let branch = trace_branch(problem, &options, |p, event| {
         let (x, omega, iterations, residual, step) = match &event {
             Event::Point(pt) => (&pt.x, pt.omega, pt.iterations, pt.residual_norm, pt.step),
             Event::Fold(f) => (&f.x, f.omega, 0, 0.0, 0.0),

@@ -136,3 +136,14 @@ pub(super) fn sweep(
         stop: describe_stop(&branch.stop, omega_to / (2.0 * std::f64::consts::PI)),
     })
 }
+
+/// A solution at `omega` where Newton from the linear response does not converge, by
+/// continuation from below (docs/theory.md (T118)); `None` when none is found. Used by the
+/// frequency response diagram for its first point.
+pub fn start_by_continuation(
+    problem: &mut dyn PeriodicProblem,
+    omega: f64,
+    newton: &NewtonOptions,
+) -> Result<Option<Vec<f64>>> {
+    Ok(from_below(problem, omega, newton)?.map(|found| found.outcome.x))
+}

@@ -18,7 +18,7 @@
 
 mod continuation;
 
-pub use continuation::{ContinuationStart, Crossings};
+pub use continuation::{start_by_continuation, ContinuationStart, Crossings};
 
 use crate::error::{Error, Result};
 use crate::frd::response_dof;
