@@ -55,6 +55,40 @@ pub fn solve_small_lu(
     Ok((0..n).map(|i| x[(i, 0)]).collect())
 }
 
+/// Solve `A X = B` for a square `A` (row-major, `n × n`) and the columns of `B` (`n × m`)
+/// with one LU factorisation (partial pivoting), refusing a numerically singular `A` as
+/// [`solve_small_lu`] does (same threshold; `n = 1` is the exact division).
+pub fn solve_small_lu_columns(
+    a: &[f64],
+    b: faer::MatRef<'_, f64>,
+    rel_tol: f64,
+) -> std::result::Result<Mat<f64>, SingularPivot> {
+    let n = b.nrows();
+    assert_eq!(a.len(), n * n);
+    if n == 0 {
+        return Ok(Mat::zeros(0, b.ncols()));
+    }
+    let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+    let threshold = rel_tol * scale;
+    let singular =
+        |pivot: f64| pivot.abs().partial_cmp(&threshold) != Some(std::cmp::Ordering::Greater);
+    if scale == 0.0 {
+        return Err(SingularPivot { column: 0 });
+    }
+    if n == 1 {
+        if singular(a[0]) {
+            return Err(SingularPivot { column: 0 });
+        }
+        return Ok(Mat::from_fn(1, b.ncols(), |_, j| b[(0, j)] / a[0]));
+    }
+    let lu = faer::MatRef::from_row_major_slice(a, n, n).partial_piv_lu();
+    let u = lu.U();
+    if let Some(column) = (0..n).find(|&k| singular(u[(k, k)])) {
+        return Err(SingularPivot { column });
+    }
+    Ok(lu.solve(b))
+}
+
 /// Solve `A x = b` for a small square `A` (row-major, `n × n`) by faer's LU with partial
 /// pivoting ([`solve_small_lu`]). Returns `None` when a pivot is below `rel_tol` times the
 /// largest entry of `A` (numerically singular).

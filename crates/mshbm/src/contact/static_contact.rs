@@ -17,12 +17,15 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use faer::linalg::solvers::Solve;
-use faer::Mat;
+use faer::{Mat, MatRef};
 
 use crate::contact::lcp::{LcpMatrix, LcpSolver};
-use crate::dense::solve_small;
+use crate::dense::solve_small_lu_columns;
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
+
+/// Memory the active-set cache of one [`StaticContact`] may hold (bytes).
+pub const ACTIVE_SET_CACHE_BYTES: usize = 1 << 31;
 
 /// Affine data of one active set (row-major dense matrices).
 #[derive(Debug)]
@@ -51,6 +54,13 @@ impl ActiveSet {
                         .sum::<f64>()
             })
             .collect()
+    }
+
+    /// Component `i` of `q_N = P_A b + s_A`.
+    pub fn displacement_of(&self, i: usize, b: &[f64]) -> f64 {
+        let n = b.len();
+        let row = &self.compliance[i * n..(i + 1) * n];
+        self.offset[i] + row.iter().zip(b).map(|(p, v)| p * v).sum::<f64>()
     }
 
     /// Contact forces `λ` (zero for open contacts).
@@ -96,31 +106,24 @@ impl StaticContact {
         let n = stiffness.nrows();
         let n_contacts = gap.len();
         let k = stiffness.to_dense();
-        let lu = k.full_piv_lu();
-        let inv = lu.solve(Mat::<f64>::identity(n, n));
-        let stiffness_inverse: Vec<f64> = (0..n * n).map(|e| inv[(e / n, e % n)]).collect();
+        // K_NN is symmetric positive definite when the contact nodes are held by the rest:
+        // Cholesky, else a full-pivoting LU for the condition estimate below
+        let inv = match k.llt(faer::Side::Lower) {
+            Ok(llt) => llt.solve(Mat::<f64>::identity(n, n)),
+            Err(_) => k.full_piv_lu().solve(Mat::<f64>::identity(n, n)),
+        };
         let scale = k.norm_max() * inv.norm_max();
         if n > 0 && (!scale.is_finite() || scale > 1e14) {
             return Err(Error::Singular(format!(
                 "K_NN (the stiffness of the {n} contact-node DOFs with everything else held) is singular (condition ~ {scale:.1e}): the contact nodes must not form a free-floating part"
             )));
         }
-        let mut compliance_w = vec![0.0; n * n_contacts];
-        for i in 0..n {
-            for c in 0..n_contacts {
-                compliance_w[i * n_contacts + c] = (0..n)
-                    .map(|j| stiffness_inverse[i * n + j] * w[j * n_contacts + c])
-                    .sum();
-            }
-        }
-        let mut delassus = vec![0.0; n_contacts * n_contacts];
-        for a in 0..n_contacts {
-            for c in 0..n_contacts {
-                delassus[a * n_contacts + c] = (0..n)
-                    .map(|i| w[i * n_contacts + a] * compliance_w[i * n_contacts + c])
-                    .sum();
-            }
-        }
+        let w_mat = MatRef::from_row_major_slice(&w, n, n_contacts);
+        let kw = &inv * w_mat;
+        let d = w_mat.transpose() * &kw;
+        let stiffness_inverse = row_major(inv.as_ref());
+        let compliance_w = row_major(kw.as_ref());
+        let delassus = row_major(d.as_ref());
         let solver = LcpSolver::new(LcpMatrix::new(n_contacts, delassus.clone()));
         Ok(StaticContact {
             n,
@@ -180,67 +183,73 @@ impl StaticContact {
             return Ok(a.clone());
         }
         let a = Rc::new(self.build_active_set(closed)?);
+        // each set holds n² + n_c·n values: on a large interface a few hundred sets would
+        // fill the memory, so the cache starts over when it reaches its budget
+        let set_bytes = 8 * (self.n * self.n + self.n_contacts * self.n).max(1);
+        if (self.cache.len() + 1) * set_bytes > ACTIVE_SET_CACHE_BYTES {
+            self.cache.clear();
+        }
         self.cache.insert(closed.to_vec(), a.clone());
         Ok(a)
     }
 
+    /// The affine data of (T37) by dense products: with `Y = K⁻¹ W_A` and
+    /// `Z = D_AA⁻¹ Yᵀ`, `P_A = K⁻¹ − Y Z`, `s_A = −Y D_AA⁻¹ g0_A`, and the gaps of all
+    /// contacts `Wᵀ P_A = (K⁻¹ W)ᵀ − D_{:,A} Z` (`D_{:,A} = Wᵀ Y`).
     fn build_active_set(&self, closed: &[bool]) -> Result<ActiveSet> {
         let (n, nc) = (self.n, self.n_contacts);
         let act: Vec<usize> = (0..nc).filter(|&c| closed[c]).collect();
         let na = act.len();
-        // D_AA⁻¹ applied to [W_Aᵀ K⁻¹ | g0_A]: solve column by column
         let d_aa: Vec<f64> = act
             .iter()
             .flat_map(|&a| act.iter().map(move |&c| (a, c)))
             .map(|(a, c)| self.delassus[a * nc + c])
             .collect();
-        // rows of W_Aᵀ K⁻¹ (na × n) = (K⁻¹ W_A)ᵀ since K is symmetric
-        let mut force_map = vec![0.0; na * n]; // −D_AA⁻¹ W_Aᵀ K⁻¹
-        for j in 0..n {
-            let rhs: Vec<f64> = act.iter().map(|&a| self.compliance_w[j * nc + a]).collect();
-            let sol = solve_small(&d_aa, &rhs, 1e-13).ok_or_else(|| self.dependent_error())?;
-            for r in 0..na {
-                force_map[r * n + j] = -sol[r];
-            }
+        let kw = MatRef::from_row_major_slice(&self.compliance_w, n, nc);
+        let y = Mat::<f64>::from_fn(n, na, |i, r| kw[(i, act[r])]);
+        // [Z | D_AA⁻¹ g0_A] with one factorisation
+        let mut rhs = Mat::<f64>::zeros(na, n + 1);
+        rhs.as_mut().subcols_mut(0, n).copy_from(y.transpose());
+        for (r, &a) in act.iter().enumerate() {
+            rhs[(r, n)] = self.gap[a];
         }
-        let g_a: Vec<f64> = act.iter().map(|&a| self.gap[a]).collect();
-        let force_offset: Vec<f64> = solve_small(&d_aa, &g_a, 1e-13)
-            .ok_or_else(|| self.dependent_error())?
-            .into_iter()
-            .map(|v| -v)
+        let sol = solve_small_lu_columns(&d_aa, rhs.as_ref(), 1e-13)
+            .map_err(|_| self.dependent_error())?;
+        let z = sol.as_ref().subcols(0, n);
+        // force_map = −Z (λ_A = force_map · b + force_offset)
+        let force_offset: Vec<f64> = (0..na).map(|r| -sol[(r, n)]).collect();
+        let stiffness_inverse = MatRef::from_row_major_slice(&self.stiffness_inverse, n, n);
+        let compliance = stiffness_inverse - &y * z;
+        let offset: Vec<f64> = (0..n)
+            .map(|i| (0..na).map(|r| y[(i, r)] * force_offset[r]).sum())
             .collect();
-        // P_A = K⁻¹ + K⁻¹ W_A (force_map), s_A = K⁻¹ W_A force_offset
-        let mut compliance = self.stiffness_inverse.clone();
-        let mut offset = vec![0.0; n];
-        for i in 0..n {
-            for (r, &a) in act.iter().enumerate() {
-                let kw = self.compliance_w[i * nc + a];
-                for j in 0..n {
-                    compliance[i * n + j] += kw * force_map[r * n + j];
-                }
-                offset[i] += kw * force_offset[r];
-            }
-        }
+        let d = MatRef::from_row_major_slice(&self.delassus, nc, nc);
+        let d_ca = Mat::<f64>::from_fn(nc, na, |c, r| d[(c, act[r])]);
+        let gaps = kw.transpose() - &d_ca * z;
         let mut indicator = vec![0.0; nc * n];
         let mut indicator_offset = vec![0.0; nc];
+        let mut row_of = vec![usize::MAX; nc];
+        act.iter().enumerate().for_each(|(r, &a)| row_of[a] = r);
         for c in 0..nc {
-            if let Some(r) = act.iter().position(|&a| a == c) {
-                indicator[c * n..(c + 1) * n].copy_from_slice(&force_map[r * n..(r + 1) * n]);
+            let row = &mut indicator[c * n..(c + 1) * n];
+            if row_of[c] != usize::MAX {
+                let r = row_of[c];
+                row.iter_mut()
+                    .enumerate()
+                    .for_each(|(j, v)| *v = -z[(r, j)]);
                 indicator_offset[c] = force_offset[r];
             } else {
                 // gap of an open contact: Wᵀ (P_A b + s_A) + g0
-                for j in 0..n {
-                    indicator[c * n + j] = (0..n)
-                        .map(|i| self.w[i * nc + c] * compliance[i * n + j])
-                        .sum();
-                }
+                row.iter_mut()
+                    .enumerate()
+                    .for_each(|(j, v)| *v = gaps[(c, j)]);
                 indicator_offset[c] =
-                    self.gap[c] + (0..n).map(|i| self.w[i * nc + c] * offset[i]).sum::<f64>();
+                    self.gap[c] + (0..na).map(|r| d_ca[(c, r)] * force_offset[r]).sum::<f64>();
             }
         }
         Ok(ActiveSet {
             closed: closed.to_vec(),
-            compliance,
+            compliance: row_major(compliance.as_ref()),
             offset,
             indicator,
             indicator_offset,
@@ -250,4 +259,10 @@ impl StaticContact {
     fn dependent_error(&self) -> Error {
         Error::Singular("the Delassus matrix of the closed contacts is singular: the gap gradients W of the closed contacts are linearly dependent".into())
     }
+}
+
+/// A dense matrix as a row-major vector.
+fn row_major(m: MatRef<'_, f64>) -> Vec<f64> {
+    let (r, c) = (m.nrows(), m.ncols());
+    (0..r * c).map(|e| m[(e / c, e % c)]).collect()
 }

@@ -233,55 +233,93 @@ impl RedistributedMsHbm {
         Ok((r, integration, b))
     }
 
-    /// `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`.
+    /// `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`, computed block row by block row: with
+    /// `S_mc = Σ_A Γ_A[m, c] P_A` (one pass over the active sets per row `m`), the block
+    /// `(m, cos_k)` is `S_{m,cos_k} Re G_k − S_{m,sin_k} Im G_k` and `(m, sin_k)` is
+    /// `S_{m,cos_k} Im G_k + S_{m,sin_k} Re G_k` (`G_0` real). That is `(4H + 1)(2H + 1)`
+    /// products of `n × n` matrices whatever the number of active sets, which grows with
+    /// the samples and the contacts.
     fn jacobian_matrix(&self, integration: &Integration) -> Mat<f64> {
+        use faer::linalg::matmul::matmul;
+        use faer::reborrow::ReborrowMut;
+        use faer::{Accum, Par};
         let f = self.condensed();
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let dim = n * nc;
         let mut jac = Mat::<f64>::identity(dim, dim);
-        let mut pg_re = vec![0.0; n * n];
-        let mut pg_im = vec![0.0; n * n];
-        for group in &integration.groups {
-            let p = &group.set.compliance;
-            for k in 0..=self.harmonics {
+        // Re G_k and Im G_k
+        let g_parts: Vec<(Mat<f64>, Mat<f64>)> = (0..=self.harmonics)
+            .map(|k| {
                 let g = f.interface_stiffness(k);
-                // P G_k (real and imaginary parts)
-                for i in 0..n {
-                    for j in 0..n {
-                        let (mut re, mut im) = (0.0, 0.0);
-                        for l in 0..n {
-                            re += p[i * n + l] * g[l * n + j].re;
-                            im += p[i * n + l] * g[l * n + j].im;
-                        }
-                        pg_re[i * n + j] = re;
-                        pg_im[i * n + j] = im;
+                (
+                    Mat::from_fn(n, n, |l, j| g[l * n + j].re),
+                    Mat::from_fn(n, n, |l, j| g[l * n + j].im),
+                )
+            })
+            .collect();
+        let mut s: Vec<Mat<f64>> = (0..nc).map(|_| Mat::zeros(n, n)).collect();
+        for m in 0..nc {
+            s.iter_mut().for_each(|s_c| s_c.fill(0.0));
+            let mut used = vec![false; nc];
+            for group in &integration.groups {
+                let p = faer::MatRef::from_row_major_slice(&group.set.compliance, n, n);
+                for (c, s_c) in s.iter_mut().enumerate() {
+                    let g = group.gram[m * nc + c];
+                    if g != 0.0 {
+                        used[c] = true;
+                        faer::zip!(s_c.as_mut(), p).for_each(|faer::unzip!(s, p)| *s += g * *p);
                     }
                 }
-                for m in 0..nc {
-                    if k == 0 {
-                        let gm = group.gram[m * nc];
-                        if gm != 0.0 {
-                            for i in 0..n {
-                                for j in 0..n {
-                                    jac[(m * n + i, j)] -= gm * pg_re[i * n + j];
-                                }
-                            }
-                        }
-                        continue;
-                    }
-                    let (cc, ss) = (2 * k - 1, 2 * k);
-                    let (gc, gs) = (group.gram[m * nc + cc], group.gram[m * nc + ss]);
-                    if gc == 0.0 && gs == 0.0 {
-                        continue;
-                    }
-                    for i in 0..n {
-                        for j in 0..n {
-                            let (re, im) = (pg_re[i * n + j], pg_im[i * n + j]);
-                            jac[(m * n + i, cc * n + j)] -= gc * re - gs * im;
-                            jac[(m * n + i, ss * n + j)] -= gc * im + gs * re;
-                        }
-                    }
+            }
+            let mut rows = jac.as_mut().subrows_mut(m * n, n);
+            if used[0] {
+                matmul(
+                    rows.rb_mut().subcols_mut(0, n),
+                    Accum::Add,
+                    &s[0],
+                    &g_parts[0].0,
+                    -1.0,
+                    Par::Seq,
+                );
+            }
+            for (k, (g_re, g_im)) in g_parts.iter().enumerate().skip(1) {
+                let (cc, ss) = (2 * k - 1, 2 * k);
+                if used[cc] {
+                    matmul(
+                        rows.rb_mut().subcols_mut(cc * n, n),
+                        Accum::Add,
+                        &s[cc],
+                        g_re,
+                        -1.0,
+                        Par::Seq,
+                    );
+                    matmul(
+                        rows.rb_mut().subcols_mut(ss * n, n),
+                        Accum::Add,
+                        &s[cc],
+                        g_im,
+                        -1.0,
+                        Par::Seq,
+                    );
+                }
+                if used[ss] {
+                    matmul(
+                        rows.rb_mut().subcols_mut(cc * n, n),
+                        Accum::Add,
+                        &s[ss],
+                        g_im,
+                        1.0,
+                        Par::Seq,
+                    );
+                    matmul(
+                        rows.rb_mut().subcols_mut(ss * n, n),
+                        Accum::Add,
+                        &s[ss],
+                        g_re,
+                        -1.0,
+                        Par::Seq,
+                    );
                 }
             }
         }
@@ -445,7 +483,7 @@ impl PeriodicProblem for RedistributedMsHbm {
         let mut q_at = |i: usize, tau: f64| -> f64 {
             let load = load_at(&b, n, h, tau, &mut basis_buf);
             match contact.solve(&load) {
-                Ok(set) => set.displacement(&load)[i],
+                Ok(set) => set.displacement_of(i, &load),
                 Err(_) => f64::NAN,
             }
         };
