@@ -13,11 +13,13 @@ fn modes_json(args: &[&str]) -> serde_json::Value {
 }
 
 #[test]
-fn json_has_the_three_lists_and_the_papers_first_frequency() {
+fn json_has_the_three_lists_the_norm_and_the_papers_first_frequency() {
     let p = example("clamped_bar.toml");
     let v = modes_json(&[&p, "--count", "30"]);
     let obj = v.as_object().unwrap();
-    assert_eq!(obj.len(), 3);
+    assert_eq!(obj.len(), 4);
+    // one contact node: the paper's Frobenius norm keeps the mass positive definite
+    assert_eq!(v["norm"], "frobenius");
     let get = |k: &str| numbers(&v[k]);
     let (o, r, e) = (
         get("original_hz"),

@@ -353,4 +353,6 @@ pub struct MassComparison {
     pub redistributed_hz: Vec<f64>,
     /// `f_redistributed / f_original − 1` per mode.
     pub relative_error: Vec<f64>,
+    /// The norm the redistribution was found in (docs/theory.md §4, "Choice of norm").
+    pub norm: crate::fe::redistribution::RedistributionNorm,
 }

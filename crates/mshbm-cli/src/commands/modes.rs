@@ -24,7 +24,8 @@ pub struct ModesArgs {
     pub count: usize,
 
     /// Print one JSON object on stdout instead of a table:
-    /// {"original_hz": [...], "redistributed_hz": [...], "relative_error": [...]}.
+    /// {"original_hz": [...], "redistributed_hz": [...], "relative_error": [...],
+    /// "norm": "frobenius" or "mass-weighted"}.
     #[arg(long)]
     pub json: bool,
 
@@ -113,6 +114,11 @@ pub fn run(args: &ModesArgs) -> Result<()> {
                 report.redistributed_hz[k],
                 report.relative_error[k]
             )?;
+        }
+        if report.norm == mshbm::fe::redistribution::RedistributionNorm::MassWeighted {
+            crate::note!(
+                "the redistributed mass is the closest in the mass-weighted norm: the paper's Frobenius norm leaves it indefinite on this mesh (docs/theory.md §4)"
+            );
         }
         if let Some(path) = &args.plot {
             crate::note!("plot written to {}", path.display());

@@ -1,15 +1,17 @@
 //! Mass redistribution (paper Section 3, eqs. 21–22; Khenous, Laborde & Renard 2008;
-//! docs/theory.md §4, (T25)–(T26)): a mass matrix `M_R` with massless contact nodes that
-//! stays as close as possible to the consistent mass `M` in the Frobenius norm (eq. 22)
-//! while keeping the total mass, the first moments (centre of gravity) and the second
-//! moments (inertia) — i.e. the kinetic energy of every affine velocity field.
+//! docs/theory.md §4, (T25)–(T32), (T120)): a mass matrix `M_R` with massless contact nodes that
+//! stays as close as possible to the consistent mass `M` while keeping the total mass, the
+//! first moments (centre of gravity) and the second moments (inertia) — i.e. the kinetic
+//! energy of every affine velocity field.
 //!
 //! The problem is posed on the *scalar* per-node mass matrix of the **unconstrained** mesh
 //! (Dirichlet DOFs are removed afterwards; docs/theory.md §4, "Where it is posed", shows
-//! why). Its KKT conditions give the closed form (docs/theory.md (T27)–(T29))
+//! why). "As close as possible" is measured in one of two norms ([`RedistributionNorm`]):
+//! the paper's Frobenius norm (eq. 22), and a mass-weighted one that changes every entry
+//! in proportion to itself. Their KKT conditions give the closed forms (T27) and (T120)
 //!
-//! `R_ij = M_ij + (Φ Λ Φᵀ)_ij` on the free pattern `F` (entries of `M` between non-contact
-//! nodes), `R_ij = 0` elsewhere, `Φ = [1, x_1, …, x_d]`,
+//! `R_ij = M_ij + w_ij (Φ Λ Φᵀ)_ij` on the free pattern `F` (entries of `M` between
+//! non-contact nodes), `R_ij = 0` elsewhere, `Φ = [1, x_1, …, x_d]`, `w_ij = 1` or `|M_ij|`,
 //!
 //! with the symmetric `(d+1)×(d+1)` multiplier `Λ` found from a `p = (d+1)(d+2)/2` linear
 //! system. Sparsity and symmetry are kept by construction.
@@ -19,14 +21,81 @@ use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
 use faer::Side;
 
-/// Redistribute the scalar (one DOF per node) mass matrix `mass` of a mesh with node
-/// `coordinates` (each of dimension 1, 2 or 3) so that the nodes in `contact_nodes` become
-/// massless (eq. 21), keeping total mass and first and second moments. Checks that the
-/// result is positive definite on the other nodes.
+/// The norm in which the redistributed mass is closest to the consistent one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RedistributionNorm {
+    /// `‖R − M‖_F` (paper eq. 22, docs/theory.md (T26)–(T27)): the correction is one
+    /// bilinear polynomial of the coordinates added to every free entry.
+    Frobenius,
+    /// `Σ (R_ij − M_ij)² / |M_ij|` (docs/theory.md (T120)): the correction scales each entry,
+    /// `R_ij = M_ij (1 + φ_iᵀ Λ φ_j)`, so it stays in proportion to the local mass; it keeps
+    /// a mass positive definite where the Frobenius correction does not (a whole face of a
+    /// 3D mesh in contact).
+    MassWeighted,
+}
+
+impl std::fmt::Display for RedistributionNorm {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            RedistributionNorm::Frobenius => "Frobenius",
+            RedistributionNorm::MassWeighted => "mass-weighted",
+        })
+    }
+}
+
+/// A redistributed scalar mass and the norm that produced it.
+#[derive(Clone, Debug)]
+pub struct Redistribution {
+    pub mass: SparseMatrix,
+    pub norm: RedistributionNorm,
+}
+
+/// Redistribute in the paper's Frobenius norm, and where that leaves the mass indefinite on
+/// the non-contact nodes, in the mass-weighted norm (docs/theory.md §4, "Choice of norm").
+/// Fails when neither is positive definite or the moment conditions cannot be met.
 pub fn redistribute_scalar_mass(
     mass: &SparseMatrix,
     coordinates: &[Vec<f64>],
     contact_nodes: &[usize],
+) -> Result<Redistribution> {
+    match redistribute_scalar_mass_in(
+        mass,
+        coordinates,
+        contact_nodes,
+        RedistributionNorm::Frobenius,
+    ) {
+        Ok(mass) => Ok(Redistribution {
+            mass,
+            norm: RedistributionNorm::Frobenius,
+        }),
+        Err(Error::Redistribution(why)) if why.contains(NOT_DEFINITE) => {
+            redistribute_scalar_mass_in(
+                mass,
+                coordinates,
+                contact_nodes,
+                RedistributionNorm::MassWeighted,
+            )
+            .map(|mass| Redistribution {
+                mass,
+                norm: RedistributionNorm::MassWeighted,
+            })
+        }
+        Err(e) => Err(e),
+    }
+}
+
+const NOT_DEFINITE: &str = "not positive definite";
+
+/// Redistribute the scalar (one DOF per node) mass matrix `mass` of a mesh with node
+/// `coordinates` (each of dimension 1, 2 or 3) so that the nodes in `contact_nodes` become
+/// massless (eq. 21), keeping total mass and first and second moments, closest to `mass`
+/// in `norm`. Checks that the result is positive definite on the other nodes.
+pub fn redistribute_scalar_mass_in(
+    mass: &SparseMatrix,
+    coordinates: &[Vec<f64>],
+    contact_nodes: &[usize],
+    norm: RedistributionNorm,
 ) -> Result<SparseMatrix> {
     let n = mass.nrows();
     if coordinates.len() != n {
@@ -92,6 +161,11 @@ pub fn redistribute_scalar_mass(
     // Targets Φᵀ M Φ, the moments of M0 (M restricted to the free pattern) and the KKT matrix.
     let mut target = vec![0.0; p];
     let mut kept = vec![0.0; p];
+    // weight of each entry's correction: 1 (Frobenius, T27) or |m_ij| (mass-weighted, T33)
+    let weight = |v: f64| match norm {
+        RedistributionNorm::Frobenius => 1.0,
+        RedistributionNorm::MassWeighted => v.abs(),
+    };
     let mut g = vec![0.0; p * p];
     for (i, j, v) in mass.iter() {
         let free = !is_contact[i] && !is_contact[j];
@@ -101,7 +175,7 @@ pub fn redistribute_scalar_mass(
             if free {
                 kept[r] += w * v;
                 for (s, &ab) in pairs.iter().enumerate() {
-                    g[r * p + s] += w * basis(i, j, ab);
+                    g[r * p + s] += w * weight(v) * basis(i, j, ab);
                 }
             }
         }
@@ -122,7 +196,8 @@ pub fn redistribute_scalar_mass(
             .iter()
             .zip(&mu)
             .map(|(&ab, m)| m * basis(i, j, ab))
-            .sum();
+            .sum::<f64>()
+            * weight(v);
         triplets.push((i, j, v + correction));
     }
     let redistributed = SparseMatrix::from_triplets(n, n, &triplets);
@@ -131,11 +206,10 @@ pub fn redistribute_scalar_mass(
     let massive: Vec<usize> = (0..n).filter(|&i| !is_contact[i]).collect();
     let block = redistributed.submatrix(&massive, &massive);
     if block.to_faer().sp_cholesky(Side::Lower).is_err() {
-        return Err(Error::Redistribution(
-            "the redistributed mass is not positive definite on the non-contact nodes; \
-             the global moment-preserving correction is too strong for this mesh (refine the mesh near the contact, or use fewer contact nodes)"
-                .into(),
-        ));
+        return Err(Error::Redistribution(format!(
+            "the redistributed mass ({norm} norm) is {NOT_DEFINITE} on the non-contact nodes; \
+             the moment-preserving correction is too strong for this mesh (more element layers behind the contact face, or fewer contact nodes)"
+        )));
     }
     Ok(redistributed)
 }

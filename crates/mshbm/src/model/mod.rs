@@ -180,6 +180,7 @@ impl Model {
             original_hz,
             redistributed_hz,
             relative_error,
+            norm: self.redistribution()?.norm,
         })
     }
 

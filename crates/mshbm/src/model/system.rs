@@ -3,7 +3,9 @@
 //! eq. 3 / eq. 23).
 
 use crate::error::{Error, Result};
-use crate::fe::redistribution::{expand_to_dofs, redistribute_scalar_mass, scalar_mass};
+use crate::fe::redistribution::{
+    expand_to_dofs, redistribute_scalar_mass, scalar_mass, Redistribution,
+};
 use crate::model::Model;
 use crate::modes::first_angular_frequency;
 use crate::sparse::SparseMatrix;
@@ -73,18 +75,23 @@ impl Model {
     pub fn mass_matrix(&self, kind: MassKind) -> Result<SparseMatrix> {
         match kind {
             MassKind::Consistent => Ok(self.mass.clone()),
-            MassKind::Redistributed => {
-                let scalar = scalar_mass(&self.mass, self.dofs_per_node).map_err(|why| {
-                    Error::Redistribution(format!(
-                        "{}: the mass matrix is not the same for every component of a node ({why}); redistribution needs M = m ⊗ I",
-                        self.source.display()
-                    ))
-                })?;
-                let r =
-                    redistribute_scalar_mass(&scalar, &self.coordinates, &self.contact_nodes())?;
-                Ok(expand_to_dofs(&r, self.dofs_per_node))
-            }
+            MassKind::Redistributed => Ok(expand_to_dofs(
+                &self.redistribution()?.mass,
+                self.dofs_per_node,
+            )),
         }
+    }
+
+    /// The redistributed scalar (per-node) mass with massless contact nodes, and the norm
+    /// it was found in ([`redistribute_scalar_mass`], docs/theory.md §4).
+    pub fn redistribution(&self) -> Result<Redistribution> {
+        let scalar = scalar_mass(&self.mass, self.dofs_per_node).map_err(|why| {
+            Error::Redistribution(format!(
+                "{}: the mass matrix is not the same for every component of a node ({why}); redistribution needs M = m ⊗ I",
+                self.source.display()
+            ))
+        })?;
+        redistribute_scalar_mass(&scalar, &self.coordinates, &self.contact_nodes())
     }
 
     /// Build the [`System`] for a mass choice (see the module docs).
