@@ -8,7 +8,9 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use faer::Side;
-use mshbm::fe::redistribution::{moments, scalar_mass};
+use mshbm::fe::redistribution::{moments, scalar_mass, RedistributionNorm};
+use mshbm::harmonic::Quadrature;
+use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
 use mshbm::model::file::{load_model, parse_model};
 use mshbm::solve::{solve_periodic, SolveSettings};
@@ -16,6 +18,10 @@ use mshbm::{MassKind, Model};
 
 fn example() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/cantilever_stop/model.toml")
+}
+
+fn block_example() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/block_3d/model.toml")
 }
 
 fn parse(text: &str) -> mshbm::Result<Model> {
@@ -134,7 +140,7 @@ fn assert_redistribution(m: &Model, case: &str) {
     let consistent = m.mass_matrix(MassKind::Consistent).unwrap();
     let redistributed = m.mass_matrix(MassKind::Redistributed).unwrap();
     let d = m.dofs_per_node;
-    let contact_nodes = m.contact_nodes();
+    let contact_nodes: std::collections::HashSet<usize> = m.contact_nodes().into_iter().collect();
     for (i, j, v) in redistributed.iter() {
         if contact_nodes.contains(&(i / d)) || contact_nodes.contains(&(j / d)) {
             assert_eq!(v, 0.0, "{case}: entry ({i}, {j}) of a contact node");
@@ -153,6 +159,11 @@ fn assert_redistribution(m: &Model, case: &str) {
         moments(&scalar_mass(&consistent, d).unwrap(), &m.coordinates),
         moments(&scalar_mass(&redistributed, d).unwrap(), &m.coordinates),
     );
+    let length = m
+        .coordinates
+        .iter()
+        .flatten()
+        .fold(0.0f64, |l, x| l.max(x.abs()));
     // an independent evaluation of the same moments, per component, from the DOF matrix
     for c in 0..d {
         let phi = |p: usize, a: usize| if a == 0 { 1.0 } else { m.coordinates[p][a - 1] };
@@ -164,10 +175,12 @@ fn assert_redistribution(m: &Model, case: &str) {
                     .map(|(i, j, v)| phi(i / d, a) * v * phi(j / d, b))
                     .sum();
                 let k = a * (d + 1) + b;
-                let scale = before[k].abs().max(before[0] * 1e-3);
-                assert!((direct - after[k]).abs() <= 1e-12 * scale.max(before[0]));
+                // relative to the moment's natural size: mass × (largest coordinate)^degree
+                let degree = i32::from(a > 0) + i32::from(b > 0);
+                let scale = before[k].abs().max(before[0] * length.powi(degree));
+                assert!((direct - after[k]).abs() <= 1e-12 * scale);
                 assert!(
-                    (after[k] - before[k]).abs() <= 1e-12 * scale.max(before[0]),
+                    (after[k] - before[k]).abs() <= 1e-12 * scale,
                     "{case}: moment ({a}, {b}) {} vs {}",
                     after[k],
                     before[k]
@@ -188,33 +201,30 @@ fn assert_redistribution(m: &Model, case: &str) {
     );
 }
 
-/// A 7 × 7 contact patch under a block is redistributed; a whole face of 110 contact nodes
-/// is not (the global moment-preserving correction makes the rest indefinite, refused with
-/// the reason; issue 16 leaves this open).
+/// A 7 × 7 contact patch under a block is redistributed in the paper's Frobenius norm; a
+/// whole face of 110 contact nodes is not (that correction makes the rest indefinite) and
+/// is redistributed in the mass-weighted norm (docs/theory.md (T120)), with every property.
 #[test]
 fn redistribution_on_the_cantilever_the_cracked_beam_and_a_block() {
     let cantilever = load_model(&example(), &[]).unwrap();
     let beam = parse(BEAM).unwrap();
     let block = parse(BLOCK).unwrap();
     assert_eq!(block.contacts.len(), 49);
-    for (m, case) in [
-        (&cantilever, "cantilever"),
-        (&beam, "cracked beam"),
-        (&block, "block"),
-    ] {
-        assert_redistribution(m, case);
-    }
     let whole_face = parse(&BLOCK.replace(
         "box = [[2.0, 8.0], [2.0, 8.0], [0.0, 0.0]]",
         "box = [[0.5, 10.0], [0.0, 10.0], [0.0, 0.0]]",
     ))
     .unwrap();
     assert_eq!(whole_face.contacts.len(), 110);
-    let e = whole_face
-        .mass_matrix(MassKind::Redistributed)
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("not positive definite"), "{e}");
+    for (m, case, norm) in [
+        (&cantilever, "cantilever", RedistributionNorm::Frobenius),
+        (&beam, "cracked beam", RedistributionNorm::Frobenius),
+        (&block, "block", RedistributionNorm::Frobenius),
+        (&whole_face, "whole face", RedistributionNorm::MassWeighted),
+    ] {
+        assert_redistribution(m, case);
+        assert_eq!(m.redistribution().unwrap().norm, norm, "{case}");
+    }
     // the shifts of the lowest eigenfrequencies (reported in examples/cantilever_stop/README.md)
     let shift = cantilever.compare_masses(3).unwrap();
     println!(
@@ -226,6 +236,72 @@ fn redistribution_on_the_cantilever_the_cracked_beam_and_a_block() {
         "{:?}",
         shift.relative_error
     );
+}
+
+/// The 3D example: a plate whose whole bottom face (1056 nodes but the clamped edge) rests
+/// on a foundation. Its mass is redistributed (mass-weighted norm) with every property, and
+/// the shifts of its lowest eigenfrequencies are those its README reports. On a coarser
+/// mesh of the same file (72 contact nodes, gap 0.3 µm, to keep the suite fast) the
+/// redistributed MS-HBM converges from a cold start where the plate presses on the
+/// foundation: no penetration at any sample, forces ≥ 0, complementarity to round-off.
+#[test]
+fn the_block_example_redistributes_its_face_and_solves() {
+    let block = load_model(&block_example(), &[]).unwrap();
+    assert_eq!(
+        (block.contacts.len(), block.n_dofs()),
+        (1056, 3 * 33 * 33 * 5)
+    );
+    assert_redistribution(&block, "block_3d");
+    assert_eq!(
+        block.redistribution().unwrap().norm,
+        RedistributionNorm::MassWeighted
+    );
+    let shift = block.compare_masses(3).unwrap();
+    println!(
+        "block_3d: {:?} Hz -> {:?} Hz ({:?})",
+        shift.original_hz, shift.redistributed_hz, shift.relative_error
+    );
+    assert!(shift.relative_error.iter().all(|e| e.abs() < 3e-3));
+
+    let text = std::fs::read_to_string(block_example()).unwrap();
+    let coarse = parse(
+        &text
+            .replace("divisions = [32, 32, 4]", "divisions = [8, 8, 4]")
+            .replace("gap = 0.002", "gap = 0.0003"),
+    )
+    .unwrap();
+    assert_eq!(coarse.contacts.len(), 72);
+    assert!(coarse.contacts.iter().all(|c| c.gap == 0.0003));
+    // 500 Hz (a quarter of f1): the tip region presses on the foundation for part of the
+    // period; the sampled quadrature converges in 16 iterations (the exact one stalls near
+    // 1e-7 here, as issue 17 records for refined meshes)
+    let s = solve_periodic(
+        &coarse,
+        &MethodSettings::Redistributed {
+            options: RedistributedOptions {
+                quadrature: Quadrature::Sampled,
+                ..RedistributedOptions::new(3)
+            },
+            stability: Default::default(),
+        },
+        500.0,
+        &SolveSettings {
+            stability: false,
+            ..SolveSettings::default()
+        },
+    )
+    .unwrap();
+    assert!(s.outcome.converged);
+    let mut closed = 0;
+    for c in &s.solution.contacts {
+        let scale = c.force.iter().fold(1e-12f64, |m, v| m.max(v.abs()));
+        for (g, l) in c.gap.iter().zip(&c.force) {
+            assert!(*g >= -1e-12 && *l >= -1e-12 * scale, "gap {g}, force {l}");
+            assert!((g * l).abs() <= 1e-12 * scale, "complementarity {g} * {l}");
+        }
+        closed += usize::from(c.force.iter().any(|&l| l > 0.0));
+    }
+    assert!(closed >= 5, "only {closed} contacts ever close");
 }
 
 /// With gaps no response reaches, the redistributed MS-HBM's solution is the linear
