@@ -162,14 +162,10 @@ impl StaticContact {
     /// active set's data.
     pub fn solve(&mut self, b: &[f64]) -> Result<Rc<ActiveSet>> {
         let nc = self.n_contacts;
-        let q: Vec<f64> = (0..nc)
-            .map(|c| {
-                self.gap[c]
-                    + (0..self.n)
-                        .map(|i| self.compliance_w[i * nc + c] * b[i])
-                        .sum::<f64>()
-            })
-            .collect();
+        // q = g0 + (K⁻¹W)ᵀ b as one matrix–vector product
+        let kw = MatRef::from_row_major_slice(&self.compliance_w, self.n, nc);
+        let wkb = kw.transpose() * faer::ColRef::from_slice(b);
+        let q: Vec<f64> = (0..nc).map(|c| self.gap[c] + wkb[c]).collect();
         let sol = self
             .solver
             .solve(&q)

@@ -478,6 +478,16 @@ impl PeriodicProblem for RedistributedMsHbm {
             q_s.push(q);
         }
         let taus = self.sampling.taus.clone();
+        // the N displacements at every switching time, once for all DOFs (a switch is an
+        // extremum candidate of every DOF, and each costs a static contact solve)
+        let mut q_switches = Vec::with_capacity(integration.switches.len());
+        for s in &integration.switches {
+            let load = load_at(&b, n, h, s.tau, &mut basis_buf);
+            q_switches.push(match self.contact.solve(&load) {
+                Ok(set) => set.displacement(&load),
+                Err(_) => vec![f64::NAN; n],
+            });
+        }
         let contact = &mut self.contact;
         // exact displacement of N-DOF i at τ (the time signal, not the truncated series)
         let mut q_at = |i: usize, tau: f64| -> f64 {
@@ -491,10 +501,9 @@ impl PeriodicProblem for RedistributedMsHbm {
             let samples: Vec<f64> = q_s.iter().map(|q| q[i]).collect();
             let mut mx = refine_extremum(&taus, &samples, 1.0, |t| q_at(i, t));
             let mut mn = refine_extremum(&taus, &samples, -1.0, |t| q_at(i, t));
-            for s in &integration.switches {
-                let v = q_at(i, s.tau);
-                mx = mx.max(v);
-                mn = mn.min(v);
+            for q in &q_switches {
+                mx = mx.max(q[i]);
+                mn = mn.min(q[i]);
             }
             (mx, mn)
         };
