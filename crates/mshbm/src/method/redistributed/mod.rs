@@ -272,54 +272,24 @@ impl RedistributedMsHbm {
                     }
                 }
             }
+            // rows m of the Jacobian, block column `col`: += sign · S · G
             let mut rows = jac.as_mut().subrows_mut(m * n, n);
+            let mut add = |col: usize, s: &Mat<f64>, g: &Mat<f64>, sign: f64| {
+                let block = rows.rb_mut().subcols_mut(col * n, n);
+                matmul(block, Accum::Add, s, g, sign, Par::Seq);
+            };
             if used[0] {
-                matmul(
-                    rows.rb_mut().subcols_mut(0, n),
-                    Accum::Add,
-                    &s[0],
-                    &g_parts[0].0,
-                    -1.0,
-                    Par::Seq,
-                );
+                add(0, &s[0], &g_parts[0].0, -1.0);
             }
             for (k, (g_re, g_im)) in g_parts.iter().enumerate().skip(1) {
                 let (cc, ss) = (2 * k - 1, 2 * k);
                 if used[cc] {
-                    matmul(
-                        rows.rb_mut().subcols_mut(cc * n, n),
-                        Accum::Add,
-                        &s[cc],
-                        g_re,
-                        -1.0,
-                        Par::Seq,
-                    );
-                    matmul(
-                        rows.rb_mut().subcols_mut(ss * n, n),
-                        Accum::Add,
-                        &s[cc],
-                        g_im,
-                        -1.0,
-                        Par::Seq,
-                    );
+                    add(cc, &s[cc], g_re, -1.0);
+                    add(ss, &s[cc], g_im, -1.0);
                 }
                 if used[ss] {
-                    matmul(
-                        rows.rb_mut().subcols_mut(cc * n, n),
-                        Accum::Add,
-                        &s[ss],
-                        g_im,
-                        1.0,
-                        Par::Seq,
-                    );
-                    matmul(
-                        rows.rb_mut().subcols_mut(ss * n, n),
-                        Accum::Add,
-                        &s[ss],
-                        g_re,
-                        -1.0,
-                        Par::Seq,
-                    );
+                    add(cc, &s[ss], g_im, 1.0);
+                    add(ss, &s[ss], g_re, -1.0);
                 }
             }
         }
