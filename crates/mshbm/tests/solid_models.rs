@@ -459,6 +459,85 @@ fn matrices_models_take_contacts_and_node_sets_from_files() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Gaps per node of an obstacle interface: the linear formula `g0 = gap + gradient · x` (a
+/// tilted obstacle) gives every contact the gap its node's coordinates give, and a
+/// `gap_file` of `node, gap` rows gives each contact its row; a missing node, a bad row or
+/// both ways at once are refused naming the file and the field.
+#[test]
+fn obstacle_gaps_per_node_from_a_formula_or_a_file() {
+    let tilted = BLOCK.replacen(
+        "gap = 0.01",
+        "gap = 0.01\ngap_gradient = [0.001, -0.002, 0.0]",
+        1,
+    );
+    let m = parse(&tilted).unwrap();
+    assert_eq!(m.contacts.len(), 49);
+    for (c, nodes) in m.contacts.iter().zip(&m.interfaces[0].nodes) {
+        let x = &m.coordinates[nodes[0]];
+        let expected = 0.01 + 0.001 * x[0] - 0.002 * x[1];
+        assert!((c.gap - expected).abs() < 1e-15, "{} vs {expected}", c.gap);
+    }
+    // not under tempfile_dir(): the test that uses it removes it when done
+    let dir = std::env::temp_dir().join(format!("mshbm-gaps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let uniform = parse(BLOCK).unwrap();
+    let nodes: Vec<usize> = uniform.interfaces[0].nodes.iter().map(|n| n[0]).collect();
+    // one gap per node, listed backwards so that the order of the file does not matter
+    let rows: String = nodes
+        .iter()
+        .rev()
+        .map(|&p| format!("{p}, {}\n", 1e-3 * p as f64))
+        .collect();
+    std::fs::write(dir.join("gaps.csv"), format!("# node, gap\n{rows}")).unwrap();
+    let from_file = BLOCK.replacen("gap = 0.01", "gap_file = \"gaps.csv\"", 1);
+    std::fs::write(dir.join("block.toml"), &from_file).unwrap();
+    let m = load_model(&dir.join("block.toml"), &[]).unwrap();
+    for (c, &p) in m.contacts.iter().zip(&nodes) {
+        assert_eq!(c.gap, 1e-3 * p as f64);
+    }
+    assert!(m.input_files.iter().any(|f| f.ends_with("gaps.csv")));
+    let refused = |csv: &str, toml: &str, expect: &[&str]| {
+        std::fs::write(dir.join("gaps.csv"), csv).unwrap();
+        std::fs::write(dir.join("block.toml"), toml).unwrap();
+        let e = load_model(&dir.join("block.toml"), &[])
+            .unwrap_err()
+            .to_string();
+        for piece in expect {
+            assert!(e.contains(piece), "{piece:?} not in {e}");
+        }
+    };
+    let first = nodes[0];
+    refused(
+        &rows.replacen(&format!("{first}, "), "77777, ", 1),
+        &from_file,
+        &[
+            "interfaces[0].gap_file",
+            &format!("no gap for node {first}"),
+        ],
+    );
+    refused(
+        &format!("{rows}{first}, nan\n"),
+        &from_file,
+        &["gaps.csv, line", "not a finite number"],
+    );
+    refused(
+        &format!("{rows}{first}, 0.1\n"),
+        &from_file,
+        &["given twice"],
+    );
+    refused(
+        &rows,
+        &from_file.replacen("gap_file", "gap = 0.1\ngap_file", 1),
+        &["interfaces[0]", "not both"],
+    );
+    refused(
+        &rows,
+        &tilted.replacen("[0.001, -0.002, 0.0]", "[1.0]", 1),
+        &["interfaces[0].gap_gradient"],
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A fresh directory under the system's temporary directory.
 fn tempfile_dir() -> PathBuf {
     let dir = std::env::temp_dir().join(format!("mshbm-solid-models-{}", std::process::id()));

@@ -334,7 +334,7 @@ pub fn parse_model_with(
         }
         "solid" => {
             let f: super::solid::SolidFile = deserialize(value, path)?;
-            super::solid::solid_model(f, path, &options.limits)
+            super::solid::solid_model(f, path, &mut InputFiles::new(path, options))
         }
         "dropped_bar" => {
             let f: DroppedBarFile = deserialize(value, path)?;
@@ -772,12 +772,15 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
     dirichlet_sorted.sort_unstable();
     let (interface_contacts, interfaces) = super::solid::build_interfaces(
         &f.interfaces,
-        &coordinates,
-        &node_sets,
-        f.mesh.dofs_per_node,
-        &dirichlet_sorted,
+        &super::solid::InterfaceMesh {
+            x: &coordinates,
+            node_sets: &node_sets,
+            dofs_per_node: f.mesh.dofs_per_node,
+            dirichlet: &dirichlet_sorted,
+        },
         contacts.len(),
         path,
+        inputs,
     )?;
     contacts.extend(interface_contacts);
     let model = Model {

@@ -34,7 +34,10 @@
 //! kind = "obstacle"             # every node of `set` against a rigid plane: g = n·u + g0
 //! set = "stop"
 //! normal = [0.0, 1.0]           # unit normal from the obstacle into the body
-//! gap = 0.05
+//! gap = 0.05                    # g0 [mm], the same at every node; or per node:
+//! # gap_gradient = [0.0, 0.0]   #   g0 = gap + gradient · x (a tilted or stepped plane)
+//! # gap_file = "gaps.csv"       #   instead of `gap`: lines `node, g0`, one per node
+//! #                             #   (for pairs: the node of the first set)
 //! # [[interfaces]] kind = "pairs", sets = ["crack_a", "crack_b"], normal = [1.0, 0.0]:
 //! # node-to-node contacts g = n·(u_b − u_a) + g0 between coinciding nodes of the two sets
 //! [damping]                     # as for the other kinds
@@ -51,7 +54,8 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::fe::solid::{assemble_plane, assemble_solid, ElasticMaterial, PlaneKind};
 use crate::fe::structured::{cuboid, face_weights, rectangle, Crack2d, StructuredMesh};
-use crate::limits::Limits;
+use crate::model::excerpt::data_excerpt;
+use crate::model::input_files::InputFiles;
 use crate::model::interface::{node_pair_contacts, obstacle_contacts, unit_normal};
 use crate::model::{ContactInterface, Damping, Model, MODEL_BYTES_PER_DOF};
 
@@ -145,7 +149,9 @@ pub(super) struct InterfaceSection {
     set: Option<String>,
     sets: Option<[String; 2]>,
     normal: Vec<f64>,
-    gap: f64,
+    gap: Option<f64>,
+    gap_gradient: Option<Vec<f64>>,
+    gap_file: Option<String>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq)]
@@ -156,7 +162,8 @@ enum InterfaceKind {
 }
 
 /// Build the model of a `kind = "solid"` file (module docs).
-pub(super) fn solid_model(f: SolidFile, path: &Path, limits: &Limits) -> Result<Model> {
+pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) -> Result<Model> {
+    let limits = *inputs.limits();
     let s = &f.solid;
     let d = s.dimension;
     let field = |name: &str| format!("solid.{name}");
@@ -336,16 +343,19 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, limits: &Limits) -> Result<
     }
     let (contacts, interfaces) = build_interfaces(
         &f.interfaces,
-        &mesh.coordinates,
-        &mesh.node_sets,
-        d,
-        &dirichlet,
+        &InterfaceMesh {
+            x: &mesh.coordinates,
+            node_sets: &mesh.node_sets,
+            dofs_per_node: d,
+            dirichlet: &dirichlet,
+        },
         0,
         path,
+        inputs,
     )?;
     let model = Model {
         source: PathBuf::from(path),
-        input_files: vec![],
+        input_files: std::mem::take(&mut inputs.read),
         name: f.name.clone().unwrap_or_else(|| format!("{d}D solid")),
         mass,
         stiffness,
@@ -438,25 +448,37 @@ fn add_node_sets(
     Ok(())
 }
 
+/// What the `[[interfaces]]` of a model are built on.
+pub(super) struct InterfaceMesh<'a> {
+    /// Node coordinates.
+    pub x: &'a [Vec<f64>],
+    pub node_sets: &'a crate::fe::mesh::NodeSets,
+    pub dofs_per_node: usize,
+    /// Fixed DOFs, sorted.
+    pub dirichlet: &'a [usize],
+}
+
 /// The contacts of the `[[interfaces]]` and their groups, numbered from `first` (the
-/// contacts the model has before them); `dirichlet` sorted.
+/// contacts the model has before them).
 pub(super) fn build_interfaces(
     sections: &[InterfaceSection],
-    x: &[Vec<f64>],
-    node_sets: &crate::fe::mesh::NodeSets,
-    d: usize,
-    dirichlet: &[usize],
+    mesh: &InterfaceMesh,
     first: usize,
     path: &Path,
+    inputs: &mut InputFiles,
 ) -> Result<(Vec<crate::model::Contact>, Vec<ContactInterface>)> {
+    let &InterfaceMesh {
+        x,
+        node_sets,
+        dofs_per_node: d,
+        dirichlet,
+    } = mesh;
     let mut contacts = Vec::new();
     let mut interfaces = Vec::new();
     for (k, sec) in sections.iter().enumerate() {
         let field = |f: &str| format!("interfaces[{k}].{f}");
         let normal = unit_normal(&sec.normal, d, path, &field("normal"))?;
-        if !sec.gap.is_finite() {
-            return Err(Error::field(path, field("gap"), "must be finite"));
-        }
+        let gap_of = interface_gaps(sec, x, d, path, &format!("interfaces[{k}]"), inputs)?;
         let get = |name: &str, f: String| {
             node_sets
                 .get(name)
@@ -472,7 +494,10 @@ pub(super) fn build_interfaces(
                     ));
                 };
                 let nodes = get(name, field("set"))?;
-                let gaps = vec![sec.gap; nodes.len()];
+                let gaps = nodes
+                    .iter()
+                    .map(|&p| gap_of(p))
+                    .collect::<Result<Vec<_>>>()?;
                 (
                     obstacle_contacts(nodes, &normal, &gaps, d),
                     nodes.iter().map(|&p| vec![p]).collect(),
@@ -512,7 +537,10 @@ pub(super) fn build_interfaces(
                         format!("{a:?} has {} nodes, {b:?} has {}", na.len(), nb.len()),
                     ));
                 }
-                let gaps = vec![sec.gap; pairs.len()];
+                let gaps = pairs
+                    .iter()
+                    .map(|&(p, _)| gap_of(p))
+                    .collect::<Result<Vec<_>>>()?;
                 (
                     node_pair_contacts(&pairs, &normal, &gaps, d),
                     pairs.iter().map(|&(p, q)| vec![p, q]).collect(),
@@ -548,6 +576,98 @@ pub(super) fn build_interfaces(
         });
     }
     Ok((contacts, interfaces))
+}
+
+/// The initial gap `g0` of an interface's node (the first node of a pair), from exactly one
+/// of: `gap` (uniform), `gap` plus `gap_gradient` (`g0 = gap + gradient · x`, the linear
+/// formula of a tilted or offset obstacle), or `gap_file` (CSV lines `node, gap`, one for
+/// every node of the interface; `#` starts a comment line).
+fn interface_gaps<'a>(
+    sec: &InterfaceSection,
+    x: &'a [Vec<f64>],
+    d: usize,
+    path: &'a Path,
+    table: &str,
+    inputs: &mut InputFiles,
+) -> Result<Box<dyn Fn(usize) -> Result<f64> + 'a>> {
+    let field = |f: &str| format!("{table}.{f}");
+    match (sec.gap, &sec.gap_gradient, &sec.gap_file) {
+        (Some(g0), gradient, None) => {
+            if !g0.is_finite() {
+                return Err(Error::field(path, field("gap"), "must be finite"));
+            }
+            let gradient = match gradient {
+                None => vec![0.0; d],
+                Some(v) if v.len() == d && v.iter().all(|c| c.is_finite()) => v.clone(),
+                Some(_) => {
+                    return Err(Error::field(
+                        path,
+                        field("gap_gradient"),
+                        format!("expected {d} finite numbers (d g0 / d x per axis)"),
+                    ))
+                }
+            };
+            Ok(Box::new(move |p| {
+                Ok(g0 + gradient.iter().zip(&x[p]).map(|(a, b)| a * b).sum::<f64>())
+            }))
+        }
+        (None, None, Some(file)) => {
+            let field = field("gap_file");
+            let (shown, text) = inputs.read(&field, file)?;
+            let mut gaps = HashMap::new();
+            for (line_number, line) in text.lines().enumerate() {
+                let line = line.trim();
+                if line.is_empty() || line.starts_with('#') {
+                    continue;
+                }
+                let at = |what: String| {
+                    Error::field(
+                        path,
+                        field.clone(),
+                        format!("{}, line {}: {what}", shown.display(), line_number + 1),
+                    )
+                };
+                let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+                let [node, gap] = fields[..] else {
+                    return Err(at(format!(
+                        "expected `node, gap`, found {} fields",
+                        fields.len()
+                    )));
+                };
+                let node: usize = node.parse().map_err(|_| {
+                    at(format!(
+                        "node {} is not a non-negative integer",
+                        data_excerpt(node)
+                    ))
+                })?;
+                let gap: f64 = gap
+                    .parse()
+                    .ok()
+                    .filter(|g: &f64| g.is_finite())
+                    .ok_or_else(|| {
+                        at(format!("gap {} is not a finite number", data_excerpt(gap)))
+                    })?;
+                if gaps.insert(node, gap).is_some() {
+                    return Err(at(format!("node {node} given twice")));
+                }
+            }
+            let shown = shown.display().to_string();
+            Ok(Box::new(move |p| {
+                gaps.get(&p).copied().ok_or_else(|| {
+                    Error::field(
+                        path,
+                        field.clone(),
+                        format!("{shown} has no gap for node {p} of the interface"),
+                    )
+                })
+            }))
+        }
+        _ => Err(Error::field(
+            path,
+            table.to_string(),
+            "give `gap` (optionally with `gap_gradient`) or `gap_file`, not both",
+        )),
+    }
 }
 
 fn spread(x: &[Vec<f64>], nodes: &[usize], axis: usize) -> f64 {
