@@ -370,9 +370,86 @@ impl SparseCholesky {
     }
 }
 
+/// The Schur complement `S = A − Bᵀ C⁻¹ B` of a symmetric block matrix `[[A, Bᵀ], [B, C]]`
+/// with `C` positive definite (`A` `n × n`, `B` `m × n`, `C` `m × m`): for a stiffness
+/// partitioned into `L` (`A = K_LL`) and `N` (`C = K_NN`, `B = K_NL`) DOFs, the stiffness of
+/// `L` when `N` follows statically (docs/theory.md (T121)). `S − A` is nonzero only among the
+/// columns of `B` that hold entries; that block is formed densely (one sparse Cholesky of
+/// `C`, one solve per such column, one product). `None` when `C` is not positive
+/// definite.
+pub fn schur_complement(
+    a: &SparseMatrix,
+    b: &SparseMatrix,
+    c: &SparseMatrix,
+) -> Option<SparseMatrix> {
+    let n = a.nrows();
+    let mut coupled_position = vec![usize::MAX; n];
+    let mut coupled = Vec::new();
+    for (_, j, _) in b.iter() {
+        if coupled_position[j] == usize::MAX {
+            coupled_position[j] = coupled.len();
+            coupled.push(j);
+        }
+    }
+    let mut triplets = a.triplets();
+    if !coupled.is_empty() {
+        let mut b_coupled = Mat::<f64>::zeros(b.nrows(), coupled.len());
+        for (i, j, v) in b.iter() {
+            b_coupled[(i, coupled_position[j])] += v;
+        }
+        let llt = c.to_faer().sp_cholesky(faer::Side::Lower).ok()?;
+        let mut z = b_coupled.clone();
+        faer::linalg::solvers::SolveCore::solve_in_place_with_conj(
+            &llt,
+            faer::Conj::No,
+            z.as_mut(),
+        );
+        let correction = b_coupled.transpose() * &z;
+        for (p, &i) in coupled.iter().enumerate() {
+            for (q, &j) in coupled.iter().enumerate() {
+                triplets.push((i, j, -correction[(p, q)]));
+            }
+        }
+    }
+    Some(SparseMatrix::from_triplets(n, n, &triplets))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `A − Bᵀ C⁻¹ B` against the dense formula (faer LU inverse) on a spring chain split
+    /// into `L = {0, 1, 3}` and `N = {2, 4}`; a `C` that is not positive definite is refused.
+    #[test]
+    fn schur_complement_matches_the_dense_formula() {
+        // chain 0–1–2–3–4 of springs 1, 2, 3, 4, grounded at 0 by 5
+        let k = [(0, 1, 1.0), (1, 2, 2.0), (2, 3, 3.0), (3, 4, 4.0)];
+        let mut t = vec![(0, 0, 5.0)];
+        for &(i, j, v) in &k {
+            t.extend([(i, i, v), (j, j, v), (i, j, -v), (j, i, -v)]);
+        }
+        let full = SparseMatrix::from_triplets(5, 5, &t);
+        let (l, n) = ([0, 1, 3], [2, 4]);
+        let (a, b, c) = (
+            full.submatrix(&l, &l),
+            full.submatrix(&n, &l),
+            full.submatrix(&n, &n),
+        );
+        let s = schur_complement(&a, &b, &c).unwrap().to_dense();
+        let (bd, cd) = (b.to_dense(), c.to_dense());
+        let c_inv_b = faer::linalg::solvers::Solve::solve(&cd.partial_piv_lu(), &bd);
+        let reference = a.to_dense() - bd.transpose() * &c_inv_b;
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((s[(i, j)] - reference[(i, j)]).abs() < 1e-13, "({i}, {j})");
+            }
+        }
+        // node 4 hangs on node 3 only: relaxed, it adds nothing to node 3's stiffness
+        // (series 2–3 between nodes 1 and 3 through node 2: 2·3/5)
+        assert!((s[(2, 2)] - 1.2).abs() < 1e-13, "{}", s[(2, 2)]);
+        let singular = SparseMatrix::from_triplets(2, 2, &[(0, 0, 1.0), (1, 1, -1.0)]);
+        assert!(schur_complement(&a, &b, &singular).is_none());
+    }
 
     #[test]
     fn triplets_sum_duplicates_and_blocks_extract() {

@@ -127,8 +127,8 @@ pub fn export_files(model: &Model) -> Vec<ExportedFile> {
     let d = &model.damping;
     let _ = writeln!(
         t,
-        "\n[damping]\nalpha = {:?}\nbeta = {:?}\nbeta_linear = {:?}",
-        d.alpha, d.beta, d.beta_linear
+        "\n[damping]\nalpha = {:?}\nbeta = {:?}\nbeta_linear = {:?}\nbeta_condensed = {:?}",
+        d.alpha, d.beta, d.beta_linear, d.beta_condensed
     );
     if let Some(z) = d.first_mode_ratio {
         let _ = writeln!(t, "first_mode_ratio = {z:?}");

@@ -24,6 +24,9 @@
 //!   beta = 0.0
 //!   beta_linear = 0.0     # stiffness-proportional on the linear part only (K without the
 //!                         # contact-node rows/columns): allowed by the redistributed method
+//!   beta_condensed = 0.0  # [s] stiffness-proportional on the linear part with the contact
+//!                         # nodes relaxed, K_LL − K_LN K_NN⁻¹ K_NL: does not pin the nodes
+//!                         # next to a contact, as beta_linear does (docs/theory.md (T121))
 //!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
 //!   ```
 //! * `kind = "matrices"` — a general model from Matrix Market files (paths relative to the
@@ -106,6 +109,8 @@ pub(super) struct DampingSection {
     beta: f64,
     #[serde(default)]
     beta_linear: f64,
+    #[serde(default)]
+    beta_condensed: f64,
     first_mode_ratio: Option<f64>,
 }
 
@@ -115,6 +120,7 @@ impl From<DampingSection> for Damping {
             alpha: d.alpha,
             beta: d.beta,
             beta_linear: d.beta_linear,
+            beta_condensed: d.beta_condensed,
             first_mode_ratio: d.first_mode_ratio,
         }
     }

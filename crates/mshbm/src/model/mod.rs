@@ -96,6 +96,12 @@ pub struct Damping {
     /// damps the high modes that contact excites while keeping the massless contact DOFs
     /// free of damping (`C_NN = C_NL = 0`), so the redistributed method accepts it.
     pub beta_linear: f64,
+    /// Stiffness-proportional coefficient (s) of the linear part with the contact nodes
+    /// relaxed: `C_LL += beta_condensed · (K_LL − K_LN K_NN⁻¹ K_NL)` (docs/theory.md (T121)).
+    /// Unlike `beta_linear` it does not ground the nodes next to the contact nodes (it
+    /// vanishes on rigid motions); with `alpha` it is exact Rayleigh damping of the
+    /// redistributed system's contact-free modes. `C_NN = C_NL = 0`.
+    pub beta_condensed: f64,
     /// If set, `alpha = 2 ζ ω₁` with `ω₁` the first eigenfrequency (rad/s) of the system
     /// with the mass the method uses and all contacts open, so that the first mode has
     /// modal damping ratio `ζ` (mass-proportional damping gives `ζ_k = alpha / (2 ω_k)`).
@@ -554,6 +560,7 @@ impl Model {
             ("damping.alpha", d.alpha),
             ("damping.beta", d.beta),
             ("damping.beta_linear", d.beta_linear),
+            ("damping.beta_condensed", d.beta_condensed),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::field(

@@ -68,6 +68,10 @@ pub struct System {
     pub alpha: f64,
     /// Stiffness-proportional damping coefficient used (s).
     pub beta: f64,
+    /// Coefficient (s) of the condensed-stiffness damping `β_c S` on the linear part
+    /// ([`crate::model::Damping::beta_condensed`]); the Floquet analysis picks its reduced
+    /// basis by it.
+    pub beta_condensed: f64,
 }
 
 impl Model {
@@ -150,6 +154,22 @@ impl Model {
                 &SparseMatrix::from_triplets(n_free, n_free, &t),
             );
         }
+        if self.damping.beta_condensed != 0.0 {
+            let t = condensed_stiffness_triplets(
+                &stiffness,
+                &linear_dofs,
+                &nonlinear_dofs,
+                self.damping.beta_condensed,
+                &self.source,
+            )?;
+            let n_free = stiffness.nrows();
+            damping = SparseMatrix::linear_combination(
+                1.0,
+                &damping,
+                1.0,
+                &SparseMatrix::from_triplets(n_free, n_free, &t),
+            );
+        }
         if let Some(c) = &self.damping_matrix {
             damping = SparseMatrix::linear_combination(
                 1.0,
@@ -209,6 +229,7 @@ impl Model {
             constant_load,
             alpha,
             beta,
+            beta_condensed: self.damping.beta_condensed,
         })
     }
 }
@@ -223,4 +244,32 @@ impl System {
     pub fn system_dof(&self, model_dof: usize) -> Option<usize> {
         self.model_dof.iter().position(|&d| d == model_dof)
     }
+}
+
+/// The triplets of `β S` on the `L` DOFs (system numbering), with `S = K_LL − K_LN K_NN⁻¹ K_NL`
+/// the stiffness of the linear part when the contact nodes `N` follow statically
+/// (docs/theory.md (T121)).
+fn condensed_stiffness_triplets(
+    stiffness: &SparseMatrix,
+    linear_dofs: &[usize],
+    nonlinear_dofs: &[usize],
+    beta: f64,
+    source: &std::path::Path,
+) -> Result<Vec<(usize, usize, f64)>> {
+    let s = crate::sparse::schur_complement(
+        &stiffness.submatrix(linear_dofs, linear_dofs),
+        &stiffness.submatrix(nonlinear_dofs, linear_dofs),
+        &stiffness.submatrix(nonlinear_dofs, nonlinear_dofs),
+    )
+    .ok_or_else(|| {
+        Error::field(
+            source,
+            "damping.beta_condensed",
+            "needs K_NN (the stiffness of the contact nodes with every other DOF held) \
+             positive definite",
+        )
+    })?;
+    Ok(s.iter()
+        .map(|(i, j, v)| (linear_dofs[i], linear_dofs[j], beta * v))
+        .collect())
 }

@@ -248,6 +248,8 @@ impl GeneralMsHbm {
             constant_load: vec![0.0; n],
             alpha: system.alpha,
             beta: system.beta,
+            // the subsystem has no linear part
+            beta_condensed: 0.0,
         };
         let condensation =
             ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
