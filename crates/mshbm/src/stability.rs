@@ -216,6 +216,27 @@ pub struct ReducedSystem {
     w_ref: f64,
     /// Fixed-interface modes in the basis (`None`: full space).
     modes: Option<usize>,
+    /// `K_NN⁻¹` (`n_N × n_N`) when the basis is built on the relaxed interface: the
+    /// active-set compliance enters as `P_A − K_NN⁻¹` (see [`InterfaceModes`]).
+    compliance_shift: Option<Mat<f64>>,
+}
+
+/// The interface condition of the modes of a reduced Floquet basis (docs/theory.md (T82),
+/// (T121)). The basis is `[Φ_m, Ψ̃]` with `Φ_m` the lowest modes of `(K_b, M̄)` and `Ψ̃` the
+/// part of `K_b⁻¹ K_LN` that is `M̄`-orthogonal to them, so that `Φ_mᵀ K_b Ψ̃ = 0`; the
+/// dropped damping coupling `Φ_mᵀ C Ψ̃` vanishes when `C = α M̄ + β K_b`. Every active set
+/// is `K_eff(A) = K_b − K_LN (P_A − D) K_NL` with `D = 0` (held) or `K_NN⁻¹` (relaxed).
+#[derive(Clone, Copy, Debug)]
+pub enum InterfaceModes<'a> {
+    /// `K_b = K_LL`, the contact DOFs held: exact coupling for `α M̄ + β_L K_LL`.
+    Held,
+    /// `K_b = S = K_LL − K_LN K_NN⁻¹ K_NL`, the contact DOFs following statically: exact
+    /// coupling for `α M̄ + β_c S` (`damping.beta_condensed`), whose damping ratios are
+    /// then those of the modes themselves.
+    Relaxed {
+        /// `K_NN`.
+        k_nn: &'a SparseMatrix,
+    },
 }
 
 impl ReducedSystem {
@@ -238,16 +259,38 @@ impl ReducedSystem {
         ))
     }
 
-    /// The basis of `modes` fixed-interface modes with the statically condensed interface
-    /// correction (see the type's docs). `stiffness = K_LL` must be positive definite (the
-    /// structure held with the contact DOFs fixed, true when the whole structure is held).
+    /// The basis of `modes` interface modes (held or relaxed, [`InterfaceModes`]) with the
+    /// statically condensed interface correction (see the type's docs). `stiffness = K_LL`
+    /// must be positive definite (the structure held with the contact DOFs fixed, true when
+    /// the whole structure is held).
     pub fn reduced(
         mass: &SparseMatrix,
         damping: &SparseMatrix,
         stiffness: &SparseMatrix,
         k_nl: &SparseMatrix,
         modes: usize,
+        interface: InterfaceModes,
     ) -> Result<Self> {
+        let (stiffness, compliance_shift) = match interface {
+            InterfaceModes::Held => (stiffness.clone(), None),
+            InterfaceModes::Relaxed { k_nn } => {
+                let not_pd = || {
+                    Error::Singular(
+                        "the stiffness of the contact DOFs with the rest held (K_NN) is not positive definite".into(),
+                    )
+                };
+                let s =
+                    crate::sparse::schur_complement(stiffness, k_nl, k_nn).ok_or_else(not_pd)?;
+                let llt = k_nn
+                    .to_faer()
+                    .sp_cholesky(faer::Side::Lower)
+                    .map_err(|_| not_pd())?;
+                let mut inverse = Mat::<f64>::identity(k_nn.nrows(), k_nn.ncols());
+                llt.solve_in_place(inverse.as_mut());
+                (s, Some(inverse))
+            }
+        };
+        let stiffness = &stiffness;
         let modes = crate::modes::lowest_modes(mass, stiffness, modes)?;
         let phi = &modes.shapes;
         // Ψ = K_LL⁻¹ K_LN, then its part M̄-orthogonal to Φ
@@ -280,14 +323,16 @@ impl ReducedSystem {
                 0.0
             }
         });
-        Ok(Self::balanced(
+        let mut reduced = Self::balanced(
             phi.transpose() * (damping.to_faer() * phi),
             lambda,
             coupling.transpose().to_owned(),
             coupling,
             residual,
             Some(phi.ncols()),
-        ))
+        );
+        reduced.compliance_shift = compliance_shift;
+        Ok(reduced)
     }
 
     fn balanced(
@@ -313,6 +358,7 @@ impl ReducedSystem {
             residual,
             w_ref,
             modes,
+            compliance_shift: None,
         }
     }
 
@@ -330,7 +376,10 @@ impl ReducedSystem {
     /// (`n_N × n_N`, row-major), the residual coordinates condensed.
     pub fn effective_stiffness(&self, compliance: &[f64]) -> Result<Mat<f64>> {
         let n = self.coupling.nrows();
-        let p = Mat::<f64>::from_fn(n, n, |i, j| compliance[i * n + j]);
+        let mut p = Mat::<f64>::from_fn(n, n, |i, j| compliance[i * n + j]);
+        if let Some(d) = &self.compliance_shift {
+            p -= d;
+        }
         let mut k_eff = &self.minv_stiffness - &self.minv_coupling * (&p * &self.coupling);
         if let Some((k_psi, b_psi)) = &self.residual {
             // K_ηξ = −B_ηᵀ P B_ξ, K_ξξ = Ψ̃ᵀ K_LL Ψ̃ − B_ξᵀ P B_ξ (η has unit mass)

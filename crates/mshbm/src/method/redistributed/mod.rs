@@ -37,7 +37,7 @@ use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
-use crate::stability::{self, ReducedSystem, StabilityOptions};
+use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
 use quadrature::{integrate, load_at, Integration};
 
 /// Largest linear part for which the dense monodromy matrix is formed.
@@ -380,7 +380,15 @@ impl RedistributedMsHbm {
                     &format!("the reduced Floquet basis of {m} modes of {nl} linear DOFs"),
                     stability::reduced_basis_bytes(nl, m),
                 )?;
-                ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, k_nl, m)?
+                // the basis whose damping coupling vanishes for the model's damping
+                let interface = if self.system.beta_condensed != 0.0 {
+                    InterfaceModes::Relaxed {
+                        k_nn: &blocks.nn.stiffness,
+                    }
+                } else {
+                    InterfaceModes::Held
+                };
+                ReducedSystem::reduced(&lin.mass, &lin.damping, &lin.stiffness, k_nl, m, interface)?
             }
         };
         let system = Rc::new(system);
