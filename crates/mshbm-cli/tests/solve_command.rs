@@ -157,8 +157,9 @@ fn dof_out_of_range_is_an_error() {
 }
 
 /// `--from-solution` starts Newton from the unknowns that `solve --json` writes: at the same
-/// frequency Newton has nothing left to do; a solution with another number of harmonics is
-/// refused naming the file; the file is an input that no output may overwrite.
+/// frequency Newton has nothing left to do; a solution with another number of harmonics
+/// starts Newton with harmonics added or dropped, a malformed one is refused naming the
+/// file; the file is an input that no output may overwrite.
 #[test]
 fn a_solve_starts_from_an_earlier_solution() {
     let dir = tempfile::tempdir().unwrap();
@@ -207,18 +208,39 @@ fn a_solve_starts_from_an_earlier_solution() {
         &f,
     ]);
     assert_success(&near);
+    // another H: the H = 5 solution padded with zero harmonics starts Newton at H = 10
     let other_h = run(&[
         &bar(),
         "--frequency",
         "60000",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--no-stability",
         "--harmonics",
-        "3",
+        "10",
         "--from-solution",
         &f,
+        "--json",
     ]);
-    let err = one_error_line(&other_h);
+    assert_success(&other_h);
+    assert_eq!(
+        stdout_json(&other_h)["unknowns"].as_array().unwrap().len(),
+        21
+    );
+    // unknowns that are no whole number of signals are refused naming the file
+    let mut broken = v.clone();
+    broken["unknowns"].as_array_mut().unwrap().pop();
+    let broken_file = dir.path().join("broken.json");
+    std::fs::write(&broken_file, broken.to_string()).unwrap();
+    let err = one_error_line(&run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--from-solution",
+        &broken_file.display().to_string(),
+    ]));
     assert!(
-        err.contains("solution.json") && err.contains("5 harmonics"),
+        err.contains("broken.json") && err.contains("whole number"),
         "{err}"
     );
     let overwrite = run(&[

@@ -600,3 +600,83 @@ fn hbm_aft_on_the_cantilever_converges_as_the_penalty_grows_toward_the_ms_hbm() 
     // and much closer than the softest penalty
     assert!((max - ms_max).abs() < 0.2 * (tips[0].0 - ms_max).abs());
 }
+
+/// `simulate --steady-state` on the redistributed scheme reports the redistributed MS-HBM's
+/// unknowns (the harmonics of every contact-node DOF, harmonic-major, docs/theory.md (T8)),
+/// so that `solve --from-solution` can start from a simulation: with the contacts far open
+/// (the linear response, exact at H = 3) they equal the MS-HBM's to the time step's error,
+/// for both components of every contact node.
+#[test]
+fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
+    use mshbm::integrate::steady_state::{
+        simulate_to_steady_state, Periodicity, SteadyStateOptions,
+    };
+    use mshbm::integrate::{Integrator, Scheme, Settings};
+    let mut m = load_model(&example(), &["solid.divisions=[40, 4]".to_string()]).unwrap();
+    m.contacts.iter_mut().for_each(|c| c.gap = 1000.0);
+    m.damping = mshbm::model::Damping {
+        alpha: 52.0,
+        beta_condensed: 5e-6,
+        ..Default::default()
+    };
+    let (f, h, steps) = (700.0, 3, 2000);
+    let omega = 2.0 * std::f64::consts::PI * f;
+    let hb = solve_periodic(
+        &m,
+        &MethodSettings::redistributed(h),
+        f,
+        &SolveSettings {
+            stability: false,
+            ..SolveSettings::default()
+        },
+    )
+    .unwrap();
+    let x = hb.solution.unknowns.clone().unwrap();
+    let system = m.system(MassKind::Redistributed).unwrap();
+    let mut it = Integrator::new(
+        &system,
+        &Settings {
+            dt: 1.0 / (f * steps as f64),
+            scheme: Scheme::PositionNewmark,
+            omega: Some(omega),
+            energy_offset: 0.0,
+        },
+    )
+    .unwrap();
+    let (q, v) =
+        mshbm::simulation::state_from_solution(&system, &m, &hb.solution, omega, &example())
+            .unwrap();
+    it.set_state(0.0, &q, &v).unwrap();
+    let options = SteadyStateOptions {
+        steps_per_period: steps,
+        max_periods: 50,
+        tolerance: 1e-6,
+        harmonics: h,
+        response_dof: hb.solution.contact_dofs[0],
+        periodicity: Periodicity::Response,
+    };
+    let ti = simulate_to_steady_state(&mut it, omega, &options, |_| {}, |_, _| {}).unwrap();
+    assert!(ti.periodic);
+    let y = ti
+        .solution
+        .unknowns
+        .expect("unknowns of the redistributed scheme");
+    assert_eq!(y.len(), x.len());
+    let n_n = system.nonlinear_dofs.len();
+    assert_eq!(x.len(), n_n * (2 * h + 1));
+    let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let worst = x
+        .iter()
+        .zip(&y)
+        .fold(0.0f64, |a, (p, q)| a.max((p - q).abs()));
+    assert!(
+        worst < 1e-4 * scale,
+        "unknowns differ by {worst:.2e} (scale {scale:.2e})"
+    );
+    // both components take part: the x (axial) motion of the lower face is not negligible
+    let axial = (0..n_n)
+        .filter(|&i| system.model_dof[system.nonlinear_dofs[i]] % 2 == 0)
+        .map(|i| x[n_n + i].abs())
+        .fold(0.0f64, f64::max);
+    assert!(axial > 1e-3 * scale, "axial {axial:.2e} vs {scale:.2e}");
+}

@@ -159,8 +159,9 @@ pub struct SimulateArgs {
 
     /// Print one JSON object on stdout: with --steady-state the same object as
     /// `mshbm solve --json` (method "time-integration") plus "periodic", "periodicity",
-    /// "tolerance", "period_change", "period_scatter", "periods_simulated"; otherwise a
-    /// summary of the run.
+    /// "tolerance", "period_change", "period_scatter", "periods_simulated" (with the
+    /// redistributed scheme also "unknowns", the redistributed MS-HBM's, so that
+    /// `solve --from-solution` can start from it); otherwise a summary of the run.
     #[arg(long)]
     pub json: bool,
 }

@@ -314,9 +314,11 @@ pub struct SolveArgs {
     #[arg(long, value_name = "N", default_value_t = 32, requires = "vtk")]
     pub vtk_samples: usize,
 
-    /// Start Newton from this solution (the `--json` output of an earlier `solve` of the
-    /// same model, method and number of harmonics, at this or another frequency) instead of
-    /// the linear response.
+    /// Start Newton from this solution instead of the linear response: the `--json` output
+    /// of an earlier `solve` of the same model and method, at this or another frequency and
+    /// with any number of harmonics (added ones start at zero, surplus ones are dropped), or
+    /// of `simulate --steady-state --json` (redistributed scheme) for the redistributed
+    /// MS-HBM.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["sweep_from", "start"])]
     pub from_solution: Option<PathBuf>,
 
@@ -484,14 +486,15 @@ fn solve_start(args: &SolveArgs) -> Result<SolveStart> {
         let Some(x) = s.unknowns else {
             bail!("{}: the solution has no `unknowns` (written by an older mshbm, or not by `solve --json`); solve it again with `solve --json`", path.display());
         };
-        if s.harmonics != args.harmonics {
+        // another H: the same signals with harmonics added (zero) or dropped
+        let Some(x) = mshbm::harmonic::with_harmonics(&x, s.harmonics, args.harmonics) else {
             bail!(
-                "{}: the solution has {} harmonics, --harmonics is {}",
+                "{}: its {} unknowns are not a whole number of {}-harmonic signals",
                 path.display(),
-                s.harmonics,
-                args.harmonics
+                x.len(),
+                s.harmonics
             );
-        }
+        };
         return Ok(SolveStart::Unknowns(x));
     }
     if let Some(from) = args.sweep_from {

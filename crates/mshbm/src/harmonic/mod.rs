@@ -103,6 +103,22 @@ pub fn evaluate(coef: &[f64], tau: f64) -> f64 {
     v
 }
 
+/// The coefficient vector `x` of `n` signals with `from` harmonics, ordered harmonic-major
+/// (docs/theory.md (T8)), as the vector of the same signals with `to` harmonics: the higher
+/// harmonics set to zero (`to > from`) or dropped (`to < from`). `None` when `x.len()` is not
+/// a multiple of `2 from + 1`. A start for Newton at another `H` from a solved one.
+pub fn with_harmonics(x: &[f64], from: usize, to: usize) -> Option<Vec<f64>> {
+    let blocks = n_coefficients(from);
+    if x.len() % blocks != 0 {
+        return None;
+    }
+    let n = x.len() / blocks;
+    let mut out = vec![0.0; n * n_coefficients(to)];
+    let kept = n * n_coefficients(from.min(to));
+    out[..kept].copy_from_slice(&x[..kept]);
+    Some(out)
+}
+
 /// Weight `w_m` of coefficient `m` (1 for the mean, 2 otherwise).
 pub fn weight(m: usize) -> f64 {
     if m == 0 {
@@ -372,6 +388,30 @@ pub fn add_interval_gram(harmonics: usize, a: f64, b: f64, gram: &mut [f64]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Padding keeps every signal's values at every instant (the added harmonics are zero);
+    /// truncating keeps its lower harmonics; a length that is no whole number of blocks is
+    /// refused.
+    #[test]
+    fn changing_the_number_of_harmonics_keeps_the_signals() {
+        // two signals (n = 2), H = 2, harmonic-major: coefficient c of signal i at 2c + i
+        let x: Vec<f64> = (0..10).map(|k| 0.3 * k as f64 - 1.0).collect();
+        let signal = |x: &[f64], h: usize, i: usize| -> Vec<f64> {
+            (0..n_coefficients(h)).map(|c| x[2 * c + i]).collect()
+        };
+        let padded = with_harmonics(&x, 2, 5).unwrap();
+        assert_eq!(padded.len(), 2 * 11);
+        for i in 0..2 {
+            for tau in [0.0, 0.7, 2.9, 5.5] {
+                let a = evaluate(&signal(&x, 2, i), tau);
+                let b = evaluate(&signal(&padded, 5, i), tau);
+                assert!((a - b).abs() < 1e-14, "{a} vs {b}");
+            }
+        }
+        let truncated = with_harmonics(&x, 2, 1).unwrap();
+        assert_eq!(truncated, x[..6].to_vec());
+        assert_eq!(with_harmonics(&x[..9], 2, 3), None);
+    }
 
     #[test]
     fn dft_inverts_synthesis() {

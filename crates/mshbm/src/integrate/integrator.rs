@@ -29,6 +29,8 @@ pub struct Integrator {
     stiffness_nm: SparseMatrix,
     model_dof: Vec<usize>,
     n_model_dofs: usize,
+    /// [`System::nonlinear_dofs`], whose harmonics are the redistributed MS-HBM's unknowns.
+    nonlinear_dofs: Vec<usize>,
 }
 
 impl Integrator {
@@ -158,6 +160,7 @@ impl Integrator {
             scheme: settings.scheme,
             model_dof: system.model_dof.clone(),
             n_model_dofs: system.n_model_dofs,
+            nonlinear_dofs: system.nonlinear_dofs.clone(),
         };
         integrator.set_state(0.0, &vec![0.0; n], &vec![0.0; n])?;
         Ok(integrator)
@@ -395,6 +398,12 @@ impl Integrator {
     /// DOFs with mass (the state that a periodic orbit must repeat).
     pub fn massive_dofs(&self) -> &[usize] {
         &self.data.massive
+    }
+
+    /// The system's nonlinear DOFs `N` (every DOF of the contact nodes), in the order of the
+    /// redistributed MS-HBM's unknowns.
+    pub fn nonlinear_dofs(&self) -> &[usize] {
+        &self.nonlinear_dofs
     }
 
     /// DOFs without mass (statically determined).

@@ -56,7 +56,7 @@ use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 
 use super::periodicity::PeriodRecord;
 pub use super::periodicity::Periodicity;
-use super::Integrator;
+use super::{Integrator, Scheme};
 
 /// Settings of [`simulate_to_steady_state`].
 #[derive(Clone, Debug, PartialEq)]
@@ -205,6 +205,15 @@ pub fn simulate_to_steady_state(
     let mut gaps = vec![vec![0.0; n]; nc];
     let mut forces = vec![vec![0.0; n]; nc];
     let mut response = vec![0.0; n];
+    // the N displacements over the period, for the redistributed MS-HBM's unknowns (its
+    // model: the same redistributed system)
+    let unknown_dofs: &[usize] = if integrator.scheme() == Scheme::PositionNewmark {
+        integrator.nonlinear_dofs()
+    } else {
+        &[]
+    };
+    let unknown_dofs = unknown_dofs.to_vec();
+    let mut nonlinear = vec![vec![0.0; n]; unknown_dofs.len()];
     // the records of the last MAX_SUBHARMONIC periods (state: and of the initial state)
     let mut records: VecDeque<PeriodRecord> = VecDeque::with_capacity(MAX_SUBHARMONIC + 1);
     if options.periodicity == Periodicity::State {
@@ -229,6 +238,9 @@ pub fn simulate_to_steady_state(
                 forces[c][j] = integrator.forces()[c];
             }
             response[j] = response_system.map_or(0.0, |d| integrator.q()[d]);
+            for (series, &dof) in nonlinear.iter_mut().zip(&unknown_dofs) {
+                series[j] = integrator.q()[dof];
+            }
             integrator.step()?;
             on_step(integrator);
             for (k, &i) in massive.iter().enumerate() {
@@ -344,7 +356,19 @@ pub fn simulate_to_steady_state(
                 min: rmin,
             },
             stability: None,
-            unknowns: None,
+            unknowns: (!unknown_dofs.is_empty()).then(|| {
+                // harmonic-major (docs/theory.md (T8)): coefficient c of DOF i at c·n_N + i
+                let coefficients: Vec<Vec<f64>> =
+                    nonlinear.iter().map(|s| sampling.dft(s)).collect();
+                let n_n = coefficients.len();
+                let mut x = vec![0.0; n_n * (2 * h + 1)];
+                for (i, c) in coefficients.iter().enumerate() {
+                    for (m, v) in c.iter().enumerate() {
+                        x[m * n_n + i] = *v;
+                    }
+                }
+                x
+            }),
         },
         periodic,
         periodicity: options.periodicity,
