@@ -243,3 +243,43 @@ fn a_diagram_starts_where_newton_from_the_linear_response_fails() {
         auto.solution.response.max
     );
 }
+
+/// The default start's continuation reports its progress: the branch observer sees every
+/// accepted point, numbered 1, 2, …, from the start at half the target to the target, with
+/// the target as the frequency it runs to (the CLI prints from it during long solves).
+#[test]
+fn the_fallback_continuation_reports_every_point() {
+    use std::sync::{Arc, Mutex};
+    let model = cantilever();
+    let f = 900.0;
+    let seen: Arc<Mutex<Vec<(f64, usize, f64)>>> = Arc::default();
+    let record = seen.clone();
+    let s = solve_periodic(
+        &model,
+        &MethodSettings::redistributed(5),
+        f,
+        &SolveSettings {
+            branch_observer: Some(mshbm::solve::BranchObserver::new(move |hz, n, to| {
+                record.lock().unwrap().push((hz, n, to))
+            })),
+            ..settings(SolveStart::Auto)
+        },
+    )
+    .unwrap();
+    assert!(s.outcome.converged);
+    let SolvePath::Continuation { points, .. } = s.path else {
+        panic!("{:?}", s.path)
+    };
+    let seen = seen.lock().unwrap();
+    assert_eq!(seen.len(), points);
+    assert!(seen
+        .iter()
+        .enumerate()
+        .all(|(k, p)| p.1 == k + 1 && p.2 == f));
+    assert!((seen[0].0 - f / 2.0).abs() < 1e-9 * f, "{:?}", seen[0]);
+    assert!(
+        (seen[points - 1].0 - f).abs() < 1e-9 * f,
+        "{:?}",
+        seen[points - 1]
+    );
+}

@@ -476,6 +476,7 @@ pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> 
         limits: args.model.limits(),
         observer: Some(crate::progress::newton_progress()),
         start: solve_start(args)?,
+        branch_observer: Some(crate::progress::branch_progress()),
     })
 }
 

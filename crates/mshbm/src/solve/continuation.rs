@@ -45,6 +45,54 @@ fn options(omega_from: f64, omega_to: f64, newton: &NewtonOptions) -> Continuati
     options
 }
 
+/// Watches the branch a solve traces ([`crate::solve::SolveStart::Auto`]'s fallback and
+/// [`crate::solve::SolveStart::Sweep`]): called at each accepted point with its frequency
+/// [Hz], the number of points so far and the frequency the branch runs to [Hz]. The
+/// library never prints; a caller may show progress from here.
+#[derive(Clone)]
+pub struct BranchObserver(pub std::sync::Arc<dyn Fn(f64, usize, f64) + Send + Sync>);
+
+impl BranchObserver {
+    /// An observer calling `f(frequency_hz, points, toward_hz)`.
+    pub fn new(f: impl Fn(f64, usize, f64) + Send + Sync + 'static) -> Self {
+        BranchObserver(std::sync::Arc::new(f))
+    }
+}
+
+impl std::fmt::Debug for BranchObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("BranchObserver")
+    }
+}
+
+/// `trace_branch` from `omega_from` to `omega_to`, calling `observer` at each accepted
+/// point and `on_point` with it.
+fn trace_observed(
+    problem: &mut dyn PeriodicProblem,
+    omega_from: f64,
+    omega_to: f64,
+    newton: &NewtonOptions,
+    observer: Option<&BranchObserver>,
+    mut on_point: impl FnMut(&crate::continuation::arclength::BranchPoint),
+) -> Result<crate::continuation::arclength::Branch> {
+    let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+    let mut count = 0;
+    trace_branch(
+        problem,
+        &options(omega_from, omega_to, newton),
+        |_, event| {
+            if let Event::Point(p) = event {
+                count += 1;
+                if let Some(o) = observer {
+                    (o.0)(hz(p.omega), count, hz(omega_to));
+                }
+                on_point(p);
+            }
+            Ok(())
+        },
+    )
+}
+
 /// Continue the branch up to `omega` from the first of `ω/2, ω/4, …, ω/64` at which Newton
 /// from the linear response converges (docs/theory.md (T118));
 /// `None` when no start converges or every branch from a converged start stops before
@@ -53,10 +101,11 @@ pub(super) fn from_below(
     problem: &mut dyn PeriodicProblem,
     omega: f64,
     newton: &NewtonOptions,
+    observer: Option<&BranchObserver>,
 ) -> Result<Option<ContinuationStart>> {
     for fraction in start_fractions() {
         let omega_from = omega * fraction;
-        let branch = trace_branch(problem, &options(omega_from, omega, newton), |_, _| Ok(()))?;
+        let branch = trace_observed(problem, omega_from, omega, newton, observer, |_| {})?;
         match branch.stop {
             StopReason::StartFailed(_) => continue,
             StopReason::ReachedEnd => {
@@ -97,18 +146,12 @@ pub(super) fn sweep(
     omega_to: f64,
     omega: f64,
     newton: &NewtonOptions,
+    observer: Option<&BranchObserver>,
 ) -> Result<Crossings> {
     let mut points: Vec<(f64, Vec<f64>)> = Vec::new();
-    let branch = trace_branch(
-        problem,
-        &options(omega_from, omega_to, newton),
-        |_, event| {
-            if let Event::Point(p) = event {
-                points.push((p.omega, p.x.clone()));
-            }
-            Ok(())
-        },
-    )?;
+    let branch = trace_observed(problem, omega_from, omega_to, newton, observer, |p| {
+        points.push((p.omega, p.x.clone()))
+    })?;
     let scale = problem.length_scale();
     let mut solutions: Vec<NewtonOutcome> = Vec::new();
     for pair in points.windows(2) {
@@ -145,5 +188,5 @@ pub fn start_by_continuation(
     omega: f64,
     newton: &NewtonOptions,
 ) -> Result<Option<Vec<f64>>> {
-    Ok(from_below(problem, omega, newton)?.map(|found| found.outcome.x))
+    Ok(from_below(problem, omega, newton, None)?.map(|found| found.outcome.x))
 }

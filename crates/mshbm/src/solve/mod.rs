@@ -18,7 +18,7 @@
 
 mod continuation;
 
-pub use continuation::{start_by_continuation, ContinuationStart, Crossings};
+pub use continuation::{start_by_continuation, BranchObserver, ContinuationStart, Crossings};
 
 use crate::error::{Error, Result};
 use crate::frd::response_dof;
@@ -63,6 +63,9 @@ pub struct SolveSettings {
     pub observer: Option<NewtonObserver>,
     /// Where Newton starts (default [`SolveStart::Auto`]).
     pub start: SolveStart,
+    /// Called at every accepted point of a branch the solve traces (the fallback of
+    /// [`SolveStart::Auto`], [`SolveStart::Sweep`]): progress of long continuations.
+    pub branch_observer: Option<BranchObserver>,
 }
 
 impl Default for SolveSettings {
@@ -74,6 +77,7 @@ impl Default for SolveSettings {
             limits: Limits::default(),
             observer: None,
             start: SolveStart::Auto,
+            branch_observer: None,
         }
     }
 }
@@ -222,7 +226,12 @@ fn find(
             if first.converged {
                 return Ok((first, SolvePath::Direct, vec![]));
             }
-            match continuation::from_below(problem, omega, &settings.newton)? {
+            match continuation::from_below(
+                problem,
+                omega,
+                &settings.newton,
+                settings.branch_observer.as_ref(),
+            )? {
                 Some(found) => Ok((found.outcome, found.path, vec![])),
                 None => Ok((first, SolvePath::Direct, vec![])),
             }
@@ -235,6 +244,7 @@ fn find(
                 two_pi * to_hz,
                 omega,
                 &settings.newton,
+                settings.branch_observer.as_ref(),
             )?;
             let path = SolvePath::Continuation {
                 from_hz: *from_hz,
