@@ -140,8 +140,8 @@ impl Panel<'_> {
     }
 }
 
-/// The two axes along which the (first) nodes of `interface` spread, largest first, when
-/// it spans a face: the second spread is more than 1e-6 of the first.
+/// The two axes along which the (first) nodes of `interface` spread most, in coordinate
+/// order, when it spans a face: the second spread is more than 1e-6 of the first.
 pub fn face_axes(model: &Model, interface: &ContactInterface) -> Option<(usize, usize)> {
     let d = model.coordinates.first().map_or(0, Vec::len);
     let spread = |a: usize| {
@@ -157,7 +157,8 @@ pub fn face_axes(model: &Model, interface: &ContactInterface) -> Option<(usize, 
     let mut axes: Vec<(usize, f64)> = (0..d).map(|a| (a, spread(a))).collect();
     axes.sort_by(|a, b| b.1.total_cmp(&a.1));
     match axes[..] {
-        [(a, sa), (b, sb), ..] if sb > 1e-6 * sa => Some((a, b)),
+        // in the order of the coordinates (x across, then y, then z)
+        [(a, sa), (b, sb), ..] if sb > 1e-6 * sa => Some((a.min(b), a.max(b))),
         _ => None,
     }
 }
@@ -274,6 +275,11 @@ where
     Ok(())
 }
 
+/// A frequency for a title: at most four decimals, no trailing rounding noise.
+fn hz_label(hz: f64) -> String {
+    format!("{}", (hz * 1e4).round() / 1e4)
+}
+
 /// A panel of either kind.
 enum AnyPanel<'a> {
     SpaceTime(Panel<'a>),
@@ -311,7 +317,8 @@ pub fn save_contact_map(model: &Model, s: &PeriodicSolution, path: &Path) -> Res
             let titles = [
                 format!(
                     "{}: fraction of the period in contact at {} Hz",
-                    i.name, s.frequency_hz
+                    i.name,
+                    hz_label(s.frequency_hz)
                 ),
                 format!("{}: largest contact force", i.name),
             ];
@@ -327,7 +334,11 @@ pub fn save_contact_map(model: &Model, s: &PeriodicSolution, path: &Path) -> Res
             continue;
         }
         panels.push(AnyPanel::SpaceTime(Panel {
-            title: format!("{}: contact force at {} Hz", i.name, s.frequency_hz),
+            title: format!(
+                "{}: contact force at {} Hz",
+                i.name,
+                hz_label(s.frequency_hz)
+            ),
             positions: &i.positions,
             values: series.iter().map(|c| c.force.clone()).collect(),
         }));
@@ -385,8 +396,7 @@ mod tests {
              [[node_sets]]\nname = \"patch\"\nbox = [[2.0, 8.0], [2.0, 18.0], [0.0, 0.0]]\n\
              [[interfaces]]\nname = \"f\"\nkind = \"obstacle\"\nset = \"patch\"\nnormal = [0.0, 0.0, 1.0]\ngap = 0.01\n"
         ));
-        // spreads 6 (x) and 16 (y): y first
-        assert_eq!(face_axes(&face, &face.interfaces[0]), Some((1, 0)));
+        assert_eq!(face_axes(&face, &face.interfaces[0]), Some((0, 1)));
         assert_eq!(half_spacing(&[2.0, 4.0, 2.0, 6.0, 4.0]), 1.0);
         assert_eq!(half_spacing(&[3.0, 3.0]), 0.5);
     }
