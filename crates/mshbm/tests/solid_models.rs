@@ -601,6 +601,96 @@ fn hbm_aft_on_the_cantilever_converges_as_the_penalty_grows_toward_the_ms_hbm() 
     assert!((max - ms_max).abs() < 0.2 * (tips[0].0 - ms_max).abs());
 }
 
+/// The example cantilever on a coarse 40 × 4 mesh with damping `α M̄ + β_c S`, `α = 52 s⁻¹`
+/// (docs/theory.md (T121)): about 1 % on the first mode, and the high modes damped without
+/// pinning the interface.
+fn coarse_cantilever(beta_condensed: f64) -> Model {
+    let mut m = load_model(&example(), &["solid.divisions=[40, 4]".to_string()]).unwrap();
+    m.damping = mshbm::model::Damping {
+        alpha: 52.0,
+        beta_condensed,
+        ..Default::default()
+    };
+    m
+}
+
+/// The tip node's y DOF on the coarse mesh (node 40 of the 41 × 5 grid, at x = 100, y = 0).
+const COARSE_TIP: usize = 2 * 40 + 1;
+
+/// A converged solution of `m` at `f` Hz from `start`, reporting the coarse mesh's tip,
+/// without stability.
+fn solve_coarse_tip(
+    m: &Model,
+    method: &MethodSettings,
+    f: f64,
+    start: mshbm::solve::SolveStart,
+) -> mshbm::solution::PeriodicSolution {
+    let s = solve_periodic(
+        m,
+        method,
+        f,
+        &SolveSettings {
+            stability: false,
+            response_dof: Some(COARSE_TIP),
+            start,
+            ..SolveSettings::default()
+        },
+    )
+    .unwrap();
+    assert!(s.outcome.converged, "{f} Hz: {:?}", s.outcome.reason);
+    s.solution
+}
+
+/// The steady state of `scheme` on `m` forced at `f` Hz, 2000 steps per period, from the
+/// orbit of `start` (its harmonics extended to the whole model) or from rest; asserted
+/// periodic by the response criterion to `tolerance` within 400 periods.
+fn simulated_steady_state(
+    m: &Model,
+    scheme: mshbm::integrate::Scheme,
+    f: f64,
+    start: Option<&mshbm::solution::PeriodicSolution>,
+    harmonics: usize,
+    tolerance: f64,
+    response_dof: usize,
+) -> mshbm::integrate::steady_state::SteadyState {
+    use mshbm::integrate::steady_state::{
+        simulate_to_steady_state, Periodicity, SteadyStateOptions,
+    };
+    use mshbm::integrate::{Integrator, Settings};
+    let omega = 2.0 * std::f64::consts::PI * f;
+    let steps = 2000;
+    let system = m.system(scheme.mass_kind()).unwrap();
+    let mut it = Integrator::new(
+        &system,
+        &Settings {
+            dt: 1.0 / (f * steps as f64),
+            scheme,
+            omega: Some(omega),
+            energy_offset: 0.0,
+        },
+    )
+    .unwrap();
+    if let Some(s) = start {
+        let (q, v) =
+            mshbm::simulation::state_from_solution(&system, m, s, omega, &example()).unwrap();
+        it.set_state(0.0, &q, &v).unwrap();
+    }
+    let options = SteadyStateOptions {
+        steps_per_period: steps,
+        max_periods: 400,
+        tolerance,
+        harmonics,
+        response_dof,
+        periodicity: Periodicity::Response,
+    };
+    let ti = simulate_to_steady_state(&mut it, omega, &options, |_| {}, |_, _| {}).unwrap();
+    assert!(
+        ti.periodic,
+        "{f} Hz, {scheme:?}: the simulation did not settle"
+    );
+    ti
+}
+
 /// `simulate --steady-state` on the redistributed scheme reports the redistributed MS-HBM's
 /// unknowns (the harmonics of every contact-node DOF, harmonic-major, docs/theory.md (T8)),
 /// so that `solve --from-solution` can start from a simulation: with the contacts far open
@@ -608,19 +698,9 @@ fn hbm_aft_on_the_cantilever_converges_as_the_penalty_grows_toward_the_ms_hbm() 
 /// for both components of every contact node.
 #[test]
 fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
-    use mshbm::integrate::steady_state::{
-        simulate_to_steady_state, Periodicity, SteadyStateOptions,
-    };
-    use mshbm::integrate::{Integrator, Scheme, Settings};
-    let mut m = load_model(&example(), &["solid.divisions=[40, 4]".to_string()]).unwrap();
+    let mut m = coarse_cantilever(5e-6);
     m.contacts.iter_mut().for_each(|c| c.gap = 1000.0);
-    m.damping = mshbm::model::Damping {
-        alpha: 52.0,
-        beta_condensed: 5e-6,
-        ..Default::default()
-    };
-    let (f, h, steps) = (700.0, 3, 2000);
-    let omega = 2.0 * std::f64::consts::PI * f;
+    let (f, h) = (700.0, 3);
     let hb = solve_periodic(
         &m,
         &MethodSettings::redistributed(h),
@@ -633,30 +713,15 @@ fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
     .unwrap();
     let x = hb.solution.unknowns.clone().unwrap();
     let system = m.system(MassKind::Redistributed).unwrap();
-    let mut it = Integrator::new(
-        &system,
-        &Settings {
-            dt: 1.0 / (f * steps as f64),
-            scheme: Scheme::PositionNewmark,
-            omega: Some(omega),
-            energy_offset: 0.0,
-        },
-    )
-    .unwrap();
-    let (q, v) =
-        mshbm::simulation::state_from_solution(&system, &m, &hb.solution, omega, &example())
-            .unwrap();
-    it.set_state(0.0, &q, &v).unwrap();
-    let options = SteadyStateOptions {
-        steps_per_period: steps,
-        max_periods: 50,
-        tolerance: 1e-6,
-        harmonics: h,
-        response_dof: hb.solution.contact_dofs[0],
-        periodicity: Periodicity::Response,
-    };
-    let ti = simulate_to_steady_state(&mut it, omega, &options, |_| {}, |_, _| {}).unwrap();
-    assert!(ti.periodic);
+    let ti = simulated_steady_state(
+        &m,
+        mshbm::integrate::Scheme::PositionNewmark,
+        f,
+        Some(&hb.solution),
+        h,
+        1e-6,
+        hb.solution.contact_dofs[0],
+    );
     let y = ti
         .solution
         .unknowns
@@ -699,36 +764,12 @@ fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
 /// of the tip, and the series converges slowly in H.
 #[test]
 fn the_cantilever_agrees_with_time_integration_across_the_contact_branch() {
-    use mshbm::integrate::steady_state::{
-        simulate_to_steady_state, Periodicity, SteadyStateOptions,
-    };
-    use mshbm::integrate::{Integrator, Scheme, Settings};
     use mshbm::solve::SolveStart;
-    let mut m = load_model(&example(), &["solid.divisions=[40, 4]".to_string()]).unwrap();
-    m.damping = mshbm::model::Damping {
-        alpha: 52.0,
-        beta_condensed: 2e-6,
-        ..Default::default()
-    };
-    // the tip node (x = 100, y = 0) is node 40 of the 41 × 5 grid; its y DOF
-    let tip = 2 * 40 + 1;
+    let m = coarse_cantilever(2e-6);
+    let tip = COARSE_TIP;
     assert_eq!(m.coordinates[40], vec![100.0, 0.0]);
-    let system = m.system(MassKind::Redistributed).unwrap();
     let solve = |f: f64, h: usize, start: SolveStart| {
-        let s = solve_periodic(
-            &m,
-            &MethodSettings::redistributed(h),
-            f,
-            &SolveSettings {
-                stability: false,
-                response_dof: Some(tip),
-                start,
-                ..SolveSettings::default()
-            },
-        )
-        .unwrap();
-        assert!(s.outcome.converged, "{f} Hz, H = {h}");
-        s.solution
+        solve_coarse_tip(&m, &MethodSettings::redistributed(h), f, start)
     };
     for (f, start) in [
         (750.0, SolveStart::Auto),
@@ -742,32 +783,16 @@ fn the_cantilever_agrees_with_time_integration_across_the_contact_branch() {
             },
         ),
     ] {
-        let omega = 2.0 * std::f64::consts::PI * f;
         let first = solve(f, 10, start);
-        let steps = 2000;
-        let mut it = Integrator::new(
-            &system,
-            &Settings {
-                dt: 1.0 / (f * steps as f64),
-                scheme: Scheme::PositionNewmark,
-                omega: Some(omega),
-                energy_offset: 0.0,
-            },
-        )
-        .unwrap();
-        let (q, v) =
-            mshbm::simulation::state_from_solution(&system, &m, &first, omega, &example()).unwrap();
-        it.set_state(0.0, &q, &v).unwrap();
-        let options = SteadyStateOptions {
-            steps_per_period: steps,
-            max_periods: 400,
-            tolerance: 1e-6,
-            harmonics: 40,
-            response_dof: tip,
-            periodicity: Periodicity::Response,
-        };
-        let ti = simulate_to_steady_state(&mut it, omega, &options, |_| {}, |_, _| {}).unwrap();
-        assert!(ti.periodic, "{f} Hz: the simulation did not settle");
+        let ti = simulated_steady_state(
+            &m,
+            mshbm::integrate::Scheme::PositionNewmark,
+            f,
+            Some(&first),
+            40,
+            1e-6,
+            tip,
+        );
         let hb = solve(
             f,
             40,
@@ -796,29 +821,9 @@ fn the_cantilever_agrees_with_time_integration_across_the_contact_branch() {
 fn hbm_aft_on_the_cantilever_follows_the_ms_hbm_as_h_grows() {
     use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
     use mshbm::solve::SolveStart;
-    let mut m = load_model(&example(), &["solid.divisions=[40, 4]".to_string()]).unwrap();
-    m.damping = mshbm::model::Damping {
-        alpha: 52.0,
-        beta_condensed: 2e-6,
-        ..Default::default()
-    };
-    let (f, tip) = (850.0, 81);
-    let solve = |method: MethodSettings, start: SolveStart| {
-        let s = solve_periodic(
-            &m,
-            &method,
-            f,
-            &SolveSettings {
-                stability: false,
-                response_dof: Some(tip),
-                start,
-                ..SolveSettings::default()
-            },
-        )
-        .unwrap();
-        assert!(s.outcome.converged);
-        s.solution
-    };
+    let m = coarse_cantilever(2e-6);
+    let f = 850.0;
+    let solve = |method: MethodSettings, start: SolveStart| solve_coarse_tip(&m, &method, f, start);
     // MS-HBM at H = 10, then 20 and 40 each from the previous one, harmonics added
     let mut ms = vec![solve(MethodSettings::redistributed(10), SolveStart::Auto)];
     for (from, to) in [(10, 20), (20, 40)] {
@@ -870,42 +875,11 @@ fn hbm_aft_on_the_cantilever_follows_the_ms_hbm_as_h_grows() {
 /// two differ by their mass models and Moreau–Jean's impact law).
 #[test]
 fn moreau_jean_runs_on_the_cantilever_interface() {
-    use mshbm::integrate::steady_state::{
-        simulate_to_steady_state, Periodicity, SteadyStateOptions,
-    };
-    use mshbm::integrate::{Integrator, Scheme, Settings};
-    let mut m = load_model(&example(), &["solid.divisions=[40, 4]".to_string()]).unwrap();
-    m.damping = mshbm::model::Damping {
-        alpha: 52.0,
-        beta_condensed: 2e-6,
-        ..Default::default()
-    };
-    let (f, tip, steps, gap) = (850.0, 81, 2000, 0.05);
-    let omega = 2.0 * std::f64::consts::PI * f;
-    let steady = |scheme: Scheme| {
-        let system = m.system(scheme.mass_kind()).unwrap();
-        let mut it = Integrator::new(
-            &system,
-            &Settings {
-                dt: 1.0 / (f * steps as f64),
-                scheme,
-                omega: Some(omega),
-                energy_offset: 0.0,
-            },
-        )
-        .unwrap();
-        let options = SteadyStateOptions {
-            steps_per_period: steps,
-            max_periods: 200,
-            tolerance: 1e-3,
-            harmonics: 10,
-            response_dof: tip,
-            periodicity: Periodicity::Response,
-        };
-        let ti = simulate_to_steady_state(&mut it, omega, &options, |_| {}, |_, _| {}).unwrap();
-        assert!(ti.periodic, "{scheme:?}");
-        ti.solution
-    };
+    use mshbm::integrate::Scheme;
+    let m = coarse_cantilever(2e-6);
+    let (f, gap) = (850.0, 0.05);
+    let steady =
+        |scheme: Scheme| simulated_steady_state(&m, scheme, f, None, 10, 1e-3, COARSE_TIP).solution;
     let moreau = steady(Scheme::moreau_jean(None, None));
     let newmark = steady(Scheme::PositionNewmark);
     assert_eq!(moreau.contacts.len(), 5);

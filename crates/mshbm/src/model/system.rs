@@ -138,36 +138,33 @@ impl Model {
         };
         let beta = self.damping.beta;
         let mut damping = SparseMatrix::linear_combination(alpha, &mass, beta, &stiffness);
+        // damping on the linear part only (docs/theory.md (T121)): β_L K_LL (the contact-node
+        // rows and columns left out) and β_c S (the contact nodes relaxed)
+        let mut linear_part: Vec<(usize, usize, f64)> = Vec::new();
         if self.damping.beta_linear != 0.0 {
-            // β_L K_LL: stiffness-proportional damping with the contact-node rows and
-            // columns left out
-            let t: Vec<(usize, usize, f64)> = stiffness
-                .iter()
-                .filter(|&(i, j, _)| !is_nonlinear[i] && !is_nonlinear[j])
-                .map(|(i, j, v)| (i, j, self.damping.beta_linear * v))
-                .collect();
-            let n_free = stiffness.nrows();
-            damping = SparseMatrix::linear_combination(
-                1.0,
-                &damping,
-                1.0,
-                &SparseMatrix::from_triplets(n_free, n_free, &t),
+            linear_part.extend(
+                stiffness
+                    .iter()
+                    .filter(|&(i, j, _)| !is_nonlinear[i] && !is_nonlinear[j])
+                    .map(|(i, j, v)| (i, j, self.damping.beta_linear * v)),
             );
         }
         if self.damping.beta_condensed != 0.0 {
-            let t = condensed_stiffness_triplets(
+            linear_part.extend(condensed_stiffness_triplets(
                 &stiffness,
                 &linear_dofs,
                 &nonlinear_dofs,
                 self.damping.beta_condensed,
                 &self.source,
-            )?;
+            )?);
+        }
+        if !linear_part.is_empty() {
             let n_free = stiffness.nrows();
             damping = SparseMatrix::linear_combination(
                 1.0,
                 &damping,
                 1.0,
-                &SparseMatrix::from_triplets(n_free, n_free, &t),
+                &SparseMatrix::from_triplets(n_free, n_free, &linear_part),
             );
         }
         if let Some(c) = &self.damping_matrix {
