@@ -304,3 +304,38 @@ fn iteration_limit_gives_a_non_converged_outcome() {
     assert!(out.reason.unwrap().to_string().contains("1 iterations"));
     let _ = Path::new("");
 }
+
+/// Why Newton slows down on refined meshes (docs/theory.md (T122)): without contact the
+/// Jacobian of the connectivity residual (T33) is `K_NN⁻¹ D_k` per harmonic, `D_k` the
+/// dynamic stiffness of the structure at the contact DOF. For the clamped bar `K_NN = EA/h`
+/// and the static stiffness is `EA/L` on every mesh, so the mean harmonic's entry is
+/// exactly `h/L = 1/n`, and the smallest singular value falls like `1/n`: the residual of
+/// the open phases is `O(h)` while that of the contact phases stays `O(1)`.
+#[test]
+fn the_contact_free_jacobian_scales_like_the_element_size() {
+    for n in [100usize, 1000, 10000] {
+        let model = common::example_model(
+            "clamped_bar.toml",
+            &[
+                format!("bar.elements={n}"),
+                "contact.gap=100".to_string(),
+                "damping.first_mode_ratio=0.01".to_string(),
+            ],
+        );
+        let mut p = common::ms_hbm(&model, 5);
+        let omega = common::hz(1000.0);
+        let x0 = p.initial_guess(omega).unwrap();
+        let lin = p.linearize(&x0, omega).unwrap();
+        let mean = lin.jacobian[(0, 0)];
+        assert!(
+            (mean * n as f64 - 1.0).abs() < 1e-9,
+            "n = {n}: mean-harmonic entry {mean} vs 1/n"
+        );
+        let sv = lin.jacobian.singular_values().unwrap();
+        let smallest = sv[sv.len() - 1];
+        assert!(
+            smallest <= 1.0 / n as f64 && smallest > 0.9 / n as f64,
+            "n = {n}: smallest singular value {smallest:.3e}"
+        );
+    }
+}
