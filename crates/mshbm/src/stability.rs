@@ -271,8 +271,9 @@ impl ReducedSystem {
         modes: usize,
         interface: InterfaceModes,
     ) -> Result<Self> {
+        // the base stiffness K_b: K_LL itself (borrowed) or the Schur complement S
         let (stiffness, compliance_shift) = match interface {
-            InterfaceModes::Held => (stiffness.clone(), None),
+            InterfaceModes::Held => (std::borrow::Cow::Borrowed(stiffness), None),
             InterfaceModes::Relaxed { k_nn } => {
                 let not_pd = || {
                     Error::Singular(
@@ -287,10 +288,10 @@ impl ReducedSystem {
                     .map_err(|_| not_pd())?;
                 let mut inverse = Mat::<f64>::identity(k_nn.nrows(), k_nn.ncols());
                 llt.solve_in_place(inverse.as_mut());
-                (s, Some(inverse))
+                (std::borrow::Cow::Owned(s), Some(inverse))
             }
         };
-        let stiffness = &stiffness;
+        let stiffness: &SparseMatrix = &stiffness;
         let modes = crate::modes::lowest_modes(mass, stiffness, modes)?;
         let phi = &modes.shapes;
         // Ψ = K_LL⁻¹ K_LN, then its part M̄-orthogonal to Φ
