@@ -332,3 +332,89 @@ fn interface_load_coefficients_and_their_frequency_derivative() {
     // the mean does not depend on ω (A_0 = K)
     assert!(db[..n].iter().all(|&v| v == 0.0));
 }
+
+/// `W` of the system's contacts as a dense `n × n_c` matrix.
+fn contact_matrix(system: &System) -> Mat<c64> {
+    let mut w = Mat::<c64>::zeros(system.n_dofs(), system.contacts.len());
+    for (c, contact) in system.contacts.iter().enumerate() {
+        for &(i, v) in &contact.w {
+            w[(i, c)] += c64::new(v, 0.0);
+        }
+    }
+    w
+}
+
+/// The receptance at the contacts (docs/theory.md (T125)) against the dense reference
+/// `Wᵀ A_k⁻¹ W`, `Wᵀ A_k⁻¹ f_k` and `A_k⁻¹ (f_k + W λ)` (dense LU of the whole `A_k`), for the
+/// redistributed mass (massless contact nodes, as the MS-HBM uses it) and the consistent
+/// one; and its frequency derivative against central differences of the dense reference.
+#[test]
+fn the_receptance_at_the_contacts_equals_the_dense_solve() {
+    use mshbm::linear::{ExactReceptance, Receptance};
+    let mut model = lattice();
+    model.damping.beta = 0.0;
+    model.damping.alpha = 3.0;
+    for mass in [MassKind::Redistributed, MassKind::Consistent] {
+        let system = model.system(mass).unwrap();
+        let all: Vec<usize> = (0..system.n_dofs()).collect();
+        let nc = system.contacts.len();
+        let w = contact_matrix(&system);
+        let omega = 200.0;
+        let receptance = ExactReceptance::new(&system).unwrap();
+        let at = receptance.at(omega, HARMONICS).unwrap();
+        let force: Vec<c64> = (0..nc)
+            .map(|c| c64::new(0.3 + 0.1 * c as f64, -0.2 * c as f64))
+            .collect();
+        let dense_response = |k: usize, omega: f64, with_load: bool| -> Mat<c64> {
+            let a = dense_block(&system, &all, &all, k, omega);
+            let mut rhs = &w * column(&force);
+            if with_load {
+                rhs += load(&system, &all, k);
+            }
+            a.partial_piv_lu().solve(&rhs)
+        };
+        for k in 0..=HARMONICS {
+            let a = dense_block(&system, &all, &all, k, omega);
+            let lu = a.partial_piv_lu();
+            let r = w.transpose() * lu.solve(&w);
+            let e = rel_diff(at.receptance(k), &entries(&r));
+            assert!(e < 1e-12, "{mass:?} harmonic {k}: R_k {e:e}");
+            let g = w.transpose() * lu.solve(load(&system, &all, k));
+            if k <= 1 {
+                let e = rel_diff(at.load_response(k), &to_vec(&g));
+                assert!(e < 1e-12, "{mass:?} harmonic {k}: load {e:e}");
+            } else {
+                assert!(max_abs(at.load_response(k).iter().copied()) == 0.0);
+            }
+            let q = dense_response(k, omega, true);
+            let e = rel_diff(&at.response(k, &force).unwrap(), &to_vec(&q));
+            assert!(e < 1e-12, "{mass:?} harmonic {k}: response {e:e}");
+            if k == 0 {
+                continue;
+            }
+            let h = 1e-4 * omega;
+            for with_load in [true, false] {
+                let gather =
+                    |omega: f64| to_vec(&(w.transpose() * dense_response(k, omega, with_load)));
+                let central = |h: f64| -> Vec<c64> {
+                    gather(omega + h)
+                        .iter()
+                        .zip(gather(omega - h))
+                        .map(|(a, b)| (a - b) / (2.0 * h))
+                        .collect()
+                };
+                // Richardson extrapolation of central differences: O(h⁴)
+                let (coarse, fine) = (central(h), central(0.5 * h));
+                let fd: Vec<c64> = fine
+                    .iter()
+                    .zip(&coarse)
+                    .map(|(f, c)| (f * 4.0 - c) / 3.0)
+                    .collect();
+                let analytic = at.frequency_derivative(k, &force, with_load).unwrap();
+                let e = rel_diff(&analytic, &fd);
+                println!("{mass:?} harmonic {k} (load {with_load}): ∂(Wᵀq)/∂ω vs central differences {e:.1e}");
+                assert!(e < 1e-7, "{mass:?} harmonic {k}: derivative {e:e}");
+            }
+        }
+    }
+}

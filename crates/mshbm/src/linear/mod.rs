@@ -7,7 +7,9 @@
 //! * [`partitioned`]: the `L | N` blocks and loads of a system ([`PartitionedSystem`]);
 //! * [`condensation`]: the condensation of the linear part onto the `N` DOFs per frequency,
 //!   `G_k = A_NL,k A_LL,k⁻¹ A_LN,k`, `u0_k = A_NL,k A_LL,k⁻¹ f_L,k` (docs/theory.md (T20))
-//!   and what follows from them ([`Condensation`], [`ExactCondensation`]).
+//!   and what follows from them ([`Condensation`], [`ExactCondensation`]);
+//! * [`receptance`]: the condensation of the whole structure onto its contact coordinates,
+//!   `R_k = Wᵀ A_k⁻¹ W` (docs/theory.md (T125); [`Receptance`], [`ExactReceptance`]).
 //!
 //! Complex amplitudes are `z_k = a_k − i b_k` of `a_k cos kτ + b_k sin kτ` (`z_0 = a_0`;
 //! docs/theory.md (T11)); real Fourier coefficients are stored harmonic-major, coefficient
@@ -16,12 +18,14 @@
 pub mod condensation;
 pub mod dynamic_stiffness;
 pub mod partitioned;
+pub mod receptance;
 
 use faer::c64;
 
 pub use condensation::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 pub use dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
 pub use partitioned::{PartLoad, PartitionedSystem};
+pub use receptance::{ContactCoordinates, ExactReceptance, Receptance, ReceptanceAtFrequency};
 
 /// The complex zero.
 pub(crate) const ZERO: c64 = c64::new(0.0, 0.0);
