@@ -79,9 +79,9 @@ pub fn field_harmonics(
 type KnownHarmonics = Vec<(usize, Vec<f64>)>;
 
 /// The harmonics of every contact-node DOF of `solution` (system numbering) and the field
-/// of the solution they come from: its unknowns when it has them (`x = q̂_N` of every
-/// method, harmonic-major, eq. 31), else its contact series (enough when each contact node
-/// has one DOF).
+/// of the solution they come from: its contact-node harmonics (`x = q̂_N`, harmonic-major,
+/// eq. 31) when it reports them, or its unknowns when they are those (HBM-AFT), else its
+/// contact series (enough when each contact node has one DOF).
 fn known_harmonics(
     system: &System,
     model: &Model,
@@ -90,7 +90,16 @@ fn known_harmonics(
 ) -> Result<(KnownHarmonics, &'static str)> {
     let n = system.nonlinear_dofs.len();
     let nc = 2 * solution.harmonics + 1;
-    if let Some(x) = solution.unknowns.as_ref().filter(|x| x.len() == n * nc) {
+    // the redistributed MS-HBM's unknowns are free gaps: its contact-node harmonics are
+    // reported apart; every other method's unknowns start with them
+    let harmonics = match solution.method {
+        crate::solution::MethodKind::Redistributed => solution.contact_node_harmonics.as_ref(),
+        _ => solution
+            .contact_node_harmonics
+            .as_ref()
+            .or(solution.unknowns.as_ref()),
+    };
+    if let Some(x) = harmonics.filter(|x| x.len() == n * nc) {
         let known = system
             .nonlinear_dofs
             .iter()

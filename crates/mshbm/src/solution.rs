@@ -114,6 +114,12 @@ pub struct PeriodicSolution {
     /// (`mshbm solve --from-solution`); set by [`crate::solve::solve_periodic`].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unknowns: Option<Vec<f64>>,
+    /// The harmonics `q̂_N` of every contact-node DOF (harmonic-major, coefficient `c` of
+    /// `N` DOF `i` at `c·n_N + i`; the paper's unknowns of eq. 31), when the method's own
+    /// unknowns are others (the redistributed MS-HBM solves for the free gap,
+    /// docs/theory.md §16).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_node_harmonics: Option<Vec<f64>>,
 }
 
 impl DofResponse {

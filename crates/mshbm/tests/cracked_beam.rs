@@ -24,7 +24,8 @@ fn example_text() -> String {
 }
 
 /// The largest response maximum over `frequencies` (Hz, ascending), by the redistributed
-/// MS-HBM with `harmonics` (each solve starting from the previous solution), and where it
+/// MS-HBM with `harmonics` (each solve starting from the previous solution, or as `mshbm
+/// solve` starts when that fails), and where it
 /// is (a parabola through the best sample and its neighbours).
 fn peak(m: &Model, harmonics: usize, frequencies: &[f64]) -> (f64, f64) {
     let method = MethodSettings::redistributed(harmonics);
@@ -37,7 +38,16 @@ fn peak(m: &Model, harmonics: usize, frequencies: &[f64]) -> (f64, f64) {
                 start: start.clone(),
                 ..SolveSettings::default()
             };
-            let s = solve_periodic(m, &method, f, &settings).unwrap();
+            let mut s = solve_periodic(m, &method, f, &settings).unwrap();
+            if !s.outcome.converged {
+                // near the peak the previous point's branch may end between two grid
+                // frequencies (a fold): start as `mshbm solve` does by default
+                let settings = SolveSettings {
+                    stability: false,
+                    ..SolveSettings::default()
+                };
+                s = solve_periodic(m, &method, f, &settings).unwrap();
+            }
             assert!(s.outcome.converged, "{f} Hz: {:?}", s.outcome.reason);
             start = SolveStart::Unknowns(s.solution.unknowns.clone().unwrap());
             s.solution.response.max

@@ -692,10 +692,11 @@ fn simulated_steady_state(
 }
 
 /// `simulate --steady-state` on the redistributed scheme reports the redistributed MS-HBM's
-/// unknowns (the harmonics of every contact-node DOF, harmonic-major, docs/theory.md (T8)),
-/// so that `solve --from-solution` can start from a simulation: with the contacts far open
-/// (the linear response, exact at H = 3) they equal the MS-HBM's to the time step's error,
-/// for both components of every contact node.
+/// unknowns (the displacement of every contact, `Wᵀ q = g − g0`, docs/theory.md (T128)) and the
+/// harmonics of every contact-node DOF (harmonic-major, (T8)), so that `solve
+/// --from-solution` can start from a simulation: with the contacts far open (the linear
+/// response, exact at H = 3) both equal the MS-HBM's to the time step's error, for both
+/// components of every contact node.
 #[test]
 fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
     let mut m = coarse_cantilever(5e-6);
@@ -711,7 +712,6 @@ fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
         },
     )
     .unwrap();
-    let x = hb.solution.unknowns.clone().unwrap();
     let system = m.system(MassKind::Redistributed).unwrap();
     let ti = simulated_steady_state(
         &m,
@@ -722,23 +722,42 @@ fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
         1e-6,
         hb.solution.contact_dofs[0],
     );
-    let y = ti
-        .solution
-        .unknowns
-        .expect("unknowns of the redistributed scheme");
-    assert_eq!(y.len(), x.len());
+    let n_c = system.contacts.len();
     let n_n = system.nonlinear_dofs.len();
-    assert_eq!(x.len(), n_n * (2 * h + 1));
-    let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let worst = x
-        .iter()
-        .zip(&y)
-        .fold(0.0f64, |a, (p, q)| a.max((p - q).abs()));
-    assert!(
-        worst < 1e-4 * scale,
-        "unknowns differ by {worst:.2e} (scale {scale:.2e})"
-    );
+    let pairs = [
+        (
+            hb.solution.unknowns.clone().unwrap(),
+            ti.solution
+                .unknowns
+                .clone()
+                .expect("contact displacements of the redistributed scheme"),
+            n_c,
+        ),
+        (
+            hb.solution.contact_node_harmonics.clone().unwrap(),
+            ti.solution
+                .contact_node_harmonics
+                .clone()
+                .expect("contact-node harmonics of the redistributed scheme"),
+            n_n,
+        ),
+    ];
+    for (x, y, count) in &pairs {
+        assert_eq!(x.len(), count * (2 * h + 1));
+        assert_eq!(y.len(), x.len());
+        let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let worst = x
+            .iter()
+            .zip(y)
+            .fold(0.0f64, |a, (p, q)| a.max((p - q).abs()));
+        assert!(
+            worst < 1e-4 * scale,
+            "{count} signals differ by {worst:.2e} (scale {scale:.2e})"
+        );
+    }
     // both components take part: the x (axial) motion of the lower face is not negligible
+    let x = &pairs[1].0;
+    let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let axial = (0..n_n)
         .filter(|&i| system.model_dof[system.nonlinear_dofs[i]] % 2 == 0)
         .map(|i| x[n_n + i].abs())
@@ -758,7 +777,10 @@ fn a_simulated_steady_state_carries_the_ms_hbm_unknowns() {
 /// 1050 Hz) starts the simulation; the simulation's steady state (2000 steps per period,
 /// period-to-period change of the harmonics below 1e-6) gives its unknowns with 40
 /// harmonics ([`mshbm::solution::PeriodicSolution::unknowns`]); Newton at H = 40 from
-/// there converges to 1e-10 and its solution is compared. Measured (tip max, mm):
+/// there (the sampled quadrature with 4096 samples first, then the exact one: from the
+/// simulation, Newton with the exact quadrature alone crawls and may not converge within
+/// 50 iterations — it took 45 at 950 Hz in the paper's coordinates and fails in the
+/// contact coordinates) converges to 1e-10 and its solution is compared. Measured (tip max, mm):
 /// HBM 0.05293 / 0.06473 / 0.08067 / 0.09759 vs simulation 0.05321 / 0.06505 / 0.08082 /
 /// 0.09696. At H = 10 the two differ by 0.5–4 %: contact here is a train of short impacts
 /// of the tip, and the series converges slowly in H.
@@ -793,10 +815,42 @@ fn the_cantilever_agrees_with_time_integration_across_the_contact_branch() {
             1e-6,
             tip,
         );
+        // from the simulation, Newton with the sampled quadrature first (its residual is
+        // piecewise affine: an active-set iteration that crawls through the train of short
+        // impacts, but steadily), then the exact quadrature from there
+        let sampled = MethodSettings::Redistributed {
+            options: mshbm::method::redistributed::RedistributedOptions {
+                quadrature: mshbm::harmonic::Quadrature::Sampled,
+                samples: Some(4096),
+                ..mshbm::method::redistributed::RedistributedOptions::new(40)
+            },
+            stability: Default::default(),
+        };
+        let pre = solve_periodic(
+            &m,
+            &sampled,
+            f,
+            &SolveSettings {
+                stability: false,
+                response_dof: Some(COARSE_TIP),
+                start: SolveStart::Unknowns(ti.solution.unknowns.clone().unwrap()),
+                newton: mshbm::newton::NewtonOptions {
+                    max_iterations: 150,
+                    ..Default::default()
+                },
+                ..SolveSettings::default()
+            },
+        )
+        .unwrap();
+        assert!(
+            pre.outcome.converged,
+            "{f} Hz, sampled: {:?}",
+            pre.outcome.reason
+        );
         let hb = solve(
             f,
             40,
-            SolveStart::Unknowns(ti.solution.unknowns.clone().unwrap()),
+            SolveStart::Unknowns(pre.solution.unknowns.clone().unwrap()),
         );
         let (a, b) = (&hb.response, &ti.solution.response);
         eprintln!(

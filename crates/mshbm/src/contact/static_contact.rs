@@ -1,17 +1,21 @@
 //! The massless contact subsystem as a static problem per time sample (paper eqs. 26–29):
 //! `K_NN q_N = b + W λ`, `0 ≤ g = Wᵀ q_N + g0 ⊥ λ ≥ 0`, with `b = −K_NL q_L + f_N`.
 //!
-//! Eliminating `q_N` gives the LCP `0 ≤ D λ + Wᵀ K_NN⁻¹ b + g0 ⊥ λ ≥ 0` with the Delassus
-//! matrix `D = Wᵀ K_NN⁻¹ W` (constant over samples, built once). The prox equation (29) is
-//! the definition; the LCP solver is exact. For a known active set `A` the solution is
-//! affine in `b` (docs/theory.md (T37)):
+//! Eliminating `q_N` gives the LCP `0 ≤ D λ + γ ⊥ λ ≥ 0` in the contact coordinates, with
+//! the Delassus matrix `D = Wᵀ K_NN⁻¹ W` (constant, built once) and the **free gap**
+//! `γ = Wᵀ K_NN⁻¹ b + g0` (the gap the contacts would have with no contact force at this
+//! instant; docs/theory.md (T123)). The prox equation (29) is the definition; the LCP solver
+//! is exact. For a known active set `A` the contact forces and gaps are linear in `γ`
+//! (docs/theory.md (T37), (T124)):
 //!
-//! `q_N = P_A b + s_A`, `P_A = K⁻¹ − K⁻¹ W_A D_AA⁻¹ W_Aᵀ K⁻¹`, `s_A = −K⁻¹ W_A D_AA⁻¹ g0_A`,
-//! `λ_A = −D_AA⁻¹ (W_Aᵀ K⁻¹ b + g0_A)`.
+//! `λ_A = −D_AA⁻¹ γ_A`, `λ_I = 0`, `g_I = γ_I + D_IA λ_A`, `g_A = 0`,
 //!
-//! `P_A` is the semi-analytical sensitivity `∂q_N/∂b` of eqs. (42)–(43) (docs/theory.md (T43) shows
-//! the equivalence). The data of each active set is computed once and cached: it does not
-//! depend on the frequency.
+//! so the data of a set ([`ActiveSet`]) lives in the contact coordinates (`n_c × n_c`),
+//! whatever the number of `N` DOFs. The `N` displacements follow as
+//! `q_N = K_NN⁻¹ (b + W λ)`; the compliance `P_A = ∂q_N/∂b` of (T37) (the semi-analytical
+//! sensitivity of eqs. 42–43, docs/theory.md (T43)) is formed only on request
+//! ([`StaticContact::compliance`], for the Floquet analysis). The data of each active set is
+//! cached: it depends neither on the frequency nor on the time.
 
 use std::collections::HashMap;
 use std::rc::Rc;
@@ -27,59 +31,58 @@ use crate::sparse::SparseMatrix;
 /// Memory the active-set cache of one [`StaticContact`] may hold (bytes).
 pub const ACTIVE_SET_CACHE_BYTES: usize = 1 << 31;
 
-/// Affine data of one active set (row-major dense matrices).
+/// Linear data of one active set in the contact coordinates (row-major, `n_c × n_c`).
 #[derive(Debug)]
 pub struct ActiveSet {
     /// Which contacts are closed.
     pub closed: Vec<bool>,
-    /// `P_A` (`n × n`).
-    pub compliance: Vec<f64>,
-    /// `s_A` (`n`).
-    pub offset: Vec<f64>,
-    /// Validity indicator `h_A = indicator · b + indicator_offset` (`n_c × n`): the gap for
-    /// an open contact, the force for a closed one. The set holds while `h_A ≥ 0`.
+    /// Validity indicators `h_A = indicator · γ` (`n_c × n_c`): the force `λ_c` of a closed
+    /// contact, the gap `g_c` of an open one (docs/theory.md (T38), (T124)). The set holds
+    /// while `h_A ≥ 0`. The rows of the closed contacts are the force map `∂λ/∂γ`.
     pub indicator: Vec<f64>,
-    pub indicator_offset: Vec<f64>,
 }
 
 impl ActiveSet {
-    /// `q_N = P_A b + s_A`.
-    pub fn displacement(&self, b: &[f64]) -> Vec<f64> {
-        let n = b.len();
-        (0..n)
-            .map(|i| {
-                self.offset[i]
-                    + (0..n)
-                        .map(|j| self.compliance[i * n + j] * b[j])
-                        .sum::<f64>()
-            })
-            .collect()
+    fn n_contacts(&self) -> usize {
+        self.closed.len()
     }
 
-    /// Component `i` of `q_N = P_A b + s_A`.
-    pub fn displacement_of(&self, i: usize, b: &[f64]) -> f64 {
-        let n = b.len();
-        let row = &self.compliance[i * n..(i + 1) * n];
-        self.offset[i] + row.iter().zip(b).map(|(p, v)| p * v).sum::<f64>()
+    /// Row `c` of the indicator applied to `gamma`.
+    fn indicator_of(&self, c: usize, gamma: &[f64]) -> f64 {
+        let nc = self.n_contacts();
+        let row = &self.indicator[c * nc..(c + 1) * nc];
+        row.iter().zip(gamma).map(|(h, g)| h * g).sum()
     }
 
-    /// Contact forces `λ` (zero for open contacts).
-    pub fn force(&self, b: &[f64]) -> Vec<f64> {
-        let n = b.len();
-        self.closed
-            .iter()
-            .enumerate()
-            .map(|(i, &c)| {
-                if c {
-                    self.indicator_offset[i]
-                        + (0..n)
-                            .map(|j| self.indicator[i * n + j] * b[j])
-                            .sum::<f64>()
+    /// Contact forces `λ` (zero for open contacts) for the free gap `γ`.
+    pub fn force(&self, gamma: &[f64]) -> Vec<f64> {
+        (0..self.n_contacts())
+            .map(|c| {
+                if self.closed[c] {
+                    self.indicator_of(c, gamma)
                 } else {
                     0.0
                 }
             })
             .collect()
+    }
+
+    /// Gaps `g` (zero for closed contacts) for the free gap `γ`.
+    pub fn gap(&self, gamma: &[f64]) -> Vec<f64> {
+        (0..self.n_contacts())
+            .map(|c| {
+                if self.closed[c] {
+                    0.0
+                } else {
+                    self.indicator_of(c, gamma)
+                }
+            })
+            .collect()
+    }
+
+    /// The closed contacts (indices).
+    pub fn closed_contacts(&self) -> Vec<usize> {
+        (0..self.n_contacts()).filter(|&c| self.closed[c]).collect()
     }
 }
 
@@ -89,8 +92,6 @@ pub struct StaticContact {
     n_contacts: usize,
     /// `K_NN⁻¹` (`n × n`, row-major).
     stiffness_inverse: Vec<f64>,
-    /// `W` (`n × n_c`, row-major).
-    w: Vec<f64>,
     /// `K_NN⁻¹ W` (`n × n_c`).
     compliance_w: Vec<f64>,
     /// `D = Wᵀ K_NN⁻¹ W` (`n_c × n_c`).
@@ -129,7 +130,6 @@ impl StaticContact {
             n,
             n_contacts,
             stiffness_inverse,
-            w,
             compliance_w,
             delassus,
             gap,
@@ -146,31 +146,78 @@ impl StaticContact {
         self.n_contacts
     }
 
-    /// Gaps `Wᵀ q + g0`.
-    pub fn gaps(&self, q: &[f64]) -> Vec<f64> {
-        (0..self.n_contacts)
-            .map(|c| {
-                self.gap[c]
-                    + (0..self.n)
-                        .map(|i| self.w[i * self.n_contacts + c] * q[i])
-                        .sum::<f64>()
+    /// The Delassus matrix `D = Wᵀ K_NN⁻¹ W` (`n_c × n_c`, row-major).
+    pub fn delassus(&self) -> &[f64] {
+        &self.delassus
+    }
+
+    /// The initial gaps `g0`.
+    pub fn initial_gap(&self) -> &[f64] {
+        &self.gap
+    }
+
+    /// `Λ` (`n_c × n_c`, row-major, upper triangular) with `ΛᵀΛ = (K_NN⁻¹ W)ᵀ K_NN⁻¹ W`:
+    /// `‖Λ f‖ = ‖K_NN⁻¹ W f‖`, the size of the `N` displacement a contact force `f` makes
+    /// (docs/theory.md (T128)). With one DOF per contact, `Λ = |D|`.
+    pub fn displacement_scale(&self) -> Result<Vec<f64>> {
+        let (n, nc) = (self.n, self.n_contacts);
+        let y = MatRef::from_row_major_slice(&self.compliance_w, n, nc);
+        let gram = y.transpose() * y;
+        let llt = gram
+            .llt(faer::Side::Lower)
+            .map_err(|_| self.dependent_error())?;
+        let l = llt.L();
+        Ok((0..nc * nc)
+            .map(|e| {
+                let (i, j) = (e / nc, e % nc);
+                if j >= i {
+                    l[(j, i)]
+                } else {
+                    0.0
+                }
             })
+            .collect())
+    }
+
+    /// The free gap `γ = Wᵀ K_NN⁻¹ b + g0` of the load `b` (docs/theory.md (T123)).
+    pub fn free_gap(&self, b: &[f64]) -> Vec<f64> {
+        let kw = MatRef::from_row_major_slice(&self.compliance_w, self.n, self.n_contacts);
+        let wkb = kw.transpose() * faer::ColRef::from_slice(b);
+        (0..self.n_contacts).map(|c| self.gap[c] + wkb[c]).collect()
+    }
+
+    /// `q_N = K_NN⁻¹ (b + W λ)` (eq. 26).
+    pub fn displacement(&self, b: &[f64], force: &[f64]) -> Vec<f64> {
+        (0..self.n)
+            .map(|i| self.displacement_of(i, b, force))
             .collect()
     }
 
-    /// Solve the LCP for the load `b` (warm-started from the previous call) and return the
-    /// active set's data.
-    pub fn solve(&mut self, b: &[f64]) -> Result<Rc<ActiveSet>> {
-        let nc = self.n_contacts;
-        // q = g0 + (K⁻¹W)ᵀ b as one matrix–vector product
-        let kw = MatRef::from_row_major_slice(&self.compliance_w, self.n, nc);
-        let wkb = kw.transpose() * faer::ColRef::from_slice(b);
-        let q: Vec<f64> = (0..nc).map(|c| self.gap[c] + wkb[c]).collect();
+    /// Component `i` of `q_N = K_NN⁻¹ (b + W λ)`.
+    pub fn displacement_of(&self, i: usize, b: &[f64], force: &[f64]) -> f64 {
+        let (n, nc) = (self.n, self.n_contacts);
+        let k = &self.stiffness_inverse[i * n..(i + 1) * n];
+        let kw = &self.compliance_w[i * nc..(i + 1) * nc];
+        k.iter().zip(b).map(|(a, v)| a * v).sum::<f64>()
+            + kw.iter().zip(force).map(|(a, l)| a * l).sum::<f64>()
+    }
+
+    /// Solve the LCP for the free gap `γ` (warm-started from the previous call) and return
+    /// the active set's data.
+    pub fn solve(&mut self, gamma: &[f64]) -> Result<Rc<ActiveSet>> {
         let sol = self
             .solver
-            .solve(&q)
+            .solve(gamma)
             .map_err(|e| Error::Numerical(format!("static contact problem: {e}")))?;
         self.active_set(&sol.active)
+    }
+
+    /// The static contact problem for the load `b`: `(q_N, λ)`.
+    pub fn solve_load(&mut self, b: &[f64]) -> Result<(Vec<f64>, Vec<f64>)> {
+        let gamma = self.free_gap(b);
+        let set = self.solve(&gamma)?;
+        let force = set.force(&gamma);
+        Ok((self.displacement(b, &force), force))
     }
 
     /// The (cached) data of the active set `closed`.
@@ -179,9 +226,9 @@ impl StaticContact {
             return Ok(a.clone());
         }
         let a = Rc::new(self.build_active_set(closed)?);
-        // each set holds n² + n_c·n values: on a large interface a few hundred sets would
-        // fill the memory, so the cache starts over when it reaches its budget
-        let set_bytes = 8 * (self.n * self.n + self.n_contacts * self.n).max(1);
+        // each set holds n_c² values: on a large interface a few hundred sets would fill
+        // the memory, so the cache starts over when it reaches its budget
+        let set_bytes = 8 * (self.n_contacts * self.n_contacts).max(1);
         if (self.cache.len() + 1) * set_bytes > ACTIVE_SET_CACHE_BYTES {
             self.cache.clear();
         }
@@ -189,67 +236,65 @@ impl StaticContact {
         Ok(a)
     }
 
-    /// The affine data of (T37) by dense products: with `Y = K⁻¹ W_A` and
-    /// `Z = D_AA⁻¹ Yᵀ`, `P_A = K⁻¹ − Y Z`, `s_A = −Y D_AA⁻¹ g0_A`, and the gaps of all
-    /// contacts `Wᵀ P_A = (K⁻¹ W)ᵀ − D_{:,A} Z` (`D_{:,A} = Wᵀ Y`).
-    fn build_active_set(&self, closed: &[bool]) -> Result<ActiveSet> {
-        let (n, nc) = (self.n, self.n_contacts);
-        let act: Vec<usize> = (0..nc).filter(|&c| closed[c]).collect();
-        let na = act.len();
+    /// `D_AA⁻¹ rhs` for the closed contacts `act`.
+    fn solve_closed(&self, act: &[usize], rhs: MatRef<'_, f64>) -> Result<Mat<f64>> {
+        let nc = self.n_contacts;
         let d_aa: Vec<f64> = act
             .iter()
             .flat_map(|&a| act.iter().map(move |&c| (a, c)))
             .map(|(a, c)| self.delassus[a * nc + c])
             .collect();
-        let kw = MatRef::from_row_major_slice(&self.compliance_w, n, nc);
-        let y = Mat::<f64>::from_fn(n, na, |i, r| kw[(i, act[r])]);
-        // [Z | D_AA⁻¹ g0_A] with one factorisation
-        let mut rhs = Mat::<f64>::zeros(na, n + 1);
-        rhs.as_mut().subcols_mut(0, n).copy_from(y.transpose());
-        for (r, &a) in act.iter().enumerate() {
-            rhs[(r, n)] = self.gap[a];
-        }
-        let sol = solve_small_lu_columns(&d_aa, rhs.as_ref(), 1e-13)
-            .map_err(|_| self.dependent_error())?;
-        let z = sol.as_ref().subcols(0, n);
-        // force_map = −Z (λ_A = force_map · b + force_offset)
-        let force_offset: Vec<f64> = (0..na).map(|r| -sol[(r, n)]).collect();
-        let stiffness_inverse = MatRef::from_row_major_slice(&self.stiffness_inverse, n, n);
-        let compliance = stiffness_inverse - &y * z;
-        let offset: Vec<f64> = (0..n)
-            .map(|i| (0..na).map(|r| y[(i, r)] * force_offset[r]).sum())
-            .collect();
+        solve_small_lu_columns(&d_aa, rhs, 1e-13).map_err(|_| self.dependent_error())
+    }
+
+    /// The indicators of (T124): with `Z = D_AA⁻¹ E_Aᵀ` (`E_A` the columns of the closed
+    /// contacts of the identity), the forces `λ_A = −Z γ` and the open gaps
+    /// `g_I = γ_I − D_IA Z γ`.
+    fn build_active_set(&self, closed: &[bool]) -> Result<ActiveSet> {
+        let nc = self.n_contacts;
+        let act: Vec<usize> = (0..nc).filter(|&c| closed[c]).collect();
+        let na = act.len();
+        let mut selector = Mat::<f64>::zeros(na, nc);
+        act.iter()
+            .enumerate()
+            .for_each(|(r, &a)| selector[(r, a)] = 1.0);
+        let z = self.solve_closed(&act, selector.as_ref())?;
         let d = MatRef::from_row_major_slice(&self.delassus, nc, nc);
         let d_ca = Mat::<f64>::from_fn(nc, na, |c, r| d[(c, act[r])]);
-        let gaps = kw.transpose() - &d_ca * z;
-        let mut indicator = vec![0.0; nc * n];
-        let mut indicator_offset = vec![0.0; nc];
+        let gaps = &d_ca * &z;
         let mut row_of = vec![usize::MAX; nc];
         act.iter().enumerate().for_each(|(r, &a)| row_of[a] = r);
+        let mut indicator = vec![0.0; nc * nc];
         for c in 0..nc {
-            let row = &mut indicator[c * n..(c + 1) * n];
+            let row = &mut indicator[c * nc..(c + 1) * nc];
             if row_of[c] != usize::MAX {
                 let r = row_of[c];
                 row.iter_mut()
                     .enumerate()
                     .for_each(|(j, v)| *v = -z[(r, j)]);
-                indicator_offset[c] = force_offset[r];
             } else {
-                // gap of an open contact: Wᵀ (P_A b + s_A) + g0
                 row.iter_mut()
                     .enumerate()
-                    .for_each(|(j, v)| *v = gaps[(c, j)]);
-                indicator_offset[c] =
-                    self.gap[c] + (0..na).map(|r| d_ca[(c, r)] * force_offset[r]).sum::<f64>();
+                    .for_each(|(j, v)| *v = -gaps[(c, j)]);
+                row[c] += 1.0;
             }
         }
         Ok(ActiveSet {
             closed: closed.to_vec(),
-            compliance: row_major(compliance.as_ref()),
-            offset,
             indicator,
-            indicator_offset,
         })
+    }
+
+    /// The compliance `P_A = K_NN⁻¹ − K_NN⁻¹ W_A D_AA⁻¹ W_Aᵀ K_NN⁻¹` of the set `closed`
+    /// (`n × n`, row-major; docs/theory.md (T37)): `q_N = P_A b + s_A`.
+    pub fn compliance(&self, closed: &[bool]) -> Result<Vec<f64>> {
+        let (n, nc) = (self.n, self.n_contacts);
+        let act: Vec<usize> = (0..nc).filter(|&c| closed[c]).collect();
+        let kw = MatRef::from_row_major_slice(&self.compliance_w, n, nc);
+        let y = Mat::<f64>::from_fn(n, act.len(), |i, r| kw[(i, act[r])]);
+        let z = self.solve_closed(&act, y.transpose())?;
+        let stiffness_inverse = MatRef::from_row_major_slice(&self.stiffness_inverse, n, n);
+        Ok(row_major((stiffness_inverse - &y * &z).as_ref()))
     }
 
     fn dependent_error(&self) -> Error {

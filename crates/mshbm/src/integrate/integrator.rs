@@ -239,9 +239,7 @@ impl Integrator {
         let qm: Vec<f64> = d.massive.iter().map(|&i| self.state.q[i]).collect();
         let kq = self.stiffness_nm.mul_vec(&qm);
         let b: Vec<f64> = (0..nz).map(|k| f[z[k]] - kq[k]).collect();
-        let set = contact.solve(&b)?;
-        let qz = set.displacement(&b);
-        let lambda = set.force(&b);
+        let (qz, lambda) = contact.solve_load(&b)?;
         for (k, &i) in z.iter().enumerate() {
             self.state.q[i] = qz[k];
         }

@@ -335,6 +335,34 @@ pub fn simulate_to_steady_state(
         .rev()
         .take(SUCCESSIVE)
         .fold(0.0f64, |m, &c| m.max(c));
+    // the redistributed MS-HBM's unknowns (the contacts' displacements Wᵀ q = g − g0,
+    // docs/theory.md (T128)) and the harmonics of every contact-node DOF (eq. 31),
+    // harmonic-major
+    let (contact_displacements, contact_node_harmonics) = if unknown_dofs.is_empty() {
+        (None, None)
+    } else {
+        let harmonic_major = |series: &[Vec<f64>]| -> Vec<f64> {
+            let coefficients: Vec<Vec<f64>> = series.iter().map(|s| sampling.dft(s)).collect();
+            let count = coefficients.len();
+            let mut x = vec![0.0; count * (2 * h + 1)];
+            for (i, c) in coefficients.iter().enumerate() {
+                for (m, v) in c.iter().enumerate() {
+                    x[m * count + i] = *v;
+                }
+            }
+            x
+        };
+        let g0 = integrator.contact_initial_gaps();
+        let displacements: Vec<Vec<f64>> = gaps
+            .iter()
+            .zip(g0)
+            .map(|(g, g0)| g.iter().map(|g| g - g0).collect())
+            .collect();
+        (
+            Some(harmonic_major(&displacements)),
+            Some(harmonic_major(&nonlinear)),
+        )
+    };
     Ok(SteadyState {
         solution: PeriodicSolution {
             frequency_hz: omega / (2.0 * std::f64::consts::PI),
@@ -356,19 +384,8 @@ pub fn simulate_to_steady_state(
                 min: rmin,
             },
             stability: None,
-            unknowns: (!unknown_dofs.is_empty()).then(|| {
-                // harmonic-major (docs/theory.md (T8)): coefficient c of DOF i at c·n_N + i
-                let coefficients: Vec<Vec<f64>> =
-                    nonlinear.iter().map(|s| sampling.dft(s)).collect();
-                let n_n = coefficients.len();
-                let mut x = vec![0.0; n_n * (2 * h + 1)];
-                for (i, c) in coefficients.iter().enumerate() {
-                    for (m, v) in c.iter().enumerate() {
-                        x[m * n_n + i] = *v;
-                    }
-                }
-                x
-            }),
+            unknowns: contact_displacements,
+            contact_node_harmonics,
         },
         periodic,
         periodicity: options.periodicity,

@@ -123,6 +123,7 @@ pub(crate) fn periodic_solution(
         response: parts.response,
         stability: None,
         unknowns: None,
+        contact_node_harmonics: None,
     }
 }
 

@@ -1,28 +1,36 @@
 //! The redistributed MS-HBM (paper Sections 3.1–3.2): with a massless contact boundary the
-//! nonlinear subsystem is static, so a periodic solution is fully described by the Fourier
-//! coefficients `x = q̂_N` of the contact-node DOFs (eq. 31) and solves the connectivity
-//! condition `R(x) = x − FFT(q_N(t)) = 0` (eq. 30).
+//! nonlinear subsystem is static, and a periodic solution solves the connectivity condition
+//! of eq. (30). The code writes it in the contact coordinates (docs/theory.md §16): the
+//! unknowns are the Fourier coefficients `v = Wᵀ q̂` of the contacts' displacements
+//! (`n_c (2H+1)` of them, whatever the number of `N` DOFs; on one contact DOF, as on the
+//! paper's bar, they are exactly the paper's `x = q̂_N`), and per harmonic `k`
 //!
-//! Per frequency (eq. 25): for each harmonic `k` the L-part dynamic stiffness
-//! `A_k = K_LL − (kω)² M̄_LL + i kω C_LL` is factored once, and the affine map from `x` to the
-//! load on the contact subsystem `b(τ) = −K_NL q_L(τ) + f_N(τ)` is precomputed: with the
-//! complex amplitude `z_k = a_k − i b_k` of harmonic `k` of `x`,
-//! `K_NL q̂_L,k = u0_k − G_k z_k`, `G_k = K_NL A_k⁻¹ K_LN`, `u0_k = K_NL A_k⁻¹ f_L,k`
-//! ([`crate::linear::ExactCondensation`]). No factorization happens inside the per-sample loop.
+//! ```text
+//! φ_k = R_k⁻¹ (v_k − Wᵀ A_k⁻¹ f_k)                    the force the structure needs for v,
+//! u_k = g0 δ_k0 + v_k − D φ_k                          the free gap (T123),
+//! R(v, ω) = D (φ − λ̂(u))                              (docs/theory.md (T128)),
+//! ```
 //!
-//! Per evaluation: the static contact problem (eqs. 26–29) is solved per sample or per
-//! interval ([`quadrature`]), giving `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`. The
-//! semi-analytical Jacobian (eqs. 32–44; docs/theory.md (T41)–(T42)) is
-//! `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`, where `∂B/∂x` is block-diagonal per harmonic
-//! (`[[Re G_k, Im G_k], [−Im G_k, Re G_k]]`), and
-//! `∂R/∂ω = −Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂ω` with
-//! `∂(K_NL q̂_L,k)/∂ω = −K_NL A_k⁻¹ (∂A_k/∂ω) q̂_L,k`.
+//! where `λ̂(u)` are the Fourier coefficients of the contact forces of the static contact
+//! problem per instant (eqs. 26–29, solved for the free gap `γ(τ)` of coefficients `u`),
+//! `D` the Delassus matrix and `R_k = Wᵀ A_k⁻¹ W` the receptance of the whole structure at
+//! the contacts ([`crate::linear::Receptance`]). On one contact DOF `R(v)` is the paper's
+//! residual `x − 𝓕[q_N]` itself; in general it is that residual with the contact-free
+//! directions solved exactly. The paper's `x = q̂_N` of every contact-node DOF follows from
+//! the solution ([`PeriodicSolution::contact_node_harmonics`]).
+//!
+//! Per frequency: `R_k`, `Wᵀ A_k⁻¹ f_k` and `R_k⁻¹` once. Per evaluation: the static contact
+//! problem per sample or per interval ([`quadrature`]) gives `λ̂ = Σ_A (Γ_A ⊗ F_A) u` with
+//! the force map `F_A = ∂λ/∂γ` of each active set (docs/theory.md (T124)). The
+//! semi-analytical Jacobian (eqs. 32–44 in these coordinates, docs/theory.md (T129)) is
+//! `J = blockdiag(D R_k⁻¹) − (I ⊗ D) Σ_A (Γ_A ⊗ F_A) blockdiag(I − D R_k⁻¹)`.
 
 pub mod quadrature;
 
 use std::rc::Rc;
 
-use faer::Mat;
+use faer::linalg::solvers::Solve;
+use faer::{c64, Mat};
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
 use super::{check_dimension, fixed_response, n_dof_coefficients};
@@ -31,14 +39,15 @@ use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
 use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Quadrature, Sampling};
 use crate::limits::Limits;
-use crate::linear::PartitionedSystem;
-use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
+use crate::linear::{complex_harmonic, store_harmonic, PartitionedSystem};
+use crate::linear::{ExactReceptance, Receptance, ReceptanceAtFrequency};
 use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
-use quadrature::{integrate, load_at, Integration};
+use quadrature::{integrate, signal_at, Integration};
 
 /// Largest linear part for which the dense monodromy matrix is formed.
 pub const MAX_DENSE_STABILITY_DOFS: usize = 1500;
@@ -64,19 +73,33 @@ impl RedistributedOptions {
     }
 }
 
+/// The receptance at one frequency with the matrices of the residual (T128).
+struct Frequency {
+    receptance: Box<dyn ReceptanceAtFrequency>,
+    /// `R_k⁻¹`, `D R_k⁻¹` and `Λ R_k⁻¹` (`n_c × n_c`), `k = 0..=H`.
+    inverse: Vec<Mat<c64>>,
+    scaled_inverse: Vec<Mat<c64>>,
+    residual_inverse: Vec<Mat<c64>>,
+}
+
 /// The redistributed MS-HBM for one model.
 pub struct RedistributedMsHbm {
     system: System,
     harmonics: usize,
     sampling: Sampling,
     quadrature: Quadrature,
-    /// The linear part condensed onto the contact DOFs (eq. 25; `M_NL = C_NL = 0`).
-    condensation: Box<dyn Condensation>,
+    /// The receptance of the structure at its contacts (docs/theory.md (T125)).
+    receptance: Box<dyn Receptance>,
     /// `L | N` partition and length scale.
     partition: Partition,
     contact: StaticContact,
-    /// The condensation at the last frequency.
-    frequency: Option<Box<dyn CondensedFrequency>>,
+    /// `Λ` of the residual (T128): `‖Λ f‖ = ‖K_NN⁻¹ W f‖` (`n_c × n_c`, row-major).
+    residual_scale: Vec<f64>,
+    /// `K_NN` and `W` (`n_N × n_c`, row-major) of the contact nodes.
+    stiffness_nn: SparseMatrix,
+    directions: Vec<f64>,
+    /// The receptance at the last frequency.
+    frequency: Option<Frequency>,
     stability_options: StabilityOptions,
     /// The L-system of the Floquet analysis (full or reduced), built on first use.
     stability_system: Option<Rc<ReducedSystem>>,
@@ -128,20 +151,24 @@ impl RedistributedMsHbm {
                  Use mass-proportional damping (damping.alpha or damping.first_mode_ratio)",
             ));
         }
-        let k_nn = system.stiffness.submatrix(nl, nl);
+        let stiffness_nn = system.stiffness.submatrix(nl, nl);
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
-        let contact = StaticContact::new(&k_nn, contact_directions(&system), gap)?;
-        let condensation =
-            ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
+        let directions = contact_directions(&system);
+        let contact = StaticContact::new(&stiffness_nn, directions.clone(), gap)?;
+        let residual_scale = contact.displacement_scale()?;
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
+        let receptance = ExactReceptance::new(&system)?;
         Ok(RedistributedMsHbm {
             partition,
             harmonics: h,
             sampling: Sampling::within(h, samples, limits)?,
             quadrature: options.quadrature,
-            condensation: Box::new(condensation),
+            receptance: Box::new(receptance),
             contact,
+            residual_scale,
+            stiffness_nn,
+            directions,
             frequency: None,
             stability_options: StabilityOptions::default(),
             stability_system: None,
@@ -164,160 +191,308 @@ impl RedistributedMsHbm {
         self.sampling.len()
     }
 
+    /// Number of contacts `n_c`.
     fn n(&self) -> usize {
-        self.system.nonlinear_dofs.len()
+        self.system.contacts.len()
     }
 
     fn prepare(&mut self, omega: f64) -> Result<()> {
-        if self.frequency.as_ref().is_some_and(|f| f.omega() == omega) {
+        if self
+            .frequency
+            .as_ref()
+            .is_some_and(|f| f.receptance.omega() == omega)
+        {
             return Ok(());
         }
         super::check_frequency(omega)?;
-        self.frequency = Some(self.condensation.at(omega, self.harmonics)?);
+        let receptance = self.receptance.at(omega, self.harmonics)?;
+        let n = self.n();
+        let d = self.delassus_matrix();
+        let identity = Mat::<c64>::identity(n, n);
+        let mut inverse = Vec::with_capacity(self.harmonics + 1);
+        let mut scaled_inverse = Vec::with_capacity(self.harmonics + 1);
+        let mut residual_inverse = Vec::with_capacity(self.harmonics + 1);
+        let scale = Mat::<c64>::from_fn(n, n, |i, j| c64::new(self.residual_scale[i * n + j], 0.0));
+        for k in 0..=self.harmonics {
+            let r = faer::MatRef::from_row_major_slice(receptance.receptance(k), n, n);
+            let r_inv = r.partial_piv_lu().solve(&identity);
+            if r_inv
+                .col_iter()
+                .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
+            {
+                return Err(Error::Singular(format!(
+                    "the receptance of the structure at its contacts is singular at harmonic {k} ({:.6} Hz)",
+                    k as f64 * omega / (2.0 * std::f64::consts::PI)
+                )));
+            }
+            scaled_inverse.push(&d * &r_inv);
+            residual_inverse.push(&scale * &r_inv);
+            inverse.push(r_inv);
+        }
+        self.frequency = Some(Frequency {
+            receptance,
+            inverse,
+            scaled_inverse,
+            residual_inverse,
+        });
         Ok(())
     }
 
-    /// The condensation at the prepared frequency.
-    fn condensed(&self) -> &dyn CondensedFrequency {
-        self.frequency.as_deref().expect("prepared")
+    /// `D` as a complex matrix.
+    fn delassus_matrix(&self) -> Mat<c64> {
+        let n = self.n();
+        let d = self.contact.delassus();
+        Mat::<c64>::from_fn(n, n, |i, j| c64::new(d[i * n + j], 0.0))
     }
 
-    /// Coefficients `B` (harmonic-major, `c·n + i`) of the load `b(τ)` on the contact
-    /// subsystem for the unknowns `x`.
-    fn load_coefficients(&self, x: &[f64]) -> Vec<f64> {
-        self.condensed().interface_load_coefficients(x)
+    /// The receptance at the prepared frequency.
+    fn prepared(&self) -> &Frequency {
+        self.frequency.as_ref().expect("prepared")
     }
 
-    /// `Σ_A (P_A B Γ_Aᵀ + with_offset · s_A Γ_A[:,0]ᵀ)`.
-    fn assemble_coefficients(
-        &self,
-        integration: &Integration,
-        b: &[f64],
-        with_offset: bool,
-    ) -> Vec<f64> {
+    /// `λ̂ = Σ_A (Γ_A ⊗ F_A) u` (harmonic-major, `n_c` per coefficient; docs/theory.md
+    /// (T124)–(T125)): linear in the free-gap coefficients `u`.
+    fn assemble_forces(&self, integration: &Integration, u: &[f64]) -> Vec<f64> {
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
-        let mut q = vec![0.0; n * nc];
-        let mut bg = vec![0.0; n];
+        let mut forces = vec![0.0; n * nc];
+        let mut ug = vec![0.0; n];
         for group in &integration.groups {
-            let p = &group.set.compliance;
+            let closed = group.set.closed_contacts();
+            if closed.is_empty() {
+                continue;
+            }
+            let f = &group.set.indicator;
             for m in 0..nc {
-                bg.iter_mut().for_each(|v| *v = 0.0);
+                ug.iter_mut().for_each(|v| *v = 0.0);
                 for c in 0..nc {
                     let gmc = group.gram[m * nc + c];
                     if gmc != 0.0 {
-                        for i in 0..n {
-                            bg[i] += b[c * n + i] * gmc;
-                        }
+                        ug.iter_mut()
+                            .zip(&u[c * n..(c + 1) * n])
+                            .for_each(|(g, v)| *g += v * gmc);
                     }
                 }
-                for i in 0..n {
-                    let mut s: f64 = (0..n).map(|j| p[i * n + j] * bg[j]).sum();
-                    if with_offset {
-                        s += group.set.offset[i] * group.gram[m * nc];
-                    }
-                    q[m * n + i] += s;
+                for &a in &closed {
+                    let row = &f[a * n..(a + 1) * n];
+                    forces[m * n + a] += row.iter().zip(&ug).map(|(r, g)| r * g).sum::<f64>();
                 }
             }
         }
-        q
+        forces
     }
 
-    fn evaluate(&mut self, x: &[f64], omega: f64) -> Result<(Vec<f64>, Integration, Vec<f64>)> {
-        check_dimension(x, self.dimension())?;
+    /// `out_k = M_k z_k` per harmonic for complex `n_c × n_c` matrices `M_k` and
+    /// harmonic-major real coefficients `z` (the real form (T15)).
+    fn per_harmonic(&self, matrices: &[Mat<c64>], z: &[f64]) -> Vec<f64> {
+        let n = self.n();
+        let mut out = vec![0.0; z.len()];
+        for (k, m) in matrices.iter().enumerate() {
+            let zk = complex_harmonic(z, n, k);
+            let v: Vec<c64> = (0..n)
+                .map(|i| (0..n).fold(c64::new(0.0, 0.0), |s, j| s + m[(i, j)] * zk[j]))
+                .collect();
+            store_harmonic(&v, n, k, &mut out);
+        }
+        out
+    }
+
+    /// `D z` per coefficient.
+    fn delassus_times(&self, z: &[f64]) -> Vec<f64> {
+        self.times_each_coefficient(self.contact.delassus(), z)
+    }
+
+    /// `M z` per coefficient for a real `n_c × n_c` matrix `M` (row-major).
+    fn times_each_coefficient(&self, d: &[f64], z: &[f64]) -> Vec<f64> {
+        let n = self.n();
+        let mut out = vec![0.0; z.len()];
+        for (o, zc) in out.chunks_mut(n).zip(z.chunks(n)) {
+            for i in 0..n {
+                o[i] = (0..n).map(|j| d[i * n + j] * zc[j]).sum();
+            }
+        }
+        out
+    }
+
+    /// `v − Wᵀ A_k⁻¹ f_k` per harmonic: the displacement the contact forces must make.
+    fn displacement_by_forces(&self, v: &[f64]) -> Vec<f64> {
+        let n = self.n();
+        let f = self.prepared();
+        let mut load = vec![0.0; v.len()];
+        for k in 0..=self.harmonics {
+            store_harmonic(f.receptance.load_response(k), n, k, &mut load);
+        }
+        v.iter().zip(&load).map(|(a, b)| a - b).collect()
+    }
+
+    /// The structure's force `φ = R⁻¹ (v − Wᵀ A⁻¹ f)` and the free gap
+    /// `u = g0 δ_k0 + v − D φ` of the unknowns `v` (T128).
+    fn force_and_free_gap(&self, v: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let by_forces = self.displacement_by_forces(v);
+        let f = self.prepared();
+        let phi = self.per_harmonic(&f.inverse, &by_forces);
+        let d_phi = self.per_harmonic(&f.scaled_inverse, &by_forces);
+        let mut u: Vec<f64> = v.iter().zip(&d_phi).map(|(a, b)| a - b).collect();
+        u.iter_mut()
+            .zip(self.contact.initial_gap())
+            .for_each(|(u, g0)| *u += g0);
+        (phi, u)
+    }
+
+    /// The residual (T128), the period's active-set decomposition and the forces `λ̂`.
+    fn evaluate(&mut self, v: &[f64], omega: f64) -> Result<(Vec<f64>, Integration, Vec<f64>)> {
+        check_dimension(v, self.dimension())?;
         self.prepare(omega)?;
-        let b = self.load_coefficients(x);
-        let integration = integrate(&mut self.contact, &b, &self.sampling, self.quadrature)?;
-        let q = self.assemble_coefficients(&integration, &b, true);
-        let r: Vec<f64> = x.iter().zip(&q).map(|(a, c)| a - c).collect();
-        Ok((r, integration, b))
+        let (phi, u) = self.force_and_free_gap(v);
+        let integration = integrate(&mut self.contact, &u, &self.sampling, self.quadrature)?;
+        let forces = self.assemble_forces(&integration, &u);
+        let mismatch: Vec<f64> = phi.iter().zip(&forces).map(|(a, b)| a - b).collect();
+        Ok((
+            self.times_each_coefficient(&self.residual_scale, &mismatch),
+            integration,
+            forces,
+        ))
     }
 
-    /// `J = I − Σ_A (Γ_A ⊗ P_A) ∂vec(B)/∂x`, computed block row by block row: with
-    /// `S_mc = Σ_A Γ_A[m, c] P_A` (one pass over the active sets per row `m`), the block
-    /// `(m, cos_k)` is `S_{m,cos_k} Re G_k − S_{m,sin_k} Im G_k` and `(m, sin_k)` is
-    /// `S_{m,cos_k} Im G_k + S_{m,sin_k} Re G_k` (`G_0` real). That is `(4H + 1)(2H + 1)`
-    /// products of `n × n` matrices whatever the number of active sets, which grows with
-    /// the samples and the contacts.
+    /// `J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(C_k)` (docs/theory.md (T129)) with
+    /// `C_k = I − D R_k⁻¹` and `S_mc = Σ_A Γ_A[m, c] F_A` (the rows of the
+    /// closed contacts), in the real form (T15): a complex `M` acting on the `(cos, sin)`
+    /// coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`. Row block `m` costs
+    /// `3(2H + 1)` products of `n_c × n_c` matrices, whatever the number of active sets.
     fn jacobian_matrix(&self, integration: &Integration) -> Mat<f64> {
         use faer::linalg::matmul::matmul;
         use faer::reborrow::ReborrowMut;
         use faer::{Accum, Par};
-        let f = self.condensed();
+        let f = self.prepared();
         let n = self.n();
-        let nc = n_coefficients(self.harmonics);
+        let h = self.harmonics;
+        let nc = n_coefficients(h);
         let dim = n * nc;
-        let mut jac = Mat::<f64>::identity(dim, dim);
-        // Re G_k and Im G_k
-        let g_parts: Vec<(Mat<f64>, Mat<f64>)> = (0..=self.harmonics)
-            .map(|k| {
-                let g = f.interface_stiffness(k);
-                (
-                    Mat::from_fn(n, n, |l, j| g[l * n + j].re),
-                    Mat::from_fn(n, n, |l, j| g[l * n + j].im),
-                )
+        let mut jac = Mat::<f64>::zeros(dim, dim);
+        let real_form = |m: &Mat<c64>| -> (Mat<f64>, Mat<f64>) {
+            (
+                Mat::from_fn(n, n, |i, j| m[(i, j)].re),
+                Mat::from_fn(n, n, |i, j| m[(i, j)].im),
+            )
+        };
+        // the columns (cos, sin) of each harmonic: (coefficient, (Re, Im) of C_k)
+        let complement: Vec<(Mat<f64>, Mat<f64>)> = f
+            .scaled_inverse
+            .iter()
+            .map(|p| {
+                let (re, im) = real_form(p);
+                (Mat::<f64>::identity(n, n) - re, -im)
             })
             .collect();
-        let mut s: Vec<Mat<f64>> = (0..nc).map(|_| Mat::zeros(n, n)).collect();
+        for (k, p) in f.residual_inverse.iter().enumerate() {
+            let (re, im) = real_form(p);
+            if k == 0 {
+                jac.as_mut().submatrix_mut(0, 0, n, n).copy_from(&re);
+            } else {
+                let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+                jac.as_mut().submatrix_mut(ci, ci, n, n).copy_from(&re);
+                jac.as_mut().submatrix_mut(ci, si, n, n).copy_from(&im);
+                jac.as_mut().submatrix_mut(si, ci, n, n).copy_from(-&im);
+                jac.as_mut().submatrix_mut(si, si, n, n).copy_from(&re);
+            }
+        }
+        let scale = faer::MatRef::from_row_major_slice(&self.residual_scale, n, n);
         for m in 0..nc {
-            s.iter_mut().for_each(|s_c| s_c.fill(0.0));
-            let mut used = vec![false; nc];
-            for group in &integration.groups {
-                let p = faer::MatRef::from_row_major_slice(&group.set.compliance, n, n);
-                for (c, s_c) in s.iter_mut().enumerate() {
+            // T_c = Λ S_mc
+            let mut t: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
+            let mut s = Mat::<f64>::zeros(n, n);
+            for (c, t_c) in t.iter_mut().enumerate() {
+                s.fill(0.0);
+                let mut used = false;
+                for group in &integration.groups {
                     let g = group.gram[m * nc + c];
-                    if g != 0.0 {
-                        used[c] = true;
-                        faer::zip!(s_c.as_mut(), p).for_each(|faer::unzip!(s, p)| *s += g * *p);
+                    if g == 0.0 {
+                        continue;
+                    }
+                    for a in group.set.closed_contacts() {
+                        used = true;
+                        let row = &group.set.indicator[a * n..(a + 1) * n];
+                        row.iter().enumerate().for_each(|(j, v)| s[(a, j)] += g * v);
                     }
                 }
-            }
-            // rows m of the Jacobian, block column `col`: += sign · S · G
-            let mut rows = jac.as_mut().subrows_mut(m * n, n);
-            let mut add = |col: usize, s: &Mat<f64>, g: &Mat<f64>, sign: f64| {
-                let block = rows.rb_mut().subcols_mut(col * n, n);
-                matmul(block, Accum::Add, s, g, sign, Par::Seq);
-            };
-            if used[0] {
-                add(0, &s[0], &g_parts[0].0, -1.0);
-            }
-            for (k, (g_re, g_im)) in g_parts.iter().enumerate().skip(1) {
-                let (cc, ss) = (2 * k - 1, 2 * k);
-                if used[cc] {
-                    add(cc, &s[cc], g_re, -1.0);
-                    add(ss, &s[cc], g_im, -1.0);
+                if used {
+                    *t_c = Some(scale * &s);
                 }
-                if used[ss] {
-                    add(cc, &s[ss], g_im, 1.0);
-                    add(ss, &s[ss], g_re, -1.0);
+            }
+            let mut rows = jac.as_mut().subrows_mut(m * n, n);
+            // −T · realform(C_k) column block by column block
+            let mut add = |col: usize, t: &Mat<f64>, c: &Mat<f64>, sign: f64| {
+                let block = rows.rb_mut().subcols_mut(col * n, n);
+                matmul(block, Accum::Add, t, c, sign, Par::Seq);
+            };
+            if let Some(t0) = &t[0] {
+                add(0, t0, &complement[0].0, -1.0);
+            }
+            for (k, (c_re, c_im)) in complement.iter().enumerate().skip(1) {
+                let (cc, ss) = (2 * k - 1, 2 * k);
+                // output column cos: T_cos Re C − T_sin Im C; column sin: T_cos Im C + T_sin Re C
+                if let Some(tc) = &t[cc] {
+                    add(cc, tc, c_re, -1.0);
+                    add(ss, tc, c_im, -1.0);
+                }
+                if let Some(ts) = &t[ss] {
+                    add(cc, ts, c_im, 1.0);
+                    add(ss, ts, c_re, -1.0);
                 }
             }
         }
         jac
     }
 
-    /// The contact-free linear response at `ω` (the initial guess).
+    /// `∂R/∂ω` at fixed `v` (docs/theory.md (T129)): with
+    /// `ψ_k = R_k⁻¹ ∂(Wᵀ q̂_k)/∂ω |_φ` (the derivative of (T125) at the structure's force
+    /// `φ`, zero for `k = 0`), `∂φ/∂ω = −ψ`, `∂u/∂ω = D ψ` and
+    /// `∂R/∂ω = −(I ⊗ Λ) (ψ + S (I ⊗ D) ψ)`.
+    fn frequency_derivative(&self, v: &[f64], integration: &Integration) -> Result<Vec<f64>> {
+        let n = self.n();
+        let f = self.prepared();
+        let (phi, _) = self.force_and_free_gap(v);
+        let mut derivative = vec![0.0; v.len()];
+        for k in 1..=self.harmonics {
+            let dg = f
+                .receptance
+                .frequency_derivative(k, &complex_harmonic(&phi, n, k), true)?;
+            store_harmonic(&dg, n, k, &mut derivative);
+        }
+        let psi = self.per_harmonic(&f.inverse, &derivative);
+        let d_psi = self.delassus_times(&psi);
+        let s_d_psi = self.assemble_forces(integration, &d_psi);
+        let both: Vec<f64> = psi.iter().zip(&s_d_psi).map(|(a, b)| a + b).collect();
+        Ok(self
+            .times_each_coefficient(&self.residual_scale, &both)
+            .iter()
+            .map(|v| -v)
+            .collect())
+    }
+
+    /// The contact-free response at `ω` (the initial guess): `v_k = Wᵀ A_k⁻¹ f_k`.
     pub fn linear_response(&mut self, omega: f64) -> Result<Vec<f64>> {
         self.prepare(omega)?;
+        let zero = vec![0.0; self.dimension()];
+        Ok(self
+            .displacement_by_forces(&zero)
+            .iter()
+            .map(|v| -v)
+            .collect())
+    }
+
+    /// The harmonics of every DOF of the structure under the forces `λ̂`
+    /// (`q̂_k = A_k⁻¹ (f_k + W λ̂_k)`, harmonic-major, `n_dofs` per coefficient).
+    fn structure_response(&self, forces: &[f64]) -> Result<Vec<f64>> {
         let n = self.n();
-        let nc = n_coefficients(self.harmonics);
-        let open = vec![false; self.contact.n_contacts()];
-        let set = self.contact.active_set(&open)?;
-        let mut gram = vec![0.0; nc * nc];
-        (0..nc).for_each(|m| gram[m * nc + m] = 1.0);
-        let integration = Integration {
-            groups: vec![quadrature::Group { set, gram }],
-            sample_group: vec![],
-            switches: vec![],
-            intervals: vec![],
-        };
-        // R(x) = x − P B(x) is affine for the open set: one Newton step from 0 solves it
-        let zero_x = vec![0.0; n * nc];
-        let b = self.load_coefficients(&zero_x);
-        let q0 = self.assemble_coefficients(&integration, &b, true);
-        let jac = self.jacobian_matrix(&integration);
-        // the Newton step from 0, `J d = −R(0) = q0`
-        crate::dense::solve_lu(&jac, &q0, "the Jacobian is singular")
+        let n_dofs = self.system.n_dofs();
+        let f = self.prepared();
+        let mut q = vec![0.0; n_dofs * n_coefficients(self.harmonics)];
+        for k in 0..=self.harmonics {
+            let qk = f.receptance.response(k, &complex_harmonic(forces, n, k))?;
+            store_harmonic(&qk, n_dofs, k, &mut q);
+        }
+        Ok(q)
     }
 
     /// Settings of the Floquet analysis ([`PeriodicProblem::floquet`]); the default is
@@ -343,7 +518,7 @@ impl RedistributedMsHbm {
         if let Some(s) = &self.stability_system {
             return Ok(s.clone());
         }
-        let blocks = self.condensation.system();
+        let blocks = PartitionedSystem::new(&self.system);
         let (lin, k_nl) = (&blocks.ll, &blocks.nl.stiffness);
         let nl = blocks.n_linear();
         let system = match self.stability_options.modes_for(nl) {
@@ -399,7 +574,7 @@ impl RedistributedMsHbm {
 
 impl PeriodicProblem for RedistributedMsHbm {
     /// Exact Jacobian of a residual that is smooth between grazing events (docs/theory.md
-    /// (T41)–(T42)):
+    /// (T41)–(T42), (T129)):
     /// Newton contracts quadratically; the branch has isolated corners at grazing contacts.
     fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
         crate::problem::ContinuationPolicy {
@@ -427,9 +602,7 @@ impl PeriodicProblem for RedistributedMsHbm {
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
         let (residual, integration, _) = self.evaluate(x, omega)?;
         let jacobian = self.jacobian_matrix(&integration);
-        let db = self.condensed().interface_load_frequency_derivative(x)?;
-        let dq = self.assemble_coefficients(&integration, &db, false);
-        let d_omega = dq.iter().map(|v| -v).collect();
+        let d_omega = self.frequency_derivative(x, &integration)?;
         Ok(Linearization {
             residual,
             jacobian,
@@ -439,39 +612,72 @@ impl PeriodicProblem for RedistributedMsHbm {
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
         let location = self.partition.locate_response(&self.system, response_dof)?;
-        let (residual, integration, b) = self.evaluate(x, omega)?;
+        let (residual, integration, forces) = self.evaluate(x, omega)?;
         let n = self.n();
         let h = self.harmonics;
-        let nc = n_coefficients(h);
-        let mut basis_buf = vec![0.0; nc];
+        let ncoef = n_coefficients(h);
+        let n_dofs = self.system.n_dofs();
+        let q = self.structure_response(&forces)?;
+        // the paper's unknowns q̂_N, and the coefficients of the load on the contact nodes,
+        // b̂ = f_N − K_NL q̂_L = K_NN q̂_N − W λ̂ (their rows of the whole system)
+        let nonlinear = &self.system.nonlinear_dofs;
+        let n_n = nonlinear.len();
+        let q_ref = &q;
+        let q_n: Vec<f64> = (0..ncoef)
+            .flat_map(|m| nonlinear.iter().map(move |&d| q_ref[m * n_dofs + d]))
+            .collect();
+        let mut b = vec![0.0; n_n * ncoef];
+        for m in 0..ncoef {
+            let kq = self.stiffness_nn.mul_vec(&q_n[m * n_n..(m + 1) * n_n]);
+            let lambda = &forces[m * n..(m + 1) * n];
+            for i in 0..n_n {
+                let w = &self.directions[i * n..(i + 1) * n];
+                b[m * n_n + i] = kq[i] - w.iter().zip(lambda).map(|(w, l)| w * l).sum::<f64>();
+            }
+        }
+        let mut basis_buf = vec![0.0; ncoef];
         let mut q_s = Vec::with_capacity(self.sampling.len());
         let mut f_s = Vec::with_capacity(self.sampling.len());
         let mut g_s = Vec::with_capacity(self.sampling.len());
+        // the static contact problem at τ for the load b(τ) of the response: (q_N, λ, g)
+        // (its free gap equals that of the unknowns to the residual; solved from b(τ), the
+        // reported q_N, λ, g satisfy Signorini to round-off)
+        let contact = &mut self.contact;
+        // with `dof`, q_N holds only that DOF's displacement
+        let mut state_at = |tau: f64,
+                            basis: &mut [f64],
+                            dof: Option<usize>|
+         -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+            let load = signal_at(&b, n_n, h, tau, basis);
+            let gamma = contact.free_gap(&load);
+            let set = contact.solve(&gamma)?;
+            let lambda = set.force(&gamma);
+            let q = match dof {
+                Some(i) => vec![contact.displacement_of(i, &load, &lambda)],
+                None => contact.displacement(&load, &lambda),
+            };
+            Ok((q, lambda, set.gap(&gamma)))
+        };
         for &tau in &self.sampling.taus {
-            let load = load_at(&b, n, h, tau, &mut basis_buf);
-            let set = self.contact.solve(&load)?;
-            let q = set.displacement(&load);
-            g_s.push(self.contact.gaps(&q));
-            f_s.push(set.force(&load));
+            let (q, lambda, gap) = state_at(tau, &mut basis_buf, None)?;
             q_s.push(q);
+            f_s.push(lambda);
+            g_s.push(gap);
         }
         let taus = self.sampling.taus.clone();
         // the N displacements at every switching time, once for all DOFs (a switch is an
         // extremum candidate of every DOF, and each costs a static contact solve)
         let mut q_switches = Vec::with_capacity(integration.switches.len());
         for s in &integration.switches {
-            let load = load_at(&b, n, h, s.tau, &mut basis_buf);
-            q_switches.push(match self.contact.solve(&load) {
-                Ok(set) => set.displacement(&load),
-                Err(_) => vec![f64::NAN; n],
+            q_switches.push(match state_at(s.tau, &mut basis_buf, None) {
+                Ok((q, _, _)) => q,
+                Err(_) => vec![f64::NAN; n_n],
             });
         }
-        let contact = &mut self.contact;
         // exact displacement of N-DOF i at τ (the time signal, not the truncated series)
         let mut q_at = |i: usize, tau: f64| -> f64 {
-            let load = load_at(&b, n, h, tau, &mut basis_buf);
-            match contact.solve(&load) {
-                Ok(set) => set.displacement_of(i, &load),
+            match state_at(tau, &mut basis_buf, Some(i)) {
+                Ok((q, _, _)) => q[0],
                 Err(_) => f64::NAN,
             }
         };
@@ -491,7 +697,7 @@ impl PeriodicProblem for RedistributedMsHbm {
             let (max, min) = n_extremes(i);
             contacts.push(ContactSeries {
                 dof: self.system.model_dof[sc.w[0].0],
-                coefficients: n_dof_coefficients(x, n, h, i),
+                coefficients: n_dof_coefficients(&q_n, n_n, h, i),
                 displacement: q_s.iter().map(|q| q[i]).collect(),
                 gap: g_s.iter().map(|g| g[c]).collect(),
                 force: f_s.iter().map(|l| l[c]).collect(),
@@ -505,13 +711,14 @@ impl PeriodicProblem for RedistributedMsHbm {
                 let (max, min) = n_extremes(i);
                 DofResponse {
                     dof: response_dof,
-                    coefficients: n_dof_coefficients(x, n, h, i),
+                    coefficients: n_dof_coefficients(&q_n, n_n, h, i),
                     max,
                     min,
                 }
             }
             DofLocation::Linear(l) => {
-                let coefficients = self.condensed().linear_dof_coefficients(x, l)?;
+                let d = self.system.linear_dofs[l];
+                let coefficients: Vec<f64> = (0..ncoef).map(|m| q[m * n_dofs + d]).collect();
                 let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
                 let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
                 let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
@@ -523,7 +730,7 @@ impl PeriodicProblem for RedistributedMsHbm {
                 }
             }
         };
-        Ok(periodic_solution(
+        let mut solution = periodic_solution(
             &self.system,
             &self.partition,
             omega,
@@ -537,7 +744,9 @@ impl PeriodicProblem for RedistributedMsHbm {
                 frictions: vec![],
                 response,
             },
-        ))
+        );
+        solution.contact_node_harmonics = Some(q_n);
+        Ok(solution)
     }
 
     /// Floquet multipliers (docs/theory.md (T80)–(T82), derived): condensing the static contact
@@ -555,7 +764,8 @@ impl PeriodicProblem for RedistributedMsHbm {
         // and their eigendecompositions, once per set
         for g in &integration.groups {
             if !self.stability_cache.contains_key(&g.set.closed) {
-                let a = reduced.state_matrix(&g.set.compliance)?;
+                let compliance = self.contact.compliance(&g.set.closed)?;
+                let a = reduced.state_matrix(&compliance)?;
                 let modal = crate::stability::ModalExponential::new(&a);
                 self.stability_cache
                     .insert(g.set.closed.clone(), Rc::new((a, modal)));

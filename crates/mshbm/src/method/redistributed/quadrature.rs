@@ -1,5 +1,5 @@
-//! Fourier coefficients of the contact displacement `q_N(τ)` (paper eqs. 33–35), by either
-//! quadrature:
+//! Fourier coefficients of the contact forces `λ(τ)` (the contact part of the paper's
+//! eqs. 33–35 in the contact coordinates, docs/theory.md (T128)), by either quadrature:
 //!
 //! * **sampled** — the DFT over `N_s` equidistant samples (the paper's implementation);
 //! * **exact** — the period is cut at the switching times of the active set (roots of the
@@ -8,10 +8,10 @@
 //!   each interval. No aliasing; the residual is continuously differentiable.
 //!
 //! Both give, per distinct active set `A`, a Gram block `Γ_A` (see [`crate::harmonic`]) such
-//! that `q̂_N = Σ_A (P_A B Γ_Aᵀ + s_A Γ_A[:,0]ᵀ)`, where `B` holds the Fourier coefficients of
-//! the load `b(τ) = −K_NL q_L(τ) + f_N(τ)` on the contact subsystem. The semi-analytical
-//! Jacobian follows the same sum (eqs. 36–38: the interval end points drop out because
-//! `q_N` is continuous).
+//! that `λ̂ = Σ_A F_A U Γ_Aᵀ`, where `U` holds the Fourier coefficients of the free gap
+//! `γ(τ)` (docs/theory.md (T123)) and `F_A = ∂λ/∂γ` is the force map of the set. The
+//! semi-analytical Jacobian follows the same sum (eqs. 36–38: the interval end points drop
+//! out because `λ` is continuous in time for the static contact problem).
 //!
 //! Switching times are located cell by cell on a grid of `N_s` points: a gap or force that is
 //! negative at the end of a cell, or dips below zero at an interior minimum (grazing, or a
@@ -53,8 +53,14 @@ pub struct Integration {
     pub intervals: Vec<(f64, f64, usize)>,
 }
 
-/// Load `b(τ)` from its coefficients (`load[c·n + i]`).
-pub fn load_at(load: &[f64], n: usize, harmonics: usize, tau: f64, basis: &mut [f64]) -> Vec<f64> {
+/// The signal of `n` components at `τ` from its coefficients (`load[c·n + i]`).
+pub fn signal_at(
+    load: &[f64],
+    n: usize,
+    harmonics: usize,
+    tau: f64,
+    basis: &mut [f64],
+) -> Vec<f64> {
     basis_into(harmonics, tau, basis);
     let mut b = vec![0.0; n];
     for (c, &bc) in basis.iter().enumerate() {
@@ -85,23 +91,20 @@ impl Groups {
     }
 }
 
-/// Trigonometric coefficients of the validity indicator of `set` under the load `load`
-/// (`n_c` rows of `2H+1`).
+/// Trigonometric coefficients of the validity indicators of `set` under the free gap with
+/// coefficients `gamma` (`n_c` rows of `2H+1`).
 fn indicator_coefficients(
     set: &ActiveSet,
-    load: &[f64],
-    n: usize,
+    gamma: &[f64],
     nc: usize,
     ncoef: usize,
 ) -> Vec<Vec<f64>> {
     (0..nc)
         .map(|c| {
-            let row = &set.indicator[c * n..(c + 1) * n];
-            let mut coef: Vec<f64> = (0..ncoef)
-                .map(|m| (0..n).map(|i| row[i] * load[m * n + i]).sum())
-                .collect();
-            coef[0] += set.indicator_offset[c];
-            coef
+            let row = &set.indicator[c * nc..(c + 1) * nc];
+            (0..ncoef)
+                .map(|m| (0..nc).map(|i| row[i] * gamma[m * nc + i]).sum())
+                .collect()
         })
         .collect()
 }
@@ -162,17 +165,17 @@ fn first_negative(coef: &[f64], a: f64, end: f64) -> Option<f64> {
     None
 }
 
-/// Decompose one period into active-set groups.
+/// Decompose one period into active-set groups for the free gap with coefficients `gamma`
+/// (harmonic-major, `n_c` per coefficient).
 #[allow(clippy::needless_range_loop)] // cells j use the grid points j and j + 1
 pub fn integrate(
     contact: &mut StaticContact,
-    load: &[f64],
+    gamma: &[f64],
     sampling: &Sampling,
     quadrature: Quadrature,
 ) -> Result<Integration> {
     let h = sampling.harmonics;
     let ncoef = n_coefficients(h);
-    let n = contact.n_dofs();
     let nc = contact.n_contacts();
     let mut basis = vec![0.0; ncoef];
     let mut groups = Groups {
@@ -183,8 +186,8 @@ pub fn integrate(
     let mut sets = Vec::with_capacity(sampling.len());
     let mut sample_group = Vec::with_capacity(sampling.len());
     for &tau in &sampling.taus {
-        let b = load_at(load, n, h, tau, &mut basis);
-        let set = contact.solve(&b)?;
+        let g = signal_at(gamma, nc, h, tau, &mut basis);
+        let set = contact.solve(&g)?;
         sample_group.push(groups.of(&set));
         sets.push(set);
     }
@@ -217,7 +220,7 @@ pub fn integrate(
                 };
                 // a set carried over from the previous cell that the LCP disagrees with at
                 // this grid point is replaced by the LCP's (a double switch was missed)
-                if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&set, load, n, nc, ncoef, a) {
+                if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&set, gamma, nc, ncoef, a) {
                     let g = groups.of(&set);
                     add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
                     intervals.push((run_start, a, g));
@@ -226,7 +229,7 @@ pub fn integrate(
                 }
                 let mut guard = 0;
                 loop {
-                    let coefs = indicator_coefficients(&set, load, n, nc, ncoef);
+                    let coefs = indicator_coefficients(&set, gamma, nc, ncoef);
                     let mut earliest: Option<(f64, usize)> = None;
                     for (c, coef) in coefs.iter().enumerate() {
                         if let Some(r) = first_negative(coef, a, end) {
@@ -247,8 +250,8 @@ pub fn integrate(
                     let next = if root - a <= 1e-13 * two_pi || guard > 2 * nc + 4 {
                         // no progress: ask the LCP just after the root
                         let t = root + 1e-9 * (end - root);
-                        let b = load_at(load, n, h, t, &mut basis);
-                        contact.solve(&b)?
+                        let g = signal_at(gamma, nc, h, t, &mut basis);
+                        contact.solve(&g)?
                     } else {
                         let mut closed = set.closed.clone();
                         closed[component] = !closed[component];
@@ -275,15 +278,8 @@ pub fn integrate(
     })
 }
 
-fn indicator_holds(
-    set: &ActiveSet,
-    load: &[f64],
-    n: usize,
-    nc: usize,
-    ncoef: usize,
-    tau: f64,
-) -> bool {
-    indicator_coefficients(set, load, n, nc, ncoef)
+fn indicator_holds(set: &ActiveSet, gamma: &[f64], nc: usize, ncoef: usize, tau: f64) -> bool {
+    indicator_coefficients(set, gamma, nc, ncoef)
         .iter()
         .all(|c| evaluate(c, tau) >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs()))))
 }
