@@ -205,8 +205,9 @@ pub fn first_angular_frequency(mass: &SparseMatrix, stiffness: &SparseMatrix) ->
     Ok(lambda_old.sqrt())
 }
 
-/// The lowest eigenpairs of `K φ = ω² M φ` with `K` and `M` both symmetric positive
-/// definite (no massless DOFs), found iteratively for large sparse models.
+/// The lowest eigenpairs of `K φ = ω² M φ` with `K` symmetric positive definite and `M`
+/// symmetric positive semi-definite (massless DOFs follow statically), found iteratively for
+/// large sparse models.
 #[derive(Clone, Debug)]
 pub struct LowestModes {
     /// `ω²` (rad²/s²), ascending.
@@ -215,26 +216,29 @@ pub struct LowestModes {
     pub shapes: Mat<f64>,
 }
 
-/// The `count` lowest modes of `K φ = ω² M φ` (`K`, `M` symmetric positive definite) by
-/// subspace iteration with a sparse Cholesky factor of `K` (Bathe's method): the block
-/// `Y = K⁻¹ M X` of `p = min(n, max(2·count, count + 8))` vectors is improved by a
+/// The `count` lowest modes of `K φ = ω² M φ` (`K` positive definite, `M` positive
+/// definite on the `n_m` DOFs with mass, zero elsewhere) by subspace iteration with a sparse
+/// Cholesky factor of `K` (Bathe's method): the block `Y = K⁻¹ M X` of
+/// `p = min(n_m, max(2·count, count + 8))` vectors is improved by a
 /// Rayleigh–Ritz step per iteration, and eigenvalue `i` converges with the ratio
 /// `λ_i/λ_{p+1}`. Iterates until the `count` lowest Ritz values change by less than
-/// `1e-11` (relative). With `p = n` one Rayleigh–Ritz step on the identity is the dense
-/// solution.
+/// `1e-11` (relative). With `p = n` (no massless DOFs) one Rayleigh–Ritz step on the
+/// identity is the dense solution; with `p = n_m` the first block spans every mode with mass.
 pub fn lowest_modes(
     mass: &SparseMatrix,
     stiffness: &SparseMatrix,
     count: usize,
 ) -> Result<LowestModes> {
     let n = stiffness.nrows();
-    if count == 0 || count > n {
+    // massless DOFs follow statically: K⁻¹ M x has rank n − massless
+    let massive = n - massless_dofs(mass).len();
+    if count == 0 || count > massive {
         return Err(Error::argument(
             "count",
-            format!("asked for {count} modes of a system with {n} DOFs"),
+            format!("asked for {count} modes of a system with {massive} DOFs with mass"),
         ));
     }
-    let p = n.min((2 * count).max(count + 8));
+    let p = massive.min((2 * count).max(count + 8));
     let mut x = if p == n {
         Mat::<f64>::identity(n, n)
     } else {
