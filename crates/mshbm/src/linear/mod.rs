@@ -9,7 +9,9 @@
 //!   `G_k = A_NL,k A_LL,k⁻¹ A_LN,k`, `u0_k = A_NL,k A_LL,k⁻¹ f_L,k` (docs/theory.md (T20))
 //!   and what follows from them ([`Condensation`], [`ExactCondensation`]);
 //! * [`receptance`]: the condensation of the whole structure onto its contact coordinates,
-//!   `R_k = Wᵀ A_k⁻¹ W` (docs/theory.md (T125); [`Receptance`], [`ExactReceptance`]).
+//!   `R_k = Wᵀ A_k⁻¹ W` (docs/theory.md (T125); [`Receptance`], [`ExactReceptance`]);
+//! * [`modal_receptance`]: the same by modes with the exact static part, for large models
+//!   (docs/theory.md (T130); [`ModalReceptance`]).
 //!
 //! Complex amplitudes are `z_k = a_k − i b_k` of `a_k cos kτ + b_k sin kτ` (`z_0 = a_0`;
 //! docs/theory.md (T11)); real Fourier coefficients are stored harmonic-major, coefficient
@@ -17,6 +19,7 @@
 
 pub mod condensation;
 pub mod dynamic_stiffness;
+pub mod modal_receptance;
 pub mod partitioned;
 pub mod receptance;
 
@@ -24,6 +27,7 @@ use faer::c64;
 
 pub use condensation::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 pub use dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
+pub use modal_receptance::ModalReceptance;
 pub use partitioned::{PartLoad, PartitionedSystem};
 pub use receptance::{ContactCoordinates, ExactReceptance, Receptance, ReceptanceAtFrequency};
 

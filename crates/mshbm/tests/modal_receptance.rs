@@ -1,0 +1,283 @@
+//! The modal receptance at the contacts (docs/theory.md (T130)–(T132)) against the exact one
+//! (a sparse LU of the whole structure, itself checked against dense solves in
+//! `tests/condensation.rs`): equal with every mode, converging in the number of modes,
+//! its frequency derivative against finite differences, and the periodic solutions of the
+//! redistributed MS-HBM on both paths.
+
+mod common;
+
+use faer::c64;
+use mshbm::linear::{ExactReceptance, ModalReceptance, Receptance, ReceptanceAtFrequency};
+use mshbm::method::redistributed::{ReceptanceChoice, RedistributedMsHbm, RedistributedOptions};
+use mshbm::newton::{solve as newton_solve, NewtonOptions};
+use mshbm::problem::PeriodicProblem;
+use mshbm::MassKind;
+
+use common::{example_model, hz, rayleigh_damped_bar};
+
+const HARMONICS: usize = 3;
+
+fn rel_diff(a: &[c64], b: &[c64]) -> f64 {
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.norm()));
+    a.iter()
+        .zip(b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).norm()))
+        / scale
+}
+
+fn forces(nc: usize) -> Vec<c64> {
+    (0..nc)
+        .map(|c| c64::new(0.3 + 0.1 * c as f64, -0.2 * c as f64))
+        .collect()
+}
+
+/// The largest relative difference of every quantity of two receptances at `omega`.
+fn receptance_difference(
+    a: &dyn ReceptanceAtFrequency,
+    b: &dyn ReceptanceAtFrequency,
+    nc: usize,
+) -> f64 {
+    let force = forces(nc);
+    let mut worst = 0.0f64;
+    for k in 0..=a.harmonics() {
+        worst = worst.max(rel_diff(a.receptance(k), b.receptance(k)));
+        if k <= 1 {
+            worst = worst.max(rel_diff(a.load_response(k), b.load_response(k)));
+        }
+        let (qa, qb) = (
+            a.response(k, &force).unwrap(),
+            b.response(k, &force).unwrap(),
+        );
+        worst = worst.max(rel_diff(&qa, &qb));
+        if k > 0 {
+            for with_load in [true, false] {
+                let da = a.frequency_derivative(k, &force, with_load).unwrap();
+                let db = b.frequency_derivative(k, &force, with_load).unwrap();
+                worst = worst.max(rel_diff(&da, &db));
+            }
+        }
+    }
+    worst
+}
+
+/// (T130) with every mode with mass is exact, for mass-proportional, condensed-stiffness
+/// (diagonal modal damping) and `beta_linear` damping (full modal damping block).
+#[test]
+fn with_every_mode_the_modal_receptance_is_the_exact_one() {
+    for (label, overrides) in [
+        ("alpha", vec!["damping.alpha=3000"]),
+        (
+            "alpha + beta_condensed",
+            vec!["damping.alpha=3000", "damping.beta_condensed=2e-8"],
+        ),
+        ("beta_linear", vec!["damping.beta_linear=2e-8"]),
+    ] {
+        let mut all = vec!["bar.elements=30"];
+        all.extend(overrides);
+        let model = example_model("clamped_bar.toml", &all);
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
+        let modal = ModalReceptance::new(&system, massive).unwrap();
+        let exact = ExactReceptance::new(&system).unwrap();
+        for f in [5e3, 30e3, 71e3] {
+            let omega = hz(f);
+            let (a, b) = (
+                modal.at(omega, HARMONICS).unwrap(),
+                exact.at(omega, HARMONICS).unwrap(),
+            );
+            let e = receptance_difference(a.as_ref(), b.as_ref(), system.contacts.len());
+            println!("{label}, {f} Hz: modal (all {massive} modes) vs exact {e:.1e}");
+            assert!(e < 1e-9, "{label} at {f} Hz: {e:e}");
+        }
+    }
+}
+
+/// (T131): truncated, the modal receptance is exact at the static harmonic and converges to
+/// the exact one as modes are added: below `|Ω² − iΩ c_{m+1}| / ω_{m+1}²` (`Ω = Hω`,
+/// `c_j = α + β_c ω_j²`) for damping that the modes diagonalise (`alpha`, `beta_condensed`),
+/// more slowly (the dropped damping coupling) for `beta_linear`, which they do not.
+#[test]
+fn the_truncated_modal_receptance_converges_in_the_number_of_modes() {
+    let bar = rayleigh_damped_bar(400);
+    let (alpha, beta) = (bar.damping.alpha, bar.damping.beta_linear);
+    for (diagonal, damping) in [
+        (
+            true,
+            vec![
+                format!("damping.alpha={alpha}"),
+                format!("damping.beta_condensed={beta}"),
+            ],
+        ),
+        (
+            false,
+            vec![
+                format!("damping.alpha={alpha}"),
+                format!("damping.beta_linear={beta}"),
+            ],
+        ),
+    ] {
+        let mut overrides = vec!["bar.elements=400".to_string()];
+        overrides.extend(damping);
+        let model = example_model("clamped_bar.toml", &overrides);
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let exact = ExactReceptance::new(&system).unwrap();
+        let omega = hz(30e3);
+        let b = exact.at(omega, HARMONICS).unwrap();
+        let nc = system.contacts.len();
+        let computed = mshbm::modes::lowest_modes(&system.mass, &system.stiffness, 81).unwrap();
+        let mut previous = f64::INFINITY;
+        for m in [5, 10, 20, 40, 80] {
+            let truncated = mshbm::modes::LowestModes {
+                eigenvalues: computed.eigenvalues[..m].to_vec(),
+                shapes: computed.shapes.subcols(0, m).to_owned(),
+            };
+            let modal = ModalReceptance::with_modes(&system, truncated).unwrap();
+            let a = modal.at(omega, HARMONICS).unwrap();
+            let e0 = rel_diff(a.receptance(0), b.receptance(0));
+            assert!(e0 < 1e-11, "static harmonic, {m} modes: {e0:e}");
+            let e = (1..=HARMONICS)
+                .map(|k| rel_diff(a.receptance(k), b.receptance(k)))
+                .fold(0.0f64, f64::max);
+            let whole = receptance_difference(a.as_ref(), b.as_ref(), nc);
+            // the first discarded mode
+            let next = computed.eigenvalues[m].sqrt();
+            let big = HARMONICS as f64 * omega;
+            let c = alpha + beta * next * next;
+            let estimate = c64::new(big * big, -big * c).norm() / (next * next);
+            println!(
+                "{} damping, {m} modes (f_m+1 = {:.0} Hz): R_k error {e:.2e} (response and derivative {whole:.2e}), estimate (T131) {estimate:.2e}",
+                if diagonal { "diagonal" } else { "coupled" },
+                next / (2.0 * std::f64::consts::PI),
+            );
+            assert!(e < previous, "{m} modes: {e:e} not below {previous:e}");
+            if diagonal {
+                assert!(
+                    e < 2.0 * estimate,
+                    "{m} modes: {e:e} above the estimate {estimate:e}"
+                );
+            }
+            previous = e;
+        }
+        assert!(previous < 1e-2, "80 modes: {previous:e}");
+    }
+}
+
+/// (T132): the analytic ω-derivative is that of the truncated receptance (Richardson
+/// extrapolated central differences of the modal receptance itself).
+#[test]
+fn the_modal_frequency_derivative_matches_finite_differences() {
+    let model = rayleigh_damped_bar(100);
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let modal = ModalReceptance::new(&system, 12).unwrap();
+    let nc = system.contacts.len();
+    let force = forces(nc);
+    let omega = hz(40e3);
+    let at = modal.at(omega, HARMONICS).unwrap();
+    for k in 1..=HARMONICS {
+        for with_load in [true, false] {
+            let gather = |omega: f64| -> Vec<c64> {
+                let a = modal.at(omega, HARMONICS).unwrap();
+                let mut v = a.receptance(k)[..nc * nc]
+                    .chunks(nc)
+                    .map(|row| row.iter().zip(&force).map(|(r, l)| r * l).sum::<c64>())
+                    .collect::<Vec<_>>();
+                if with_load {
+                    v.iter_mut()
+                        .zip(a.load_response(k))
+                        .for_each(|(x, y)| *x += y);
+                }
+                v
+            };
+            let central = |h: f64| -> Vec<c64> {
+                gather(omega + h)
+                    .iter()
+                    .zip(gather(omega - h))
+                    .map(|(a, b)| (a - b) / (2.0 * h))
+                    .collect()
+            };
+            let h = 1e-4 * omega;
+            let (coarse, fine) = (central(h), central(0.5 * h));
+            let fd: Vec<c64> = fine
+                .iter()
+                .zip(&coarse)
+                .map(|(f, c)| (f * 4.0 - c) / 3.0)
+                .collect();
+            let analytic = at.frequency_derivative(k, &force, with_load).unwrap();
+            let e = rel_diff(&analytic, &fd);
+            println!("harmonic {k} (load {with_load}): ∂(Wᵀq)/∂ω vs differences {e:.1e}");
+            assert!(e < 1e-7, "harmonic {k}, load {with_load}: {e:e}");
+        }
+    }
+}
+
+fn solve(model: &mshbm::Model, receptance: ReceptanceChoice, f: f64) -> (Vec<f64>, f64) {
+    let mut p = RedistributedMsHbm::new(
+        model,
+        &RedistributedOptions {
+            receptance,
+            ..RedistributedOptions::new(5)
+        },
+    )
+    .unwrap();
+    let omega = hz(f);
+    let x0 = p.initial_guess(omega).unwrap();
+    let out = newton_solve(&mut p, &x0, omega, &NewtonOptions::default()).unwrap();
+    assert!(
+        out.converged,
+        "{receptance:?} at {f} Hz: residual {:e}",
+        out.residual_norm
+    );
+    // the modal path's Jacobian is that of its residual: quadratic convergence
+    let (jac, _) = common::jacobian_errors(&mut p, &common::perturbed(&out.x), omega);
+    assert!(
+        jac < 1e-5,
+        "{receptance:?}: Jacobian vs differences {jac:e}"
+    );
+    let scale = common::max_abs(out.x.iter().copied());
+    (out.x, scale)
+}
+
+/// The periodic solutions of the redistributed MS-HBM with the modal receptance converge to
+/// those with the exact one; with every mode they are equal (Newton's tolerance).
+#[test]
+fn modal_solutions_converge_to_the_exact_ones() {
+    let model = example_model(
+        "clamped_bar.toml",
+        &["bar.elements=60", "damping.first_mode_ratio=0.01"],
+    );
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
+    for f in [30e3, 60e3] {
+        let (exact, scale) = solve(&model, ReceptanceChoice::Exact, f);
+        let mut previous = f64::INFINITY;
+        for modes in [5, 10, 20, massive] {
+            let (modal, _) = solve(&model, ReceptanceChoice::Modal { modes }, f);
+            let e = exact
+                .iter()
+                .zip(&modal)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+                / scale;
+            println!("{f} Hz, {modes} modes: max |v_modal − v_exact| / max |v| = {e:.2e}");
+            assert!(e <= previous * 1.01 + 1e-12, "{f} Hz, {modes} modes: {e:e}");
+            previous = e;
+        }
+        assert!(previous < 1e-8, "{f} Hz, every mode: {previous:e}");
+    }
+}
+
+/// Bad choices are refused with the number of modes the model allows.
+#[test]
+fn too_many_modes_are_refused() {
+    let model = example_model("clamped_bar.toml", &["bar.elements=20"]);
+    let err = RedistributedMsHbm::new(
+        &model,
+        &RedistributedOptions {
+            receptance: ReceptanceChoice::Modal { modes: 500 },
+            ..RedistributedOptions::new(3)
+        },
+    )
+    .err()
+    .expect("500 modes of a 20-element bar");
+    let text = err.to_string();
+    assert!(text.contains("500") && text.contains("modes"), "{text}");
+}
