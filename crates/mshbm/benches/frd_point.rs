@@ -71,6 +71,7 @@ fn ms_hbm(model: &Model, harmonics: usize) -> RedistributedMsHbm {
             harmonics,
             samples: None,
             quadrature: Quadrature::Exact,
+            receptance: Default::default(),
         },
     )
     .expect("MS-HBM")

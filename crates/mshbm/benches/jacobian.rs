@@ -36,6 +36,7 @@ fn converged_point(harmonics: usize) -> Point {
             harmonics,
             samples: None,
             quadrature: Quadrature::Exact,
+            receptance: Default::default(),
         },
     )
     .expect("MS-HBM");

@@ -45,7 +45,7 @@ static ALLOCATOR: CountingAllocator = CountingAllocator::new();
 
 const HARMONICS: [usize; 6] = [1, 2, 5, 10, 20, 40];
 const SAMPLES: [usize; 7] = [64, 128, 256, 512, 1024, 2048, 4096];
-const LATTICE_WIDTHS: [usize; 4] = [4, 8, 16, 32];
+const LATTICE_WIDTHS: [usize; 5] = [4, 8, 16, 32, 64];
 const LATTICE_HEIGHT: usize = 8;
 const LATTICE_FORCE: f64 = 10.0;
 const ELEMENTS: [usize; 4] = [100, 1_000, 10_000, 100_000];
@@ -90,6 +90,7 @@ fn case(
             harmonics,
             samples,
             quadrature,
+            receptance: Default::default(),
         },
     )
     .expect("MS-HBM");

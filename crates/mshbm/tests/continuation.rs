@@ -33,6 +33,7 @@ fn method(model: &Model, harmonics: usize) -> RedistributedMsHbm {
             harmonics,
             samples: None,
             quadrature: Quadrature::Exact,
+            receptance: Default::default(),
         },
     )
     .unwrap()

@@ -8,7 +8,9 @@ use clap::{Args, ValueEnum};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::general::GeneralOptions;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
-use mshbm::method::redistributed::RedistributedOptions;
+use mshbm::method::redistributed::{
+    ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
+};
 use mshbm::method::settings::MethodSettings;
 use mshbm::newton::NewtonOptions;
 use mshbm::solution::{MethodKind, PeriodicSolution};
@@ -83,6 +85,17 @@ pub enum QuadratureArg {
     Sampled,
 }
 
+/// How the receptance at the contacts is computed (redistributed MS-HBM).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ReceptanceArg {
+    /// Exact up to 20000 DOFs, modal (200 modes, at most half the DOFs with mass) above.
+    Auto,
+    /// A sparse LU of the whole dynamic stiffness per harmonic and frequency.
+    Exact,
+    /// The lowest --receptance-modes modes plus the exact static compliance.
+    Modal,
+}
+
 /// Method settings shared by `solve` and `frf`.
 #[derive(Args, Debug, Clone)]
 pub struct MethodArgs {
@@ -143,6 +156,17 @@ pub struct MethodArgs {
     /// (the contact switching excites all modes); see the README section on stability.
     #[arg(long, value_name = "N")]
     pub stability_modes: Option<usize>,
+
+    /// Receptance of the structure at its contacts (redistributed MS-HBM,
+    /// docs/theory.md (T125), (T130)): exact (a sparse LU of the whole structure per
+    /// harmonic and frequency) or modal (the lowest modes plus the exact static compliance;
+    /// one modal analysis at set-up, then no factorization per frequency). Default: auto.
+    #[arg(long, value_enum, default_value_t = ReceptanceArg::Auto)]
+    pub receptance: ReceptanceArg,
+
+    /// Modes of --receptance modal (default 200, at most the DOFs with mass).
+    #[arg(long, value_name = "N")]
+    pub receptance_modes: Option<usize>,
 }
 
 impl MethodArgs {
@@ -161,6 +185,19 @@ impl MethodArgs {
     }
 
     /// The penalties of `--penalty` (validated), or the default `100x`.
+    /// The receptance of --receptance and --receptance-modes.
+    fn receptance_choice(&self) -> Result<ReceptanceChoice> {
+        Ok(match (self.receptance, self.receptance_modes) {
+            (_, Some(0)) => bail!("--receptance-modes must be at least 1"),
+            (ReceptanceArg::Modal, modes) => ReceptanceChoice::Modal {
+                modes: modes.unwrap_or(DEFAULT_RECEPTANCE_MODES),
+            },
+            (_, Some(_)) => bail!("--receptance-modes needs --receptance modal"),
+            (ReceptanceArg::Auto, None) => ReceptanceChoice::Auto,
+            (ReceptanceArg::Exact, None) => ReceptanceChoice::Exact,
+        })
+    }
+
     pub fn penalties(&self) -> Result<Vec<Penalty>> {
         if self.penalty.is_empty() {
             return Ok(vec![Penalty::default()]);
@@ -177,6 +214,11 @@ impl MethodArgs {
                 bail!("--stability-modes applies to --method redistributed only (the method with Floquet multipliers)")
             }
             _ => {}
+        }
+        if self.method != Method::Redistributed
+            && (self.receptance != ReceptanceArg::Auto || self.receptance_modes.is_some())
+        {
+            bail!("--receptance and --receptance-modes apply to --method redistributed only");
         }
         let quadrature = |default| match self.quadrature.unwrap_or(default) {
             QuadratureArg::Exact => Quadrature::Exact,
@@ -212,6 +254,7 @@ impl MethodArgs {
                     harmonics,
                     samples: self.samples,
                     quadrature: quadrature(QuadratureArg::Exact),
+                    receptance: self.receptance_choice()?,
                 },
                 stability: StabilityOptions {
                     modes: self.stability_modes,

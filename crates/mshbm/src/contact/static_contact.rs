@@ -202,6 +202,26 @@ impl StaticContact {
             + kw.iter().zip(force).map(|(a, l)| a * l).sum::<f64>()
     }
 
+    /// `K_NN⁻¹ W λ`, the displacement of the contact nodes under the contact forces alone
+    /// (open contacts, `λ_c = 0`, cost nothing).
+    pub fn force_displacement(&self, force: &[f64]) -> Vec<f64> {
+        let nc = self.n_contacts;
+        let mut q = vec![0.0; self.n];
+        for (c, &l) in force.iter().enumerate().filter(|(_, &l)| l != 0.0) {
+            q.iter_mut()
+                .enumerate()
+                .for_each(|(i, qi)| *qi += self.compliance_w[i * nc + c] * l);
+        }
+        q
+    }
+
+    /// Component `i` of [`StaticContact::force_displacement`].
+    pub fn force_displacement_of(&self, i: usize, force: &[f64]) -> f64 {
+        let nc = self.n_contacts;
+        let kw = &self.compliance_w[i * nc..(i + 1) * nc];
+        kw.iter().zip(force).map(|(a, l)| a * l).sum()
+    }
+
     /// Solve the LCP for the free gap `γ` (warm-started from the previous call) and return
     /// the active set's data.
     pub fn solve(&mut self, gamma: &[f64]) -> Result<Rc<ActiveSet>> {

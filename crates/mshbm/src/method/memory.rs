@@ -133,6 +133,16 @@ pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> Memor
         format!("the contact arrays at {samples} samples"),
         &[samples as u64, n_n.saturating_add(contacts), 8, 4],
     );
+    // 62 golden-section probes per max and per min of each contact and the response DOF,
+    // each keeping its n_c forces (a Vec and a hash-table slot, doubled by rehashing)
+    let probes = contacts
+        .saturating_add(1)
+        .saturating_mul(2 * 62)
+        .min(super::redistributed::MAX_CACHED_INSTANTS as u64);
+    plan.add(
+        "the contact forces kept by the extremum search".to_string(),
+        mul(&[probes, contacts.saturating_mul(8).saturating_add(64), 2]),
+    );
     plan
 }
 

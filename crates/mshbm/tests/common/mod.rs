@@ -85,6 +85,7 @@ pub fn try_ms_hbm(
             harmonics,
             samples,
             quadrature,
+            receptance: Default::default(),
         },
     )
 }

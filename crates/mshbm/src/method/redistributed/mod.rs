@@ -37,10 +37,12 @@ use super::{check_dimension, fixed_response, n_dof_coefficients};
 use super::{periodic_solution, SolutionParts};
 use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
-use crate::harmonic::{evaluate, golden_section_max, n_coefficients, Quadrature, Sampling};
+use crate::harmonic::{
+    basis_into, evaluate, golden_section_max, n_coefficients, Quadrature, Sampling,
+};
 use crate::limits::Limits;
 use crate::linear::{complex_harmonic, store_harmonic, PartitionedSystem};
-use crate::linear::{ExactReceptance, Receptance, ReceptanceAtFrequency};
+use crate::linear::{ExactReceptance, ModalReceptance, Receptance, ReceptanceAtFrequency};
 use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
@@ -48,6 +50,9 @@ use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
 use quadrature::{integrate, signal_at, Integration};
+
+/// Instants whose contact forces a solution's extremum search keeps (each `n_c` numbers).
+pub(crate) const MAX_CACHED_INSTANTS: usize = 16_384;
 
 /// Largest linear part for which the dense monodromy matrix is formed.
 pub const MAX_DENSE_STABILITY_DOFS: usize = 1500;
@@ -60,16 +65,72 @@ pub struct RedistributedOptions {
     /// Samples per period `N_s ≥ 2H + 1` (`None`: [`default_samples`]).
     pub samples: Option<usize>,
     pub quadrature: Quadrature,
+    /// How the receptance at the contacts (docs/theory.md (T125)) is computed.
+    pub receptance: ReceptanceChoice,
 }
 
 impl RedistributedOptions {
-    /// `H` harmonics, default samples, exact quadrature.
+    /// `H` harmonics, default samples, exact quadrature, receptance chosen by size.
     pub fn new(harmonics: usize) -> Self {
         RedistributedOptions {
             harmonics,
             samples: None,
             quadrature: Quadrature::Exact,
+            receptance: ReceptanceChoice::Auto,
         }
+    }
+}
+
+/// Models with more DOFs than this use the modal receptance under [`ReceptanceChoice::Auto`].
+pub const MODAL_RECEPTANCE_DOFS: usize = 20_000;
+
+/// Modes of the modal receptance under [`ReceptanceChoice::Auto`] (at most half the DOFs
+/// with mass).
+pub const DEFAULT_RECEPTANCE_MODES: usize = 200;
+
+/// How the receptance at the contacts `R_k = Wᵀ A_k⁻¹ W` is computed (docs/theory.md
+/// (T125), (T130)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ReceptanceChoice {
+    /// [`ReceptanceChoice::Exact`] up to [`MODAL_RECEPTANCE_DOFS`] DOFs, above it
+    /// [`ReceptanceChoice::Modal`] with [`DEFAULT_RECEPTANCE_MODES`] modes.
+    #[default]
+    Auto,
+    /// A sparse LU of the whole dynamic stiffness per harmonic and frequency
+    /// ([`crate::linear::ExactReceptance`]).
+    Exact,
+    /// The lowest `modes` modes with the exact static part
+    /// ([`crate::linear::ModalReceptance`]).
+    Modal { modes: usize },
+}
+
+impl ReceptanceChoice {
+    /// The receptance of `system` this choice stands for.
+    fn build(self, system: &System) -> Result<Box<dyn Receptance>> {
+        let massive = system.n_dofs() - crate::modes::massless_dofs(&system.mass).len();
+        let choice = match self {
+            ReceptanceChoice::Auto if system.n_dofs() > MODAL_RECEPTANCE_DOFS => {
+                ReceptanceChoice::Modal {
+                    modes: DEFAULT_RECEPTANCE_MODES.min(massive / 2).max(1),
+                }
+            }
+            ReceptanceChoice::Auto => ReceptanceChoice::Exact,
+            other => other,
+        };
+        Ok(match choice {
+            ReceptanceChoice::Modal { modes } => {
+                if modes == 0 || modes > massive {
+                    return Err(Error::argument(
+                        "modes",
+                        format!(
+                            "the modal receptance needs between 1 and {massive} modes (the DOFs with mass); asked for {modes}"
+                        ),
+                    ));
+                }
+                Box::new(ModalReceptance::new(system, modes)?)
+            }
+            _ => Box::new(ExactReceptance::new(system)?),
+        })
     }
 }
 
@@ -158,13 +219,13 @@ impl RedistributedMsHbm {
         let residual_scale = contact.displacement_scale()?;
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
-        let receptance = ExactReceptance::new(&system)?;
+        let receptance = options.receptance.build(&system)?;
         Ok(RedistributedMsHbm {
             partition,
             harmonics: h,
             sampling: Sampling::within(h, samples, limits)?,
             quadrature: options.quadrature,
-            receptance: Box::new(receptance),
+            receptance,
             contact,
             residual_scale,
             stiffness_nn,
@@ -641,25 +702,44 @@ impl PeriodicProblem for RedistributedMsHbm {
         let mut g_s = Vec::with_capacity(self.sampling.len());
         // the static contact problem at τ for the load b(τ) of the response: (q_N, λ, g)
         // (its free gap equals that of the unknowns to the residual; solved from b(τ), the
-        // reported q_N, λ, g satisfy Signorini to round-off)
+        // reported q_N, λ, g satisfy Signorini to round-off). b(τ) enters only through
+        // K_NN⁻¹ b(τ) and the free gap (T123), whose coefficients are formed once.
         let contact = &mut self.contact;
-        // with `dof`, q_N holds only that DOF's displacement
-        let mut state_at = |tau: f64,
-                            basis: &mut [f64],
-                            dof: Option<usize>|
-         -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-            let load = signal_at(&b, n_n, h, tau, basis);
-            let gamma = contact.free_gap(&load);
-            let set = contact.solve(&gamma)?;
-            let lambda = set.force(&gamma);
-            let q = match dof {
-                Some(i) => vec![contact.displacement_of(i, &load, &lambda)],
-                None => contact.displacement(&load, &lambda),
-            };
-            Ok((q, lambda, set.gap(&gamma)))
+        let zero_force = vec![0.0; n];
+        let mut load_displacement = Vec::with_capacity(n_n * ncoef);
+        let mut free_gap = Vec::with_capacity(n * ncoef);
+        for m in 0..ncoef {
+            let b_m = &b[m * n_n..(m + 1) * n_n];
+            load_displacement.extend(contact.displacement(b_m, &zero_force));
+            let gap_m = contact.free_gap(b_m);
+            free_gap.extend(
+                gap_m
+                    .iter()
+                    .zip(contact.initial_gap())
+                    .map(|(g, g0)| g - g0),
+            );
+        }
+        let initial_gap = contact.initial_gap().to_vec();
+        let gap_at = |tau: f64, basis: &mut [f64]| -> Vec<f64> {
+            let mut gamma = signal_at(&free_gap, n, h, tau, basis);
+            gamma
+                .iter_mut()
+                .zip(&initial_gap)
+                .for_each(|(g, g0)| *g += g0);
+            gamma
         };
+        let mut state_at =
+            |tau: f64, basis: &mut [f64]| -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+                let gamma = gap_at(tau, basis);
+                let set = contact.solve(&gamma)?;
+                let lambda = set.force(&gamma);
+                let mut q = contact.force_displacement(&lambda);
+                let u = signal_at(&load_displacement, n_n, h, tau, basis);
+                q.iter_mut().zip(&u).for_each(|(q, u)| *q += u);
+                Ok((q, lambda, set.gap(&gamma)))
+            };
         for &tau in &self.sampling.taus {
-            let (q, lambda, gap) = state_at(tau, &mut basis_buf, None)?;
+            let (q, lambda, gap) = state_at(tau, &mut basis_buf)?;
             q_s.push(q);
             f_s.push(lambda);
             g_s.push(gap);
@@ -669,16 +749,36 @@ impl PeriodicProblem for RedistributedMsHbm {
         // extremum candidate of every DOF, and each costs a static contact solve)
         let mut q_switches = Vec::with_capacity(integration.switches.len());
         for s in &integration.switches {
-            q_switches.push(match state_at(s.tau, &mut basis_buf, None) {
+            q_switches.push(match state_at(s.tau, &mut basis_buf) {
                 Ok((q, _, _)) => q,
                 Err(_) => vec![f64::NAN; n_n],
             });
         }
-        // exact displacement of N-DOF i at τ (the time signal, not the truncated series)
+        // exact displacement of N-DOF i at τ (the time signal, not the truncated series).
+        // The golden-section searches of neighbouring DOFs mostly probe the same instants:
+        // the contact forces there (a static contact solve each) are kept, up to a bound.
+        let mut forces_at: std::collections::HashMap<u64, Option<Vec<f64>>> =
+            std::collections::HashMap::new();
         let mut q_at = |i: usize, tau: f64| -> f64 {
-            match state_at(tau, &mut basis_buf, Some(i)) {
-                Ok((q, _, _)) => q[0],
-                Err(_) => f64::NAN,
+            let lambda = match forces_at.get(&tau.to_bits()) {
+                Some(lambda) => lambda.clone(),
+                None => {
+                    let gamma = gap_at(tau, &mut basis_buf);
+                    let lambda = contact.solve(&gamma).ok().map(|set| set.force(&gamma));
+                    if forces_at.len() >= MAX_CACHED_INSTANTS {
+                        forces_at.clear();
+                    }
+                    forces_at.insert(tau.to_bits(), lambda.clone());
+                    lambda
+                }
+            };
+            basis_into(h, tau, &mut basis_buf);
+            let u: f64 = (0..ncoef)
+                .map(|m| basis_buf[m] * load_displacement[m * n_n + i])
+                .sum();
+            match lambda {
+                Some(lambda) => u + contact.force_displacement_of(i, &lambda),
+                None => f64::NAN,
             }
         };
         let mut n_extremes = |i: usize| -> (f64, f64) {
