@@ -1,10 +1,11 @@
 //! Progress of long single computations on stderr: quiet for the first second, then one line
-//! per Newton iteration and at most one per second along a traced branch (the library
-//! reports through [`mshbm::newton::NewtonObserver`] and [`mshbm::solve::BranchObserver`];
-//! it never prints).
+//! per Newton iteration, at most one per second along a traced branch, and one per second
+//! while a set-up phase runs (the library reports through [`mshbm::newton::NewtonObserver`],
+//! [`mshbm::solve::BranchObserver`] and [`mshbm::method::SetupObserver`]; it never prints).
 
 use std::time::{Duration, Instant};
 
+use mshbm::method::SetupObserver;
 use mshbm::newton::NewtonObserver;
 use mshbm::solve::BranchObserver;
 
@@ -43,4 +44,50 @@ pub fn branch_progress() -> BranchObserver {
             );
         }
     })
+}
+
+/// The set-up phase running, since when, and whether a watcher prints it.
+struct SetupState {
+    phase: Option<String>,
+    phase_started: Instant,
+    watching: bool,
+}
+
+/// An observer of a method's set-up: while a phase runs for more than a second (modes of a
+/// large model, its factorizations), `set-up: <phase> (t s)` once per second. A watcher
+/// thread does the printing (the library is busy inside the phase), started by a set-up's
+/// first phase and ended when that set-up is done.
+pub fn setup_progress() -> SetupObserver {
+    let state = std::sync::Arc::new(std::sync::Mutex::new(SetupState {
+        phase: None,
+        phase_started: Instant::now(),
+        watching: false,
+    }));
+    SetupObserver::new(move |phase| {
+        let Ok(mut s) = state.lock() else { return };
+        s.phase = phase.map(str::to_string);
+        s.phase_started = Instant::now();
+        if phase.is_some() && !s.watching {
+            s.watching = true;
+            let state = std::sync::Arc::clone(&state);
+            std::thread::spawn(move || watch_setup(&state));
+        }
+    })
+}
+
+fn watch_setup(state: &std::sync::Mutex<SetupState>) {
+    let mut last: Option<Instant> = None;
+    loop {
+        std::thread::sleep(Duration::from_millis(100));
+        let Ok(mut s) = state.lock() else { return };
+        let Some(phase) = &s.phase else {
+            s.watching = false;
+            return;
+        };
+        let in_phase = s.phase_started.elapsed();
+        if in_phase >= QUIET_FOR && last.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
+            last = Some(Instant::now());
+            crate::note!("set-up: {phase} ({:.0} s)", in_phase.as_secs_f64());
+        }
+    }
 }

@@ -19,7 +19,12 @@
 //! * `contacts`: the planar lattice of `mshbm::model::lattice` (8 cells high, nx cells wide:
 //!   nx + 1 contacts, 2(nx + 1) contact-node DOFs, 18(nx + 1) DOFs), force 10 on every node
 //!   of the second row, H = 3, 5 Hz (every contact closes during the period);
-//! * `elements`: the bar refined to 10², 10³, 10⁴, 10⁵ elements, H = 5, 30 kHz.
+//! * `elements`: the bar refined to 10², 10³, 10⁴, 10⁵ elements, H = 5, 30 kHz;
+//! * `block`: the plate of `examples/block_3d` meshed n × n × 4 (n = 4, 8, 16: n(n + 1)
+//!   contacts, 3n(n + 1) contact-node DOFs), 0.3 µm above the foundation, H = 5, sampled
+//!   quadrature, 500 Hz;
+//! * `receptance`: the 16 × 16 × 4 plate with the exact and the modal receptance (100
+//!   modes), H = 5: what the per-frequency work of each costs in a corrector iteration.
 //!
 //! After each group the fitted exponent of `time ~ variableᵖ` is printed; after the
 //! `elements` group, the peak memory of building the method and solving at one frequency for
@@ -34,7 +39,7 @@ use std::time::Duration;
 use common::{hz, median, report_growth, timed, CountingAllocator};
 use criterion::{BenchmarkId, Criterion};
 use mshbm::harmonic::Quadrature;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use mshbm::method::redistributed::{ReceptanceChoice, RedistributedMsHbm, RedistributedOptions};
 use mshbm::model::lattice::lattice_model;
 use mshbm::newton::{newton_direction, solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
@@ -49,6 +54,8 @@ const LATTICE_WIDTHS: [usize; 5] = [4, 8, 16, 32, 64];
 const LATTICE_HEIGHT: usize = 8;
 const LATTICE_FORCE: f64 = 10.0;
 const ELEMENTS: [usize; 4] = [100, 1_000, 10_000, 100_000];
+const BLOCK_DIVISIONS: [usize; 3] = [4, 8, 16];
+const BLOCK_HARMONICS: usize = 5;
 
 /// A method at the point Newton reaches at `omega` from the linear response.
 struct Case {
@@ -76,6 +83,15 @@ fn lattice(width: usize) -> Model {
     model
 }
 
+/// The plate of `examples/block_3d` meshed `n × n × 4`, 0.3 µm above the foundation.
+fn block(n: usize) -> Model {
+    let divisions = format!("solid.divisions=[{n},{n},4]");
+    common::example(
+        "block_3d/model.toml",
+        &[divisions.as_str(), "interfaces.0.gap=0.0003"],
+    )
+}
+
 fn case(
     model: &Model,
     harmonics: usize,
@@ -84,7 +100,7 @@ fn case(
     frequency_hz: f64,
     label: &str,
 ) -> Case {
-    let mut problem = RedistributedMsHbm::new(
+    case_with(
         model,
         &RedistributedOptions {
             harmonics,
@@ -92,8 +108,18 @@ fn case(
             quadrature,
             receptance: Default::default(),
         },
+        frequency_hz,
+        label,
     )
-    .expect("MS-HBM");
+}
+
+fn case_with(
+    model: &Model,
+    options: &RedistributedOptions,
+    frequency_hz: f64,
+    label: &str,
+) -> Case {
+    let mut problem = RedistributedMsHbm::new(model, options).expect("MS-HBM");
     let omega = hz(frequency_hz);
     let x0 = problem.initial_guess(omega).expect("linear response");
     let out = solve(
@@ -258,6 +284,66 @@ fn bench_contacts(c: &mut Criterion) {
     );
 }
 
+fn bench_block(c: &mut Criterion) {
+    let mut group = c.benchmark_group("block");
+    configure(&mut group);
+    let ids: Vec<(f64, String)> = BLOCK_DIVISIONS
+        .iter()
+        .map(|&n| {
+            let n_n = 3 * n * (n + 1);
+            let id = bench_case(&mut group, "block", n_n, || {
+                case(
+                    &block(n),
+                    BLOCK_HARMONICS,
+                    None,
+                    Quadrature::Sampled,
+                    500.0,
+                    &format!(
+                        "plate {n} x {n} x 4: {} contacts, {n_n} contact-node DOFs, H = {BLOCK_HARMONICS}",
+                        n * (n + 1)
+                    ),
+                )
+            });
+            (n_n as f64, id)
+        })
+        .collect();
+    group.finish();
+    report_growth(
+        "time per corrector iteration vs contact-node DOFs (plate, H = 5, 500 Hz)",
+        "n_N",
+        &ids,
+    );
+}
+
+fn bench_receptance(c: &mut Criterion) {
+    let mut group = c.benchmark_group("receptance");
+    configure(&mut group);
+    let n = BLOCK_DIVISIONS[BLOCK_DIVISIONS.len() - 1];
+    for (label, receptance) in [
+        ("exact", ReceptanceChoice::Exact),
+        ("modal-100", ReceptanceChoice::Modal { modes: 100 }),
+    ] {
+        let id = format!("receptance/{label}");
+        let mut slot: Option<Case> = None;
+        group.bench_function(label, |b| {
+            let c = slot.get_or_insert_with(|| {
+                case_with(
+                    &block(n),
+                    &RedistributedOptions {
+                        quadrature: Quadrature::Sampled,
+                        receptance,
+                        ..RedistributedOptions::new(BLOCK_HARMONICS)
+                    },
+                    500.0,
+                    &format!("plate {n} x {n} x 4, {label} receptance"),
+                )
+            });
+            timed(b, &id, || corrector_iteration(c));
+        });
+    }
+    group.finish();
+}
+
 fn bench_elements(c: &mut Criterion) {
     let mut group = c.benchmark_group("elements");
     configure(&mut group);
@@ -349,6 +435,8 @@ fn main() {
     bench_samples(&mut c);
     bench_contacts(&mut c);
     bench_elements(&mut c);
+    bench_block(&mut c);
+    bench_receptance(&mut c);
     // memory only when the elements group ran (it holds the largest case)
     report_memory(median(&format!("elements/{}", ELEMENTS[ELEMENTS.len() - 1])).is_some());
     c.final_summary();

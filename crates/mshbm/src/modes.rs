@@ -177,7 +177,9 @@ fn not_definite(rigid: Option<usize>) -> Error {
 /// iteration.
 pub fn first_angular_frequency(mass: &SparseMatrix, stiffness: &SparseMatrix) -> Result<f64> {
     if massless_dofs(mass).len() == mass.nrows() {
-        return Err(Error::Singular("the mass matrix has no positive mass".into()));
+        return Err(Error::Singular(
+            "the mass matrix has no positive mass".into(),
+        ));
     }
     let modes = lowest_modes(mass, stiffness, 1).map_err(|e| match e {
         Error::Singular(_) => Error::Singular("the stiffness matrix is singular (the structure is not held; a first-mode damping ratio needs a held structure)".into()),

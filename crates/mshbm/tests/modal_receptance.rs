@@ -281,3 +281,54 @@ fn too_many_modes_are_refused() {
     let text = err.to_string();
     assert!(text.contains("500") && text.contains("modes"), "{text}");
 }
+
+/// The set-up tells its observer each phase, the receptance's included, and then that it
+/// is done (the CLI prints the phases that run for more than a second).
+#[test]
+fn the_set_up_reports_its_phases() {
+    use mshbm::method::SetupObserver;
+    use std::sync::{Arc, Mutex};
+    let model = example_model("clamped_bar.toml", &["bar.elements=20"]);
+    for (receptance, expected) in [
+        (ReceptanceChoice::Exact, "the exact receptance"),
+        (
+            ReceptanceChoice::Modal { modes: 5 },
+            "the modal receptance: the 5 lowest modes",
+        ),
+    ] {
+        let seen: Arc<Mutex<Vec<Option<String>>>> = Arc::default();
+        let record = Arc::clone(&seen);
+        let observer = SetupObserver::new(move |phase| {
+            record.lock().unwrap().push(phase.map(str::to_string));
+        });
+        RedistributedMsHbm::within_observed(
+            &model,
+            &RedistributedOptions {
+                receptance,
+                ..RedistributedOptions::new(3)
+            },
+            &mshbm::limits::Limits::default(),
+            Some(&observer),
+        )
+        .unwrap();
+        let seen = seen.lock().unwrap().clone();
+        println!("{seen:?}");
+        assert_eq!(seen.len(), 4, "{seen:?}");
+        assert!(
+            seen[0].as_deref().unwrap().starts_with("the system"),
+            "{seen:?}"
+        );
+        assert!(
+            seen[1]
+                .as_deref()
+                .unwrap()
+                .starts_with("the static contact problem"),
+            "{seen:?}"
+        );
+        assert!(
+            seen[2].as_deref().unwrap().starts_with(expected),
+            "{seen:?}"
+        );
+        assert_eq!(seen[3], None, "the set-up ends with None");
+    }
+}

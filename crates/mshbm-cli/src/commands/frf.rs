@@ -333,6 +333,7 @@ pub fn frd_settings(args: &FrfArgs, model: &Model) -> Result<FrdSettings> {
     settings.stability = args.stability;
     settings.response_dof = Some(args.method.response_dof(model)?);
     settings.limits = args.model.limits();
+    settings.setup_observer = Some(crate::progress::setup_progress());
     Ok(settings)
 }
 

@@ -520,6 +520,7 @@ pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> 
         observer: Some(crate::progress::newton_progress()),
         start: solve_start(args)?,
         branch_observer: Some(crate::progress::branch_progress()),
+        setup_observer: Some(crate::progress::setup_progress()),
     })
 }
 

@@ -3,6 +3,7 @@
 use crate::continuation::arclength::ContinuationOptions;
 use crate::error::{Error, Result};
 use crate::limits::Limits;
+use crate::method::SetupObserver;
 use crate::model::Model;
 use crate::newton::NewtonOptions;
 
@@ -37,6 +38,8 @@ pub struct FrdSettings {
     /// The memory budget each branch's method is checked against before it allocates
     /// (default: the machine's memory, [`Limits::default`]).
     pub limits: Limits,
+    /// Told the phases of each branch's method set-up (progress on large models).
+    pub setup_observer: Option<SetupObserver>,
 }
 
 impl FrdSettings {
@@ -54,6 +57,7 @@ impl FrdSettings {
             response_dof: None,
             max_points: 20_000,
             limits: Limits::default(),
+            setup_observer: None,
         }
     }
 

@@ -101,7 +101,7 @@ pub fn trace_frd_branch(
 ) -> Result<TracedBranch> {
     settings.validate()?;
     let dof = response_dof(model, settings.response_dof)?;
-    let built = method.build_within(model, &settings.limits)?;
+    let built = method.build_observed(model, &settings.limits, settings.setup_observer.as_ref())?;
     let harmonics = method.harmonics();
     let info = BranchInfo {
         harmonics,

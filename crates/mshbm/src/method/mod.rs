@@ -17,6 +17,42 @@ use partition::Partition;
 
 pub(crate) use crate::linear::{complex_harmonic, store_harmonic};
 
+/// Reports the phases of a method's set-up (a progress display for large models, where
+/// modes or factorizations take seconds to minutes): called with `Some(phase)` when a phase
+/// starts and with `None` when the set-up is done. The library never prints.
+#[derive(Clone)]
+pub struct SetupObserver(pub std::sync::Arc<SetupCallback>);
+
+/// What a [`SetupObserver`] calls: `Some(phase)` at a phase's start, `None` when done.
+pub type SetupCallback = dyn Fn(Option<&str>) + Send + Sync;
+
+impl SetupObserver {
+    /// An observer calling `f`.
+    pub fn new(f: impl Fn(Option<&str>) + Send + Sync + 'static) -> Self {
+        SetupObserver(std::sync::Arc::new(f))
+    }
+
+    /// A phase starts (no-op without an observer).
+    pub(crate) fn phase(observer: Option<&SetupObserver>, phase: impl FnOnce() -> String) {
+        if let Some(o) = observer {
+            (o.0)(Some(&phase()));
+        }
+    }
+
+    /// The set-up is done.
+    pub(crate) fn done(observer: Option<&SetupObserver>) {
+        if let Some(o) = observer {
+            (o.0)(None);
+        }
+    }
+}
+
+impl std::fmt::Debug for SetupObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("SetupObserver")
+    }
+}
+
 /// Check the settings every method shares: at least one harmonic, and enough samples
 /// (`what`: "samples" or "steps per period") to resolve them (`≥ 2H + 1`).
 pub(crate) fn check_resolution(harmonics: usize, samples: usize, what: &str) -> Result<()> {

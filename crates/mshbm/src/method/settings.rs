@@ -7,6 +7,7 @@
 use super::general::{GeneralMsHbm, GeneralOptions};
 use super::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use super::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use super::SetupObserver;
 use crate::error::{Error, Result};
 use crate::limits::Limits;
 use crate::model::Model;
@@ -116,10 +117,22 @@ impl MethodSettings {
     /// Build the method for `model`, refusing with [`Error::ResourceLimit`] before
     /// allocating when its memory estimate ([`super::memory`]) exceeds `limits`.
     pub fn build_within(&self, model: &Model, limits: &Limits) -> Result<BuiltMethod> {
+        self.build_observed(model, limits, None)
+    }
+
+    /// [`MethodSettings::build_within`], telling `observer` the phases of the set-up
+    /// (those of the redistributed MS-HBM; the other methods report nothing yet).
+    pub fn build_observed(
+        &self,
+        model: &Model,
+        limits: &Limits,
+        observer: Option<&SetupObserver>,
+    ) -> Result<BuiltMethod> {
         self.validate()?;
         Ok(match self {
             MethodSettings::Redistributed { options, stability } => {
-                let mut problem = RedistributedMsHbm::within(model, options, limits)?;
+                let mut problem =
+                    RedistributedMsHbm::within_observed(model, options, limits, observer)?;
                 problem.set_stability_options(*stability)?;
                 BuiltMethod {
                     problem: Box::new(problem),

@@ -24,6 +24,7 @@ use crate::error::{Error, Result};
 use crate::frd::response_dof;
 use crate::limits::Limits;
 use crate::method::settings::MethodSettings;
+use crate::method::SetupObserver;
 use crate::model::Model;
 use crate::newton::{solve_observed, NewtonObserver, NewtonOptions, NewtonOutcome};
 use crate::problem::PeriodicProblem;
@@ -66,6 +67,8 @@ pub struct SolveSettings {
     /// Called at every accepted point of a branch the solve traces (the fallback of
     /// [`SolveStart::Auto`], [`SolveStart::Sweep`]): progress of long continuations.
     pub branch_observer: Option<BranchObserver>,
+    /// Told the phases of the method's set-up (progress on large models).
+    pub setup_observer: Option<SetupObserver>,
 }
 
 impl Default for SolveSettings {
@@ -78,6 +81,7 @@ impl Default for SolveSettings {
             observer: None,
             start: SolveStart::Auto,
             branch_observer: None,
+            setup_observer: None,
         }
     }
 }
@@ -144,7 +148,7 @@ pub fn solve_periodic(
         }
     }
     let dof = response_dof(model, settings.response_dof)?;
-    let built = method.build_within(model, &settings.limits)?;
+    let built = method.build_observed(model, &settings.limits, settings.setup_observer.as_ref())?;
     let mut problem = built.problem;
     let problem = problem.as_mut();
     let omega = 2.0 * std::f64::consts::PI * frequency_hz;

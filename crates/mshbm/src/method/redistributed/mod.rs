@@ -43,7 +43,7 @@ use crate::harmonic::{
 use crate::limits::Limits;
 use crate::linear::{complex_harmonic, store_harmonic, PartitionedSystem};
 use crate::linear::{ExactReceptance, ModalReceptance, Receptance, ReceptanceAtFrequency};
-use crate::method::default_samples;
+use crate::method::{default_samples, SetupObserver};
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
@@ -106,7 +106,11 @@ pub enum ReceptanceChoice {
 
 impl ReceptanceChoice {
     /// The receptance of `system` this choice stands for.
-    fn build(self, system: &System) -> Result<Box<dyn Receptance>> {
+    fn build(
+        self,
+        system: &System,
+        observer: Option<&SetupObserver>,
+    ) -> Result<Box<dyn Receptance>> {
         let massive = system.n_dofs() - crate::modes::massless_dofs(&system.mass).len();
         let choice = match self {
             ReceptanceChoice::Auto if system.n_dofs() > MODAL_RECEPTANCE_DOFS => {
@@ -127,9 +131,23 @@ impl ReceptanceChoice {
                         ),
                     ));
                 }
+                SetupObserver::phase(observer, || {
+                    format!(
+                        "the modal receptance: the {modes} lowest modes of {} DOFs",
+                        system.n_dofs()
+                    )
+                });
                 Box::new(ModalReceptance::new(system, modes)?)
             }
-            _ => Box::new(ExactReceptance::new(system)?),
+            _ => {
+                SetupObserver::phase(observer, || {
+                    format!(
+                        "the exact receptance: sparse analysis of {} DOFs",
+                        system.n_dofs()
+                    )
+                });
+                Box::new(ExactReceptance::new(system)?)
+            }
         })
     }
 }
@@ -182,6 +200,27 @@ impl RedistributedMsHbm {
     /// [`RedistributedMsHbm::new`], refusing before allocating when the method's memory
     /// estimate ([`super::memory::redistributed`]) exceeds `limits`.
     pub fn within(model: &Model, options: &RedistributedOptions, limits: &Limits) -> Result<Self> {
+        Self::within_observed(model, options, limits, None)
+    }
+
+    /// [`RedistributedMsHbm::within`], telling `observer` which phase of the set-up runs.
+    pub fn within_observed(
+        model: &Model,
+        options: &RedistributedOptions,
+        limits: &Limits,
+        observer: Option<&SetupObserver>,
+    ) -> Result<Self> {
+        let built = Self::build(model, options, limits, observer);
+        SetupObserver::done(observer);
+        built
+    }
+
+    fn build(
+        model: &Model,
+        options: &RedistributedOptions,
+        limits: &Limits,
+        observer: Option<&SetupObserver>,
+    ) -> Result<Self> {
         let h = options.harmonics;
         let samples = options.samples.unwrap_or_else(|| default_samples(h));
         super::check_resolution(h, samples, "samples")?;
@@ -191,6 +230,12 @@ impl RedistributedMsHbm {
                 "the model has no contact; the redistributed MS-HBM needs at least one",
             ));
         }
+        SetupObserver::phase(observer, || {
+            format!(
+                "the system: mass redistribution and damping ({} DOFs)",
+                model.stiffness.nrows()
+            )
+        });
         let system = model.system(MassKind::Redistributed)?;
         super::memory::redistributed(&system, h, samples).check(
             &format!("the redistributed MS-HBM with {h} harmonics and {samples} samples"),
@@ -212,6 +257,13 @@ impl RedistributedMsHbm {
                  Use mass-proportional damping (damping.alpha or damping.first_mode_ratio)",
             ));
         }
+        SetupObserver::phase(observer, || {
+            format!(
+                "the static contact problem ({} contacts, {} contact-node DOFs)",
+                system.contacts.len(),
+                nl.len()
+            )
+        });
         let stiffness_nn = system.stiffness.submatrix(nl, nl);
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
         let directions = contact_directions(&system);
@@ -219,7 +271,7 @@ impl RedistributedMsHbm {
         let residual_scale = contact.displacement_scale()?;
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
-        let receptance = options.receptance.build(&system)?;
+        let receptance = options.receptance.build(&system, observer)?;
         Ok(RedistributedMsHbm {
             partition,
             harmonics: h,
