@@ -15,10 +15,10 @@ from __future__ import annotations
 import argparse
 import itertools
 import os
+import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 import mshbm
@@ -43,12 +43,12 @@ def grid(spec: dict | None = None) -> list[dict]:
     return [dict(zip(keys, values)) for values in itertools.product(*(spec[k] for k in keys))]
 
 
-def one_diagram(params: dict, sweep: dict | None = None, model_file: str | os.PathLike = BAR) -> pd.DataFrame:
-    """One task: the diagram of the bar with ``params`` as a table, one row per point,
-    with the parameters as columns."""
+def one_diagram(base: mshbm.Model, params: dict, sweep: dict | None = None) -> pd.DataFrame:
+    """One task: the diagram of the ``base`` model with ``params`` as a table, one row per
+    point, with the parameters as columns. The model travels to the worker with its
+    text, so the worker needs no copy of the model file."""
     sweep = sweep or SWEEP
-    model = mshbm.Model.from_toml(
-        model_file,
+    model = base.with_overrides(
         {
             "contact.gap": params["gap"],
             "damping.first_mode_ratio": params["damping"],
@@ -65,14 +65,26 @@ def one_diagram(params: dict, sweep: dict | None = None, model_file: str | os.Pa
     return table
 
 
-def run_serial(points: list[dict], sweep: dict | None = None) -> pd.DataFrame:
+def run_serial(base: mshbm.Model, points: list[dict], sweep: dict | None = None) -> pd.DataFrame:
     """The study in this process, one diagram after the other."""
-    return pd.concat([one_diagram(p, sweep) for p in points], ignore_index=True)
+    return pd.concat([one_diagram(base, p, sweep) for p in points], ignore_index=True)
 
 
-def run_dask(client, points: list[dict], sweep: dict | None = None) -> pd.DataFrame:
-    """The study on a Dask cluster: one task per diagram, gathered in grid order."""
-    futures = client.map(one_diagram, points, sweep=sweep, pure=False)
+def run_dask(
+    client, base: mshbm.Model, points: list[dict], sweep: dict | None = None, timeout: float | None = None
+) -> pd.DataFrame:
+    """The study on a Dask cluster: one task per diagram, gathered in grid order.
+
+    The workers need only ``mshbm`` installed: run as a script, the task function goes
+    to them by value; imported, this file is uploaded to them (``Client.upload_file``)."""
+    from dask.distributed import wait
+
+    module = sys.modules[one_diagram.__module__]
+    if module.__name__ != "__main__":
+        client.upload_file(module.__file__)
+    futures = client.map(one_diagram, [base] * len(points), points, sweep=sweep, pure=False)
+    if timeout is not None:  # fail instead of waiting for ever (e.g. a worker that cannot run a task)
+        wait(futures, timeout=timeout)
     return pd.concat(client.gather(futures), ignore_index=True)
 
 
@@ -121,9 +133,10 @@ def main() -> None:
     parser.add_argument("--plot", help="write the overlay here (.png, .svg, .pdf)")
     args = parser.parse_args()
     points = grid()
+    base = mshbm.Model.from_toml(BAR)
     start = time.perf_counter()
     if args.serial:
-        table = run_serial(points)
+        table = run_serial(base, points)
     else:
         from dask.distributed import Client, LocalCluster
 
@@ -134,7 +147,7 @@ def main() -> None:
             cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True)
             client = Client(cluster)
         with client:
-            table = run_dask(client, points)
+            table = run_dask(client, base, points)
         if cluster is not None:
             cluster.close()
     elapsed = time.perf_counter() - start

@@ -33,6 +33,16 @@ def test_models_pickle(bar):
     assert np.array_equal(a.unknowns, c.unknowns)
 
 
+def test_with_overrides_adds_to_the_overrides_of_the_file(bar):
+    gap = bar.with_overrides({"contact.gap": 0.1})
+    direct = mshbm.Model.from_toml(BAR, {**DAMPED, "contact.gap": 0.1})
+    assert gap.arrays()["contacts"] == direct.arrays()["contacts"] == [{"dofs": [100], "w": [-1.0], "gap": 0.1}]
+    again = pickle.loads(pickle.dumps(gap))
+    a = mshbm.solve(again, 30000, 2, stability=False)
+    assert np.array_equal(a.unknowns, mshbm.solve(direct, 30000, 2, stability=False).unknowns)
+    assert not np.array_equal(a.unknowns, mshbm.solve(bar, 30000, 2, stability=False).unknowns)
+
+
 def test_results_pickle(bar):
     results = [
         mshbm.solve(bar, 30000, 2),

@@ -211,6 +211,16 @@ class Model:
         )
         return cls(native, ("arrays", kwargs))
 
+    def with_overrides(self, overrides: Mapping[str, Any] | Iterable[str]) -> "Model":
+        """This model file's model with more overrides (after the ones it was read with),
+        e.g. ``base.with_overrides({"contact.gap": 0.1})``: the file is not read again
+        (its text travels with the model, so this works on a Dask worker that lacks the
+        file; files the model refers to are read again from their path)."""
+        if self._recipe[0] != "toml":
+            raise ArgumentError("with_overrides applies to models read from a model file (from_toml)")
+        _, text, path, sets, max_memory_gib, allow_outside_paths = self._recipe
+        return Model._rebuild(("toml", text, path, [*sets, *_overrides(overrides)], max_memory_gib, allow_outside_paths))
+
     @staticmethod
     def _rebuild(recipe: tuple) -> "Model":
         if recipe[0] == "toml":
