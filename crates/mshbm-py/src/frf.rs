@@ -3,8 +3,8 @@
 //! before the stop is returned with the reason.
 
 use mshbm::frd::{
-    trace_diagram, BifurcationReport, BranchInfo, BranchReport, FoldReport, FrdObserver,
-    FrdPoint, FrdSettings,
+    trace_diagram, BifurcationReport, BranchInfo, BranchReport, FoldReport, FrdObserver, FrdPoint,
+    FrdSettings,
 };
 use mshbm::method::settings::MethodSettings;
 use numpy::PyArray1;
@@ -94,12 +94,14 @@ impl FrdObserver for Collector {
             };
             let answer = cb.call1(py, (point_dict(py, branch, point, points, step)?,))?;
             let answer = answer.bind(py);
-            Ok((answer.is_instance_of::<PyBool>() && !answer.is_truthy()?).then(|| {
-                format!(
-                    "stopped by the callback at {} Hz ({}, {points} points)",
-                    point.frequency_hz, branch.label
-                )
-            }))
+            Ok(
+                (answer.is_instance_of::<PyBool>() && !answer.is_truthy()?).then(|| {
+                    format!(
+                        "stopped by the callback at {} Hz ({}, {points} points)",
+                        point.frequency_hz, branch.label
+                    )
+                }),
+            )
         });
         let message = match stop {
             Ok(None) => return Ok(()),
@@ -163,7 +165,10 @@ fn branch_dict<'py>(py: Python<'py>, b: Found) -> PyResult<Bound<'py, PyDict>> {
         "stable",
         col(|p| p.stable.map_or(f64::NAN, |s| if s { 1.0 } else { 0.0 })),
     )?;
-    d.set_item("max_multiplier", col(|p| p.max_multiplier.unwrap_or(f64::NAN)))?;
+    d.set_item(
+        "max_multiplier",
+        col(|p| p.max_multiplier.unwrap_or(f64::NAN)),
+    )?;
     d.set_item(
         "max_penetration",
         col(|p| p.max_penetration.unwrap_or(f64::NAN)),

@@ -80,7 +80,10 @@ impl MethodArgs {
                     one_of(
                         "quadrature",
                         q,
-                        &[("exact", Quadrature::Exact), ("sampled", Quadrature::Sampled)],
+                        &[
+                            ("exact", Quadrature::Exact),
+                            ("sampled", Quadrature::Sampled),
+                        ],
                     )
                 })
                 .transpose()?,
@@ -154,7 +157,9 @@ impl MethodArgs {
                 .collect());
         }
         if !self.penalty.is_empty() {
-            return Err(argument("penalty applies to method='hbm-aft' only (the MS-HBM treats contact exactly)"));
+            return Err(argument(
+                "penalty applies to method='hbm-aft' only (the MS-HBM treats contact exactly)",
+            ));
         }
         if self.mass.is_some() {
             return Err(argument(

@@ -86,15 +86,11 @@ fn csc(
     {
         return Err(field_error(
             field,
-            "malformed CSC arrays: indptr is not non-decreasing up to the number of entries"
-                .into(),
+            "malformed CSC arrays: indptr is not non-decreasing up to the number of entries".into(),
         ));
     }
     limits
-        .check_memory(
-            field,
-            SparseMatrix::assembly_bytes(ncols, data.len()),
-        )
+        .check_memory(field, SparseMatrix::assembly_bytes(ncols, data.len()))
         .py_err()?;
     let mut triplets = Vec::with_capacity(data.len());
     for j in 0..ncols {
@@ -166,7 +162,9 @@ impl NativeModel {
             let text = mshbm::limits::read_text_file(&path, &options.limits)?;
             let mut model =
                 mshbm::model::file::parse_model_with(&text, &path, &overrides, &options)?;
-            let canonical = path.canonicalize().map_err(|e| mshbm::Error::io(&path, e))?;
+            let canonical = path
+                .canonicalize()
+                .map_err(|e| mshbm::Error::io(&path, e))?;
             model.input_files.insert(0, canonical);
             Ok(NativeModel {
                 model,
@@ -363,7 +361,10 @@ impl NativeModel {
         d.set_item("name", m.name.clone())?;
         d.set_item("acceleration", m.acceleration.clone())?;
         if !m.frictions.is_empty() || !m.interfaces.is_empty() {
-            d.set_item("note", "friction elements and interface groups are not part of the arrays")?;
+            d.set_item(
+                "note",
+                "friction elements and interface groups are not part of the arrays",
+            )?;
         }
         Ok(d)
     }

@@ -24,7 +24,11 @@ pub fn modes(
         .map_err(|e| {
             // the CLI's context: "MODEL: eigenfrequencies: …"
             let err = to_py(e);
-            let message = format!("{}: eigenfrequencies: {}", m.source.display(), err.value(py));
+            let message = format!(
+                "{}: eigenfrequencies: {}",
+                m.source.display(),
+                err.value(py)
+            );
             PyErr::from_type(err.get_type(py), message)
         })?;
     to_python(py, &report)

@@ -19,7 +19,9 @@ fn positive(name: &str, v: f64) -> PyResult<f64> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(argument(format!("{name} must be a positive number, got {v}")))
+        Err(argument(format!(
+            "{name} must be a positive number, got {v}"
+        )))
     }
 }
 
@@ -123,7 +125,9 @@ pub fn simulate(
     }
     if steady_state {
         if duration.is_some() {
-            return Err(argument("steady_state runs whole periods: give periods (the period limit), not duration"));
+            return Err(argument(
+                "steady_state runs whole periods: give periods (the period limit), not duration",
+            ));
         }
         if dt.is_some() {
             return Err(argument("steady_state needs a whole number of steps per period: give steps_per_period, not dt"));
@@ -158,9 +162,10 @@ pub fn simulate(
     };
     let forced = m.harmonic_load.iter().any(|&f| f != 0.0);
     let start: Option<PeriodicSolution> = match &start_solution {
-        Some(json) => Some(serde_json::from_str(json).map_err(|e| {
-            argument(format!("start_solution: not a periodic solution: {e}"))
-        })?),
+        Some(json) => Some(
+            serde_json::from_str(json)
+                .map_err(|e| argument(format!("start_solution: not a periodic solution: {e}")))?,
+        ),
         None => None,
     };
     let frequency = match (&start, frequency) {
@@ -173,14 +178,21 @@ pub fn simulate(
             }
             Some(f)
         }
-        (Some(s), None) => Some(positive("frequency of the start solution [Hz]", s.frequency_hz)?),
+        (Some(s), None) => Some(positive(
+            "frequency of the start solution [Hz]",
+            s.frequency_hz,
+        )?),
         (None, f) => f,
     };
     if forced && frequency.is_none() {
-        return Err(argument("the model has a harmonic load: give its frequency [Hz]"));
+        return Err(argument(
+            "the model has a harmonic load: give its frequency [Hz]",
+        ));
     }
     if steady_state && frequency.is_none() {
-        return Err(argument("steady_state needs frequency [Hz]: the period of the steady state (also without load)"));
+        return Err(argument(
+            "steady_state needs frequency [Hz]: the period of the steady state (also without load)",
+        ));
     }
     let scheme_name = scheme.unwrap_or(if m.contacts.is_empty() {
         "moreau"

@@ -21,7 +21,9 @@ fn solve_start(
 ) -> PyResult<SolveStart> {
     if let Some((x, h)) = from_unknowns {
         if sweep.0.is_some() {
-            return Err(argument("give either a start solution or sweep_from, not both"));
+            return Err(argument(
+                "give either a start solution or sweep_from, not both",
+            ));
         }
         let x = x.as_slice()?;
         let Some(x) = mshbm::harmonic::with_harmonics(x, h, harmonics) else {
@@ -123,7 +125,13 @@ pub fn solve(
         response_dof: Some(args.response_dof(m)?),
         limits: model.limits,
         observer: None,
-        start: solve_start(frequency, harmonics, start, from_unknowns, (sweep_from, sweep_to))?,
+        start: solve_start(
+            frequency,
+            harmonics,
+            start,
+            from_unknowns,
+            (sweep_from, sweep_to),
+        )?,
         branch_observer: None,
     };
     let Solved {

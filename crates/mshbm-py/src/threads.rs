@@ -12,7 +12,9 @@ use crate::errors::argument;
 pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> PyResult<T> {
     match threads {
         None => Ok(f()),
-        Some(0) => Err(argument("threads must be at least 1 (or None for all cores)")),
+        Some(0) => Err(argument(
+            "threads must be at least 1 (or None for all cores)",
+        )),
         Some(n) => {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(n)
