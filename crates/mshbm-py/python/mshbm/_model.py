@@ -133,6 +133,9 @@ class Model:
             os.fspath(path), sets, max_memory_gib, allow_outside_paths
         )
         kind, text, source, sets = native.recipe()
+        # absolute, so that a worker with another working directory finds the files a
+        # `kind = "matrices"` model refers to
+        source = os.path.abspath(source)
         return cls(native, ("toml", text, source, sets, max_memory_gib, allow_outside_paths))
 
     @classmethod
