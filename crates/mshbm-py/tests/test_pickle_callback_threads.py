@@ -123,3 +123,14 @@ def test_threads_bound_the_call_and_change_no_number(bar):
     s1 = mshbm.solve(bar, 60000, 1, method="mshbm", threads=1, stability=False)
     s2 = mshbm.solve(bar, 60000, 1, method="mshbm", threads=2, stability=False)
     assert np.array_equal(s1.unknowns, s2.unknowns)
+
+
+def test_a_pickled_matrices_model_reads_its_files_from_another_directory(tmp_path, monkeypatch):
+    from conftest import ROOT
+
+    monkeypatch.chdir(ROOT)
+    m = mshbm.Model.from_toml("examples/bar_matrices/model.toml", ["contacts.0.gap=0.1"])
+    blob = pickle.dumps(m)
+    monkeypatch.chdir(tmp_path)
+    again = pickle.loads(blob)
+    assert again.n_dofs == 101 and again.arrays()["contacts"][0]["gap"] == 0.1
