@@ -134,3 +134,9 @@ def test_a_pickled_matrices_model_reads_its_files_from_another_directory(tmp_pat
     monkeypatch.chdir(tmp_path)
     again = pickle.loads(blob)
     assert again.n_dofs == 101 and again.arrays()["contacts"][0]["gap"] == 0.1
+
+
+def test_the_callback_runs_in_a_thread_pool_too(bar):
+    seen = []
+    d = mshbm.frf(bar, 20000, 40000, 1, threads=1, callback=lambda p: seen.append(p) or len(seen) < 5)
+    assert d.stopped_by_callback and len(seen) == 5 == len(d.branches[0])
