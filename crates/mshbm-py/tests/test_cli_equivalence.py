@@ -114,6 +114,9 @@ def test_frf_json_folds_equal_cli(cli_json):
     ref = cli_json("frf", BAR, "--from", 20000, "--to", 40000, "--harmonics", "3", *DAMPED_SET)
     d = mshbm.frf(mshbm.Model.from_toml(BAR, DAMPED), 20000, 40000, 3)
     assert_same_numbers({"folds": d.folds, "bifurcations": d.bifurcations}, {"folds": ref["folds"], "bifurcations": ref["bifurcations"]})
+    folds = d.to_dataframe("folds")
+    assert len(folds) == len(ref["folds"]) > 0
+    assert folds["frequency_hz"].tolist() == [f["frequency_hz"] for f in ref["folds"]]
     for b, rb in zip(d.branches, ref["branches"]):
         assert b.label == rb["label"] and b.stop == rb["stop"] and b.completed == rb["completed"]
         assert_same_numbers(b.max_qn, [p["max_qn"] for p in rb["points"]])

@@ -246,9 +246,17 @@ class FrequencyResponse(_Result):
         columns["label"] = np.repeat([b["label"] for b in branches], n).astype(object)
         return columns
 
-    def to_dataframe(self):
-        """:meth:`to_dict` as a pandas DataFrame."""
-        return _dataframe(self.to_dict())
+    def to_dataframe(self, table: str = "points"):
+        """:meth:`to_dict` as a pandas DataFrame; ``table="folds"`` or
+        ``"bifurcations"``: one row per fold or stability change (as ``frf --json``)."""
+        if table == "points":
+            return _dataframe(self.to_dict())
+        if table in ("folds", "bifurcations"):
+            rows = self._data[table]
+            keys = ["harmonics", "label", "kind", "frequency_hz", "max_qn", "min_qn", "amplitude_h1", "at_kink"]
+            keys = [k for k in keys if any(k in r for r in rows)] if rows else keys[:1] + keys[3:4]
+            return _dataframe({k: [r.get(k) for r in rows] for k in keys})
+        raise ValueError(f"table={table!r}: expected 'points', 'folds' or 'bifurcations'")
 
     def __repr__(self):
         n = sum(len(b["frequency_hz"]) for b in self._data["branches"])
