@@ -138,3 +138,20 @@ def test_steady_state_simulation_equals_cli(cli_json):
     assert_same_numbers(sim._data["steady_state"], ref)
     assert sim.steady_state.periodic
     assert sim.gaps.shape == (len(sim.time_s), 1)
+
+
+def test_starting_from_a_solution_equals_cli_from_solution(cli_json, tmp_path):
+    sets = {"damping.alpha": 7587.745, "damping.beta_linear": 5e-7}
+    set_args = ["--set", "damping.alpha=7587.745", "--set", "damping.beta_linear=5e-7"]
+    bar = mshbm.Model.from_toml(BAR, sets)
+    first = mshbm.solve(bar, 29500, 3)
+    start = tmp_path / "start.json"
+    start.write_text(first.to_json())
+    # the JSON written by the Python package is the CLI's: the CLI starts from it
+    ref = cli_json("solve", BAR, *set_args, "--frequency", 30000, "--harmonics", 4, "--from-solution", start)
+    s = mshbm.solve(bar, 30000, 4, start=first)
+    assert_same_numbers(s._data["solution"], ref)
+    ref = cli_json("simulate", BAR, *set_args, "--frequency", 29500, "--steady-state", "--harmonics", 3,
+                   "--periods", 20, "--from-solution", start)
+    sim = mshbm.simulate(bar, 29500, steady_state=True, harmonics=3, periods=20, start=first)
+    assert_same_numbers(sim._data["steady_state"], ref)
