@@ -155,3 +155,16 @@ def test_starting_from_a_solution_equals_cli_from_solution(cli_json, tmp_path):
                    "--periods", 20, "--from-solution", start)
     sim = mshbm.simulate(bar, 29500, steady_state=True, harmonics=3, periods=20, start=first)
     assert_same_numbers(sim._data["steady_state"], ref)
+
+
+@pytest.mark.parametrize("scheme", ["redistributed", "moreau"])
+def test_transient_simulation_equals_cli_csv(cli, tmp_path, scheme):
+    out = tmp_path / "sim.csv"
+    cli("simulate", BAR, *DAMPED_SET, "--frequency", 30000, "--periods", 2, "--scheme", scheme, "--output", out)
+    ref = read_cli_csv(out)
+    sim = mshbm.simulate(mshbm.Model.from_toml(BAR, DAMPED), 30000, periods=2, scheme=scheme)
+    got = sim.to_dict()
+    assert list(got) == list(ref)
+    assert len(got["time_s"]) == len(ref["time_s"]) > 1000
+    for col in ref:
+        assert np.allclose(got[col], np.array(ref[col], float), rtol=1e-11, atol=1e-300), col
