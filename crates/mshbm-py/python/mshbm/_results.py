@@ -1,0 +1,340 @@
+"""Result objects: numpy arrays as attributes, ``to_dict()`` for tables and
+``to_dataframe()`` (pandas, optional). Every result is a plain Python object holding the
+extension's dict, so it pickles as it is."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Solution", "Floquet", "FrequencyResponse", "Branch", "Modes", "Simulation", "SteadyState"]
+
+
+def _dataframe(columns: dict):
+    try:
+        import pandas as pd
+    except ImportError as e:  # pandas is optional
+        raise ImportError("to_dataframe() needs pandas: pip install pandas (or use to_dict())") from e
+    return pd.DataFrame(columns)
+
+
+def _plain(value: Any) -> Any:
+    """Arrays and numpy scalars as plain Python (for JSON)."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+class _Result:
+    __slots__ = ("_data",)
+
+    def __init__(self, data: dict):
+        self._data = data
+
+    def __getstate__(self):
+        return self._data
+
+    def __setstate__(self, state):
+        self._data = state
+
+    def __eq__(self, other):
+        if type(other) is not type(self):
+            return NotImplemented
+        return json.dumps(_plain(self._data), sort_keys=True) == json.dumps(_plain(other._data), sort_keys=True)
+
+
+class Floquet(_Result):
+    """Floquet multipliers of a periodic solution (docs: README "Stability")."""
+
+    @property
+    def multipliers(self) -> np.ndarray:
+        """The multipliers, complex."""
+        m = self._data["multipliers"]
+        if isinstance(m, list):
+            return np.zeros(0, dtype=complex)
+        return m[:, 0] + 1j * m[:, 1]
+
+    @property
+    def max_multiplier(self) -> float:
+        """Largest modulus."""
+        return self._data["max_multiplier"]
+
+    @property
+    def stable(self) -> bool:
+        """All multipliers inside the unit circle."""
+        return self._data["stable"]
+
+    def to_dict(self) -> dict:
+        return dict(self._data)
+
+    def __repr__(self):
+        return f"<Floquet: {'stable' if self.stable else 'unstable'}, largest modulus {self.max_multiplier:.6f}>"
+
+
+class Solution(_Result):
+    """One periodic solution (``mshbm solve``): the fields of ``mshbm solve --json`` as
+    attributes (``frequency_hz`` [Hz], ``time_s`` [s], displacements, gaps in the model's
+    length unit, contact forces in its force unit), with ``label`` (the method),
+    ``path`` (how Newton got there), ``others`` (other solutions met at the frequency by a
+    sweep) and ``stability`` (:class:`Floquet` or None)."""
+
+    def __getattr__(self, name):
+        data = object.__getattribute__(self, "_data")
+        if name in data["solution"]:
+            return data["solution"][name]
+        raise AttributeError(name)
+
+    @property
+    def label(self) -> str:
+        return self._data.get("label", "")
+
+    @property
+    def path(self) -> dict:
+        return self._data.get("path", {"kind": "direct"})
+
+    @property
+    def stability_error(self) -> str | None:
+        """Why the multipliers of a converged solution could not be computed."""
+        return self._data.get("stability_error")
+
+    @property
+    def others(self) -> list["Solution"]:
+        return [Solution({"solution": s}) for s in self._data.get("others", [])]
+
+    @property
+    def stability(self) -> Floquet | None:
+        s = self._data["solution"].get("stability")
+        return None if s is None else Floquet(s)
+
+    @property
+    def contact_displacement(self) -> np.ndarray:
+        """Displacement of each contact's first DOF over one period, (contacts, samples)."""
+        return np.array([c["displacement"] for c in self._data["solution"]["contacts"]])
+
+    @property
+    def contact_gap(self) -> np.ndarray:
+        """Gap of each contact over one period, (contacts, samples)."""
+        return np.array([c["gap"] for c in self._data["solution"]["contacts"]])
+
+    @property
+    def contact_force(self) -> np.ndarray:
+        """Contact force of each contact over one period, (contacts, samples)."""
+        return np.array([c["force"] for c in self._data["solution"]["contacts"]])
+
+    @property
+    def harmonics_of_contacts(self) -> np.ndarray:
+        """Fourier coefficients [a0, a1, b1, …, aH, bH] of each contact displacement."""
+        return np.array([c["coefficients"] for c in self._data["solution"]["contacts"]])
+
+    def to_json(self) -> str:
+        """The solution as ``mshbm solve --json`` writes it (a start for ``simulate``)."""
+        return json.dumps(_plain(self._data["solution"]))
+
+    def to_dict(self) -> dict:
+        """The time series over one period as columns, as ``mshbm solve --output``:
+        ``time_s``, then ``q_dof{d}``, ``gap_c{k}``, ``force_c{k}`` per contact."""
+        s = self._data["solution"]
+        columns = {"time_s": s["time_s"]}
+        for k, c in enumerate(s["contacts"]):
+            columns[f"q_dof{c['dof']}"] = c["displacement"]
+            columns[f"gap_c{k}"] = c["gap"]
+            columns[f"force_c{k}"] = c["force"]
+        return columns
+
+    def to_dataframe(self):
+        """:meth:`to_dict` as a pandas DataFrame."""
+        return _dataframe(self.to_dict())
+
+    def __repr__(self):
+        s = self._data["solution"]
+        return (
+            f"<Solution {s['method']} at {s['frequency_hz']} Hz, H = {s['harmonics']}: "
+            f"converged {s['converged']} after {s['iterations']} iterations>"
+        )
+
+
+_BRANCH_COLUMNS = (
+    "frequency_hz",
+    "max_qn",
+    "min_qn",
+    "amplitude_h1",
+    "residual_norm",
+    "newton_iterations",
+    "fold",
+    "stable",
+    "max_multiplier",
+    "max_penetration",
+)
+
+
+class Branch(_Result):
+    """One branch of a diagram: per point, numpy arrays ``frequency_hz`` [Hz], ``max_qn``,
+    ``min_qn`` (extremes of the response DOF, length unit), ``amplitude_h1``,
+    ``residual_norm``, ``newton_iterations``, ``fold`` (bool: a located fold),
+    ``stable`` (1.0, 0.0, NaN when not computed), ``max_multiplier`` and
+    ``max_penetration`` (NaN when not computed); and ``harmonics``, ``method``,
+    ``label``, ``penalty``, ``stop`` (why it ended), ``completed``."""
+
+    def __getattr__(self, name):
+        data = object.__getattribute__(self, "_data")
+        if name in data:
+            return data[name]
+        raise AttributeError(name)
+
+    def __len__(self):
+        return len(self._data["frequency_hz"])
+
+    def __repr__(self):
+        return f"<Branch {self.label}: {len(self)} points, {self.stop}>"
+
+
+class FrequencyResponse(_Result):
+    """A frequency response diagram (``mshbm frf``): ``branches`` (one :class:`Branch`
+    per method and H), ``folds`` and ``bifurcations`` (lists of dicts, frequencies in
+    Hz), ``completed``, ``stop_reason`` (None when every branch reached the end; else
+    the first branch that stopped and why, e.g. stopped by the callback) and
+    ``stopped_by_callback``."""
+
+    @property
+    def branches(self) -> list[Branch]:
+        return [Branch(b) for b in self._data["branches"]]
+
+    @property
+    def folds(self) -> list[dict]:
+        return self._data["folds"]
+
+    @property
+    def bifurcations(self) -> list[dict]:
+        return self._data["bifurcations"]
+
+    @property
+    def completed(self) -> bool:
+        return self._data["completed"]
+
+    @property
+    def stop_reason(self) -> str | None:
+        return self._data["stop_reason"]
+
+    @property
+    def stopped_by_callback(self) -> bool:
+        return self._data["stopped_by_callback"]
+
+    def to_dict(self) -> dict:
+        """Every point of every branch as columns (the CLI's CSV columns ``frequency_hz,
+        harmonics, max_qn, min_qn, amplitude_h1, residual_norm, newton_iterations, fold,
+        stable, max_multiplier``, then ``max_penetration, method, penalty, label``)."""
+        branches = self._data["branches"]
+        columns: dict[str, Any] = {}
+        n = [len(b["frequency_hz"]) for b in branches]
+        for key in _BRANCH_COLUMNS:
+            parts = [np.asarray(b[key]) for b in branches]
+            columns[key] = np.concatenate(parts) if parts else np.zeros(0)
+            if key == "frequency_hz":
+                columns["harmonics"] = np.repeat([b["harmonics"] for b in branches], n).astype(np.int64)
+        columns["method"] = np.repeat([b["method"] for b in branches], n).astype(object)
+        columns["penalty"] = np.repeat(
+            [np.nan if b["penalty"] is None else b["penalty"] for b in branches], n
+        ).astype(np.float64)
+        columns["label"] = np.repeat([b["label"] for b in branches], n).astype(object)
+        return columns
+
+    def to_dataframe(self, table: str = "points"):
+        """:meth:`to_dict` as a pandas DataFrame; ``table="folds"`` or
+        ``"bifurcations"``: one row per fold or stability change (as ``frf --json``)."""
+        if table == "points":
+            return _dataframe(self.to_dict())
+        if table in ("folds", "bifurcations"):
+            rows = self._data[table]
+            keys = ["harmonics", "label", "kind", "frequency_hz", "max_qn", "min_qn", "amplitude_h1", "at_kink"]
+            keys = [k for k in keys if any(k in r for r in rows)] if rows else keys[:1] + keys[3:4]
+            return _dataframe({k: [r.get(k) for r in rows] for k in keys})
+        raise ValueError(f"table={table!r}: expected 'points', 'folds' or 'bifurcations'")
+
+    def __repr__(self):
+        n = sum(len(b["frequency_hz"]) for b in self._data["branches"])
+        state = "complete" if self.completed else f"incomplete ({self.stop_reason})"
+        return f"<FrequencyResponse: {len(self._data['branches'])} branches, {n} points, {len(self.folds)} folds, {state}>"
+
+
+class Modes(_Result):
+    """Eigenfrequencies [Hz] of the consistent (``original_hz``) and the redistributed
+    (``redistributed_hz``) model, ``relative_error`` = f_redistributed / f_original − 1,
+    and the ``norm`` of the redistribution (``mshbm modes``)."""
+
+    def __getattr__(self, name):
+        data = object.__getattribute__(self, "_data")
+        if name in data:
+            return data[name]
+        raise AttributeError(name)
+
+    def to_dict(self) -> dict:
+        n = len(self._data["original_hz"])
+        return {
+            "mode": np.arange(1, n + 1),
+            "original_hz": self._data["original_hz"],
+            "redistributed_hz": self._data["redistributed_hz"],
+            "relative_error": self._data["relative_error"],
+        }
+
+    def to_dataframe(self):
+        return _dataframe(self.to_dict())
+
+    def __repr__(self):
+        return f"<Modes: {len(self._data['original_hz'])} eigenfrequencies>"
+
+
+class SteadyState(_Result):
+    """The periodic steady state found by simulation: ``solution`` (:class:`Solution`,
+    the last period), ``periodic``, ``periods_simulated``, ``period_scatter``,
+    ``tolerance``, … (the fields of ``mshbm simulate --steady-state --json``)."""
+
+    def __getattr__(self, name):
+        data = object.__getattribute__(self, "_data")
+        if name in data:
+            return data[name]
+        raise AttributeError(name)
+
+    @property
+    def solution(self) -> Solution:
+        return Solution({"solution": self._data["solution"]})
+
+
+class Simulation(_Result):
+    """A time integration (``mshbm simulate``): ``time_s`` [s], ``gaps`` and ``forces``
+    (steps × contacts; length and force units), ``energy``, ``dt`` [s], ``scheme``, and
+    ``steady_state`` (:class:`SteadyState` or None)."""
+
+    def __getattr__(self, name):
+        data = object.__getattribute__(self, "_data")
+        if name in data and name != "steady_state":
+            return data[name]
+        raise AttributeError(name)
+
+    @property
+    def steady_state(self) -> SteadyState | None:
+        s = self._data["steady_state"]
+        return None if s is None else SteadyState(s)
+
+    def to_dict(self) -> dict:
+        """Columns as ``mshbm simulate --output``: ``time_s``, ``gap_c{k}``,
+        ``force_c{k}``, ``energy``."""
+        columns = {"time_s": self._data["time_s"]}
+        for k in range(self._data["gaps"].shape[1]):
+            columns[f"gap_c{k}"] = self._data["gaps"][:, k]
+            columns[f"force_c{k}"] = self._data["forces"][:, k]
+        columns["energy"] = self._data["energy"]
+        return columns
+
+    def to_dataframe(self):
+        return _dataframe(self.to_dict())
+
+    def __repr__(self):
+        return f"<Simulation: {len(self._data['time_s'])} steps of {self._data['dt']:.3e} s, {self._data['scheme']}>"
