@@ -1,13 +1,15 @@
 //! The method options of `solve` and `frf`, translated as the CLI's `MethodArgs`
 //! (crates/mshbm-cli/src/commands/solve.rs) translates `--method`, `--samples`,
-//! `--quadrature`, `--mass`, `--penalty`, `--tolerance`, `--max-iterations`, `--dof` and
-//! `--stability-modes`, with the same defaults and checks; the messages name the Python
+//! `--quadrature`, `--mass`, `--penalty`, `--tolerance`, `--max-iterations`, `--dof`,
+//! `--stability-modes`, `--receptance` and `--receptance-modes`, with the same defaults and checks; the messages name the Python
 //! keyword instead of the option.
 
 use mshbm::harmonic::Quadrature;
 use mshbm::method::general::GeneralOptions;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
-use mshbm::method::redistributed::RedistributedOptions;
+use mshbm::method::redistributed::{
+    ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
+};
 use mshbm::method::settings::MethodSettings;
 use mshbm::newton::NewtonOptions;
 use mshbm::stability::StabilityOptions;
@@ -35,6 +37,9 @@ pub struct MethodArgs {
     pub max_iterations: usize,
     pub dof: Option<usize>,
     pub stability_modes: Option<usize>,
+    /// `"auto"`, `"exact"` or `"modal"`.
+    pub receptance: String,
+    pub receptance_modes: Option<usize>,
 }
 
 fn one_of<T: Copy>(name: &str, value: &str, choices: &[(&str, T)]) -> PyResult<T> {
@@ -63,6 +68,8 @@ impl MethodArgs {
         max_iterations: usize,
         dof: Option<usize>,
         stability_modes: Option<usize>,
+        receptance: &str,
+        receptance_modes: Option<usize>,
     ) -> PyResult<Self> {
         Ok(MethodArgs {
             method: one_of(
@@ -104,6 +111,27 @@ impl MethodArgs {
             max_iterations,
             dof,
             stability_modes,
+            receptance: receptance.to_string(),
+            receptance_modes,
+        })
+    }
+
+    /// The receptance of `receptance` and `receptance_modes` (as the CLI's
+    /// `--receptance`, `--receptance-modes`).
+    fn receptance_choice(&self) -> PyResult<ReceptanceChoice> {
+        let kind = one_of(
+            "receptance",
+            &self.receptance,
+            &[("auto", 0u8), ("exact", 1), ("modal", 2)],
+        )?;
+        Ok(match (kind, self.receptance_modes) {
+            (_, Some(0)) => return Err(argument("receptance_modes must be at least 1")),
+            (2, modes) => ReceptanceChoice::Modal {
+                modes: modes.unwrap_or(DEFAULT_RECEPTANCE_MODES),
+            },
+            (_, Some(_)) => return Err(argument("receptance_modes needs receptance='modal'")),
+            (0, None) => ReceptanceChoice::Auto,
+            _ => ReceptanceChoice::Exact,
         })
     }
 
@@ -140,6 +168,13 @@ impl MethodArgs {
             }
             _ => {}
         }
+        if self.method != Method::Redistributed
+            && (self.receptance != "auto" || self.receptance_modes.is_some())
+        {
+            return Err(argument(
+                "receptance and receptance_modes apply to method='redistributed' only",
+            ));
+        }
         let quadrature = |default| self.quadrature.unwrap_or(default);
         if self.method == Method::HbmAft {
             return Ok(self
@@ -172,6 +207,7 @@ impl MethodArgs {
                     harmonics,
                     samples: self.samples,
                     quadrature: quadrature(Quadrature::Exact),
+                    receptance: self.receptance_choice()?,
                 },
                 stability: StabilityOptions {
                     modes: self.stability_modes,

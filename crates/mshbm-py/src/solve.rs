@@ -74,7 +74,7 @@ fn solve_start(
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (model, frequency, harmonics=5, *, method="redistributed", samples=None,
     quadrature=None, mass=None, penalty=Vec::new(), tolerance=1e-10, max_iterations=50,
-    dof=None, stability_modes=None, stability=true, start="auto", from_unknowns=None,
+    dof=None, stability_modes=None, receptance="auto", receptance_modes=None, stability=true, start="auto", from_unknowns=None,
     sweep_from=None, sweep_to=None, threads=None))]
 pub fn solve(
     py: Python<'_>,
@@ -90,6 +90,8 @@ pub fn solve(
     max_iterations: usize,
     dof: Option<usize>,
     stability_modes: Option<usize>,
+    receptance: &str,
+    receptance_modes: Option<usize>,
     stability: bool,
     start: &str,
     from_unknowns: Option<(PyReadonlyArray1<'_, f64>, usize)>,
@@ -115,6 +117,8 @@ pub fn solve(
         max_iterations,
         dof,
         stability_modes,
+        receptance,
+        receptance_modes,
     )?;
     args.check_samples(harmonics)?;
     let method = args.single_method(harmonics)?;
@@ -133,6 +137,7 @@ pub fn solve(
             (sweep_from, sweep_to),
         )?,
         branch_observer: None,
+        setup_observer: None,
     };
     let Solved {
         solution,

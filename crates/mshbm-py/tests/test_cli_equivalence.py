@@ -72,6 +72,17 @@ def test_solve_hbm_aft_and_sweep_equal_cli(cli_json):
     assert_same_numbers(s._data["solution"], ref)
 
 
+def test_solve_with_the_modal_receptance_equals_cli(cli_json):
+    bar = mshbm.Model.from_toml(BAR, DAMPED)
+    ref = cli_json("solve", BAR, "--frequency", 30000, "--harmonics", 3, "--receptance", "modal", "--receptance-modes", 12, *DAMPED_SET)
+    s = mshbm.solve(bar, 30000, 3, receptance="modal", receptance_modes=12)
+    assert_same_numbers(s._data["solution"], ref, rel=1e-12)
+    exact = mshbm.solve(bar, 30000, 3)
+    # 12 of 100 modes: close to the exact receptance's solution, but not equal to it
+    gap = np.max(np.abs(s.unknowns - exact.unknowns)) / np.max(np.abs(exact.unknowns))
+    assert 0 < gap < 1e-3
+
+
 def read_cli_csv(path):
     rows = [r for r in csv.reader(l for l in open(path) if not l.startswith("#"))]
     header, rows = rows[0], rows[1:]

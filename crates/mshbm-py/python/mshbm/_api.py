@@ -47,6 +47,8 @@ def solve(
     max_iterations: int = 50,
     dof: int | None = None,
     stability_modes: int | None = None,
+    receptance: str = "auto",
+    receptance_modes: int | None = None,
     stability: bool = True,
     start: str | Solution = "auto",
     sweep_from: float | None = None,
@@ -62,7 +64,10 @@ def solve(
     ``"redistributed"``) or ``"mshbm"`` (the general MS-HBM). ``samples``: samples per
     period (default max(256, 16(2H+1))); ``quadrature``: ``"exact"`` or ``"sampled"``;
     ``tolerance``: Newton's max-norm residual relative to the model's length scale;
-    ``dof``: the response DOF (default: the first contact's). ``start``: ``"auto"``
+    ``dof``: the response DOF (default: the first contact's). ``receptance``:
+    ``"auto"`` (exact up to 20 000 DOFs, modal above), ``"exact"`` or ``"modal"`` (the
+    lowest ``receptance_modes`` modes, default 200, plus the exact static compliance;
+    docs/theory.md §17). ``start``: ``"auto"``
     (linear response, then continuation from a lower frequency if Newton fails),
     ``"linear"``, or a :class:`Solution` to start from (``--from-solution``);
     ``sweep_from``/``sweep_to`` [Hz]: trace the branch and list every solution at the
@@ -91,6 +96,8 @@ def solve(
         max_iterations=int(max_iterations),
         dof=dof,
         stability_modes=stability_modes,
+        receptance=receptance,
+        receptance_modes=receptance_modes,
         stability=bool(stability),
         start=start_kind,
         from_unknowns=from_unknowns,
@@ -136,6 +143,8 @@ def frf(
     max_iterations: int = 50,
     dof: int | None = None,
     stability_modes: int | None = None,
+    receptance: str = "auto",
+    receptance_modes: int | None = None,
     step: float = 0.01,
     max_step: float = 0.1,
     min_step: float = 1e-12,
@@ -178,6 +187,8 @@ def frf(
         max_iterations=int(max_iterations),
         dof=dof,
         stability_modes=stability_modes,
+        receptance=receptance,
+        receptance_modes=receptance_modes,
         step=float(step),
         max_step=float(max_step),
         min_step=float(min_step),
