@@ -1,9 +1,9 @@
 """Benchmark: a study of 16 frequency response diagrams (the paper's bar, gap × damping ×
 force amplitude, 20–100 kHz, H = 3), serially in one process and on a Dask LocalCluster
 of 2 workers (one thread each). Prints the two times and their ratio; the tables must be
-equal.
+equal, and the exit status is 1 when the ratio exceeds --target (issue 20: 0.6).
 
-    python examples/python/bench_study.py [--workers 2] [--repeat 1]
+    python examples/python/bench_study.py [--workers 2] [--repeat 1] [--target 0.6]
 
 The cluster is started before the clock starts (its start-up, about a second, is printed
 apart): the time is that of the study on a running cluster, as in a notebook that keeps
@@ -28,6 +28,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--repeat", type=int, default=1, help="best of N for each")
+    parser.add_argument("--target", type=float, default=0.6, help="largest acceptable ratio")
     args = parser.parse_args()
     from dask.distributed import Client, LocalCluster
 
@@ -53,6 +54,8 @@ def main() -> None:
     s, d = min(serial_times), min(dask_times)
     print(f"{len(points)} diagrams, {len(serial)} points (tables equal)")
     print(f"serial: {s:.2f} s; {args.workers} workers: {d:.2f} s; ratio {d / s:.3f}")
+    if d / s > args.target:
+        raise SystemExit(f"ratio {d / s:.3f} above the target {args.target}")
 
 
 if __name__ == "__main__":
