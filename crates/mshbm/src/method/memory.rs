@@ -88,10 +88,10 @@ fn shared(
     harmonics: usize,
     samples: usize,
     unknowns: Option<u64>,
+    interface: Interface,
 ) {
     let nc = coefficients(harmonics);
     let s = samples as u64;
-    let n_n = system.nonlinear_dofs.len() as u64;
     plan.add_product(
         "the system's matrices, partition and condensation",
         &[system.n_dofs() as u64, MODEL_BYTES_PER_DOF],
@@ -112,19 +112,67 @@ fn shared(
     );
     plan.add(
         "the condensed interface stiffness per harmonic",
-        mul(&[per_harmonic, n_n, n_n.saturating_add(1), 16]),
+        mul(&[
+            per_harmonic,
+            interface.size,
+            interface.size.saturating_add(1),
+            16,
+            interface.matrices,
+        ]),
     );
 }
 
-/// The redistributed MS-HBM (paper Sections 3.1–3.2) with `H` harmonics and `N_s` samples:
-/// unknowns `n_N (2H+1)`, Gram blocks `(2H+1)²` per active set (at most one per contact
-/// plus one), per-sample contact arrays.
+/// What the linear part is condensed onto: `size` coordinates, `matrices` dense complex
+/// `size × size` matrices per harmonic.
+struct Interface {
+    size: u64,
+    matrices: u64,
+}
+
+impl Interface {
+    /// The `N` DOFs, `G_k` per harmonic (HBM-AFT, the general MS-HBM).
+    fn nonlinear_dofs(system: &System) -> Self {
+        Interface {
+            size: system.nonlinear_dofs.len() as u64,
+            matrices: 1,
+        }
+    }
+}
+
+/// The redistributed MS-HBM (paper Sections 3.1–3.2) with `H` harmonics and `N_s` samples,
+/// in contact coordinates (docs/theory.md §16): unknowns `n_c (2H+1)`, four `n_c × n_c`
+/// complex matrices per harmonic, the static contact problem and its cached active sets,
+/// Gram blocks `(2H+1)²` per active set (at most one per contact plus one), per-sample
+/// contact arrays. The exact receptance's sparse factors are counted with the linear
+/// part; the modal receptance's mode shapes (`n × m` complex) are not.
 pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> MemoryPlan {
     let mut plan = MemoryPlan::new();
     let nc = coefficients(harmonics);
     let n_n = system.nonlinear_dofs.len() as u64;
     let contacts = system.contacts.len() as u64;
-    shared(&mut plan, system, harmonics, samples, n_n.checked_mul(nc));
+    // contact coordinates (docs/theory.md §16): R_k, R_k⁻¹, D R_k⁻¹, Λ R_k⁻¹ per harmonic
+    let interface = Interface {
+        size: contacts,
+        matrices: 4,
+    };
+    shared(
+        &mut plan,
+        system,
+        harmonics,
+        samples,
+        contacts.checked_mul(nc),
+        interface,
+    );
+    plan.add(
+        "the static contact problem (K_NN⁻¹W, Delassus matrix)",
+        mul(&[n_n.saturating_add(contacts), contacts, 8]),
+    );
+    // one n_c × n_c indicator per active set met, up to one per sample, within the cache
+    plan.add(
+        "the cached active sets of the static contact problem",
+        mul(&[samples as u64, contacts, contacts, 8])
+            .map(|b| b.min(crate::contact::static_contact::ACTIVE_SET_CACHE_BYTES as u64)),
+    );
     plan.add(
         format!("the Gram blocks of the exact quadrature ({harmonics} harmonics)"),
         mul(&[contacts.saturating_add(1), nc, nc, 8]),
@@ -152,7 +200,14 @@ pub fn hbm_aft(system: &System, harmonics: usize, samples: usize) -> MemoryPlan 
     let mut plan = MemoryPlan::new();
     let nc = coefficients(harmonics);
     let n_n = system.nonlinear_dofs.len() as u64;
-    shared(&mut plan, system, harmonics, samples, n_n.checked_mul(nc));
+    shared(
+        &mut plan,
+        system,
+        harmonics,
+        samples,
+        n_n.checked_mul(nc),
+        Interface::nonlinear_dofs(system),
+    );
     plan.add_product(
         format!("the time signals at {samples} samples"),
         &[samples as u64, n_n, 8, 4],
@@ -168,7 +223,14 @@ pub fn general(system: &System, harmonics: usize, steps: usize) -> MemoryPlan {
     let nc = coefficients(harmonics);
     let n_n = system.nonlinear_dofs.len() as u64;
     let unknowns = nc.checked_add(2).and_then(|c| c.checked_mul(n_n));
-    shared(&mut plan, system, harmonics, steps, unknowns);
+    shared(
+        &mut plan,
+        system,
+        harmonics,
+        steps,
+        unknowns,
+        Interface::nonlinear_dofs(system),
+    );
     let per_step = mul(&[n_n, 2])
         .and_then(|v| v.checked_add(system.contacts.len() as u64 * 2))
         .and_then(|v| v.checked_add(system.frictions.len() as u64));
