@@ -31,15 +31,22 @@ use crate::sparse::SparseMatrix;
 /// Memory the active-set cache of one [`StaticContact`] may hold (bytes).
 pub const ACTIVE_SET_CACHE_BYTES: usize = 1 << 31;
 
-/// Linear data of one active set in the contact coordinates (row-major, `n_c × n_c`).
+/// Linear data of one active set in the contact coordinates.
+///
+/// The validity indicators `h_A = H γ` (docs/theory.md (T38), (T124)) are the force `λ_c`
+/// of a closed contact and the gap `g_c` of an open one; the set holds while `h_A ≥ 0`, and
+/// the rows of the closed contacts are the force map `∂λ/∂γ`. Every row of `H` is zero
+/// outside the closed contacts' columns but for the open contact's own unit entry
+/// (`λ_A = −D_AA⁻¹ γ_A`, `g_I = γ_I − D_IA D_AA⁻¹ γ_A`), so only those `n_A` columns are
+/// stored: `n_c × n_A` numbers instead of `n_c²`.
 #[derive(Debug)]
 pub struct ActiveSet {
     /// Which contacts are closed.
     pub closed: Vec<bool>,
-    /// Validity indicators `h_A = indicator · γ` (`n_c × n_c`): the force `λ_c` of a closed
-    /// contact, the gap `g_c` of an open one (docs/theory.md (T38), (T124)). The set holds
-    /// while `h_A ≥ 0`. The rows of the closed contacts are the force map `∂λ/∂γ`.
-    pub indicator: Vec<f64>,
+    /// The closed contacts, ascending.
+    closed_list: Vec<usize>,
+    /// `H` restricted to the closed contacts' columns (`n_c × n_A`, row-major).
+    restricted: Vec<f64>,
 }
 
 impl ActiveSet {
@@ -47,11 +54,36 @@ impl ActiveSet {
         self.closed.len()
     }
 
-    /// Row `c` of the indicator applied to `gamma`.
-    fn indicator_of(&self, c: usize, gamma: &[f64]) -> f64 {
-        let nc = self.n_contacts();
-        let row = &self.indicator[c * nc..(c + 1) * nc];
-        row.iter().zip(gamma).map(|(h, g)| h * g).sum()
+    /// Row `c` of the indicator matrix `H` applied to `x` (`n_c` values).
+    pub fn indicator_dot(&self, c: usize, x: &[f64]) -> f64 {
+        let na = self.closed_list.len();
+        let row = &self.restricted[c * na..(c + 1) * na];
+        let closed_part: f64 = row
+            .iter()
+            .zip(&self.closed_list)
+            .map(|(h, &a)| h * x[a])
+            .sum();
+        if self.closed[c] {
+            closed_part
+        } else {
+            closed_part + x[c]
+        }
+    }
+
+    /// The force map's row of the closed contact `a` (`∂λ_a/∂γ`): its nonzero columns (the
+    /// closed contacts) and their values.
+    pub fn force_row(&self, a: usize) -> (&[usize], &[f64]) {
+        debug_assert!(
+            self.closed[a],
+            "contact {a} is open: its row is a gap, not a force"
+        );
+        let na = self.closed_list.len();
+        (&self.closed_list, &self.restricted[a * na..(a + 1) * na])
+    }
+
+    /// Bytes the set holds.
+    fn bytes(&self) -> usize {
+        8 * self.restricted.len() + 9 * self.closed.len() + 64
     }
 
     /// Contact forces `λ` (zero for open contacts) for the free gap `γ`.
@@ -59,7 +91,7 @@ impl ActiveSet {
         (0..self.n_contacts())
             .map(|c| {
                 if self.closed[c] {
-                    self.indicator_of(c, gamma)
+                    self.indicator_dot(c, gamma)
                 } else {
                     0.0
                 }
@@ -74,15 +106,15 @@ impl ActiveSet {
                 if self.closed[c] {
                     0.0
                 } else {
-                    self.indicator_of(c, gamma)
+                    self.indicator_dot(c, gamma)
                 }
             })
             .collect()
     }
 
-    /// The closed contacts (indices).
+    /// The closed contacts (indices, ascending).
     pub fn closed_contacts(&self) -> Vec<usize> {
-        (0..self.n_contacts()).filter(|&c| self.closed[c]).collect()
+        self.closed_list.clone()
     }
 }
 
@@ -99,6 +131,8 @@ pub struct StaticContact {
     gap: Vec<f64>,
     solver: LcpSolver,
     cache: HashMap<Vec<bool>, Rc<ActiveSet>>,
+    /// Bytes the cached sets hold.
+    cache_bytes: usize,
 }
 
 impl StaticContact {
@@ -150,6 +184,7 @@ impl StaticContact {
             gap,
             solver,
             cache: HashMap::new(),
+            cache_bytes: 0,
         })
     }
 
@@ -254,12 +289,13 @@ impl StaticContact {
             return Ok(a.clone());
         }
         let a = Rc::new(self.build_active_set(closed)?);
-        // each set holds n_c² values: on a large interface a few hundred sets would fill
-        // the memory, so the cache starts over when it reaches its budget
-        let set_bytes = 8 * (self.n_contacts * self.n_contacts).max(1);
-        if (self.cache.len() + 1) * set_bytes > ACTIVE_SET_CACHE_BYTES {
+        // each set holds n_c × n_A values: on a large interface a few hundred sets would
+        // fill the memory, so the cache starts over when it reaches its budget
+        if self.cache_bytes + a.bytes() > ACTIVE_SET_CACHE_BYTES {
             self.cache.clear();
+            self.cache_bytes = 0;
         }
+        self.cache_bytes += a.bytes();
         self.cache.insert(closed.to_vec(), a.clone());
         Ok(a)
     }
@@ -275,41 +311,32 @@ impl StaticContact {
         solve_small_lu_columns(&d_aa, rhs, 1e-13).map_err(|_| self.dependent_error())
     }
 
-    /// The indicators of (T124): with `Z = D_AA⁻¹ E_Aᵀ` (`E_A` the columns of the closed
-    /// contacts of the identity), the forces `λ_A = −Z γ` and the open gaps
-    /// `g_I = γ_I − D_IA Z γ`.
+    /// The indicators of (T124) on the closed contacts' columns: with `Z = D_AA⁻¹`, the
+    /// forces `λ_A = −Z γ_A` and the open gaps `g_I = γ_I − D_IA Z γ_A`.
     fn build_active_set(&self, closed: &[bool]) -> Result<ActiveSet> {
         let nc = self.n_contacts;
         let act: Vec<usize> = (0..nc).filter(|&c| closed[c]).collect();
         let na = act.len();
-        let mut selector = Mat::<f64>::zeros(na, nc);
-        act.iter()
-            .enumerate()
-            .for_each(|(r, &a)| selector[(r, a)] = 1.0);
-        let z = self.solve_closed(&act, selector.as_ref())?;
+        let z = self.solve_closed(&act, Mat::<f64>::identity(na, na).as_ref())?;
         let d = MatRef::from_row_major_slice(&self.delassus, nc, nc);
         let d_ca = Mat::<f64>::from_fn(nc, na, |c, r| d[(c, act[r])]);
         let gaps = &d_ca * &z;
         let mut row_of = vec![usize::MAX; nc];
         act.iter().enumerate().for_each(|(r, &a)| row_of[a] = r);
-        let mut indicator = vec![0.0; nc * nc];
+        let mut restricted = vec![0.0; nc * na];
         for c in 0..nc {
-            let row = &mut indicator[c * nc..(c + 1) * nc];
-            if row_of[c] != usize::MAX {
-                let r = row_of[c];
-                row.iter_mut()
-                    .enumerate()
-                    .for_each(|(j, v)| *v = -z[(r, j)]);
+            let row = &mut restricted[c * na..(c + 1) * na];
+            let source = if row_of[c] != usize::MAX {
+                z.row(row_of[c])
             } else {
-                row.iter_mut()
-                    .enumerate()
-                    .for_each(|(j, v)| *v = -gaps[(c, j)]);
-                row[c] += 1.0;
-            }
+                gaps.row(c)
+            };
+            row.iter_mut().zip(source.iter()).for_each(|(v, s)| *v = -s);
         }
         Ok(ActiveSet {
             closed: closed.to_vec(),
-            indicator,
+            closed_list: act,
+            restricted,
         })
     }
 

@@ -375,7 +375,6 @@ impl RedistributedMsHbm {
             if closed.is_empty() {
                 continue;
             }
-            let f = &group.set.indicator;
             for m in 0..nc {
                 ug.iter_mut().for_each(|v| *v = 0.0);
                 for c in 0..nc {
@@ -387,8 +386,7 @@ impl RedistributedMsHbm {
                     }
                 }
                 for &a in &closed {
-                    let row = &f[a * n..(a + 1) * n];
-                    forces[m * n + a] += row.iter().zip(&ug).map(|(r, g)| r * g).sum::<f64>();
+                    forces[m * n + a] += group.set.indicator_dot(a, &ug);
                 }
             }
         }
@@ -524,8 +522,11 @@ impl RedistributedMsHbm {
                     }
                     for a in group.set.closed_contacts() {
                         used = true;
-                        let row = &group.set.indicator[a * n..(a + 1) * n];
-                        row.iter().enumerate().for_each(|(j, v)| s[(a, j)] += g * v);
+                        let (columns, values) = group.set.force_row(a);
+                        columns
+                            .iter()
+                            .zip(values)
+                            .for_each(|(&j, v)| s[(a, j)] += g * v);
                     }
                 }
                 if used {

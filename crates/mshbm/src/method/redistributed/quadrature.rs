@@ -101,9 +101,8 @@ fn indicator_coefficients(
 ) -> Vec<Vec<f64>> {
     (0..nc)
         .map(|c| {
-            let row = &set.indicator[c * nc..(c + 1) * nc];
             (0..ncoef)
-                .map(|m| (0..nc).map(|i| row[i] * gamma[m * nc + i]).sum())
+                .map(|m| set.indicator_dot(c, &gamma[m * nc..(m + 1) * nc]))
                 .collect()
         })
         .collect()
