@@ -10,8 +10,8 @@
 //!
 //! `λ_A = −D_AA⁻¹ γ_A`, `λ_I = 0`, `g_I = γ_I + D_IA λ_A`, `g_A = 0`,
 //!
-//! so the data of a set ([`ActiveSet`]) lives in the contact coordinates (`n_c × n_c`),
-//! whatever the number of `N` DOFs. The `N` displacements follow as
+//! so the data of a set ([`ActiveSet`]) lives in the contact coordinates (`n_c × n_A`: the
+//! closed contacts' columns), whatever the number of `N` DOFs. The `N` displacements follow as
 //! `q_N = K_NN⁻¹ (b + W λ)`; the compliance `P_A = ∂q_N/∂b` of (T37) (the semi-analytical
 //! sensitivity of eqs. 42–43, docs/theory.md (T43)) is formed only on request
 //! ([`StaticContact::compliance`], for the Floquet analysis). The data of each active set is
