@@ -468,8 +468,10 @@ impl RedistributedMsHbm {
     /// `J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(C_k)` (docs/theory.md (T129)) with
     /// `C_k = I − D R_k⁻¹` and `S_mc = Σ_A Γ_A[m, c] F_A` (the rows of the
     /// closed contacts), in the real form (T15): a complex `M` acting on the `(cos, sin)`
-    /// coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`. Row block `m` costs
-    /// `3(2H + 1)` products of `n_c × n_c` matrices, whatever the number of active sets.
+    /// coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`. `S_mc` has rows only
+    /// for the `r` contacts closed in some active set that row block `m` sees, so the row
+    /// block costs `2(2H + 1)` products `(r × n_c)(n_c × n_c)` for `U = Σ ± S C` and
+    /// `2H + 1` products `Λ[:, r] U`, whatever the number of active sets.
     fn jacobian_matrix(&self, integration: &Integration) -> Mat<f64> {
         use faer::linalg::matmul::matmul;
         use faer::reborrow::ReborrowMut;
@@ -509,49 +511,72 @@ impl RedistributedMsHbm {
         }
         let scale = faer::MatRef::from_row_major_slice(&self.residual_scale, n, n);
         for m in 0..nc {
-            // T_c = Λ S_mc
-            let mut t: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
-            let mut s = Mat::<f64>::zeros(n, n);
-            for (c, t_c) in t.iter_mut().enumerate() {
-                s.fill(0.0);
-                let mut used = false;
+            // the contacts closed in some group that row block m sees: only their rows of
+            // S_mc (the force maps) are nonzero
+            let mut position = vec![usize::MAX; n];
+            let mut closed_rows: Vec<usize> = Vec::new();
+            for group in &integration.groups {
+                if (0..nc).all(|c| group.gram[m * nc + c] == 0.0) {
+                    continue;
+                }
+                for a in group.set.closed_contacts() {
+                    if position[a] == usize::MAX {
+                        position[a] = closed_rows.len();
+                        closed_rows.push(a);
+                    }
+                }
+            }
+            let r = closed_rows.len();
+            if r == 0 {
+                continue;
+            }
+            // S_mc restricted to those rows (r × n_c)
+            let mut forces: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
+            for (c, s_c) in forces.iter_mut().enumerate() {
                 for group in &integration.groups {
                     let g = group.gram[m * nc + c];
                     if g == 0.0 {
                         continue;
                     }
+                    let s = s_c.get_or_insert_with(|| Mat::<f64>::zeros(r, n));
                     for a in group.set.closed_contacts() {
-                        used = true;
                         let (columns, values) = group.set.force_row(a);
+                        let row = position[a];
                         columns
                             .iter()
                             .zip(values)
-                            .for_each(|(&j, v)| s[(a, j)] += g * v);
+                            .for_each(|(&j, v)| s[(row, j)] += g * v);
                     }
                 }
-                if used {
-                    *t_c = Some(scale * &s);
-                }
             }
-            let mut rows = jac.as_mut().subrows_mut(m * n, n);
-            // −T · realform(C_k) column block by column block
-            let mut add = |col: usize, t: &Mat<f64>, c: &Mat<f64>, sign: f64| {
-                let block = rows.rb_mut().subcols_mut(col * n, n);
-                matmul(block, Accum::Add, t, c, sign, Par::Seq);
+            // U_col = Σ_c ± S_mc · realform(C_k) (r × n_c per output column block), then
+            // the row block gets −Λ[:, rows] U_col
+            let mut products: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
+            let mut add = |col: usize, s: &Mat<f64>, c: &Mat<f64>, sign: f64| {
+                let u = products[col].get_or_insert_with(|| Mat::<f64>::zeros(r, n));
+                matmul(u.as_mut(), Accum::Add, s, c, sign, Par::Seq);
             };
-            if let Some(t0) = &t[0] {
-                add(0, t0, &complement[0].0, -1.0);
+            if let Some(s0) = &forces[0] {
+                add(0, s0, &complement[0].0, -1.0);
             }
             for (k, (c_re, c_im)) in complement.iter().enumerate().skip(1) {
                 let (cc, ss) = (2 * k - 1, 2 * k);
-                // output column cos: T_cos Re C − T_sin Im C; column sin: T_cos Im C + T_sin Re C
-                if let Some(tc) = &t[cc] {
-                    add(cc, tc, c_re, -1.0);
-                    add(ss, tc, c_im, -1.0);
+                // output column cos: S_cos Re C − S_sin Im C; column sin: S_cos Im C + S_sin Re C
+                if let Some(sc) = &forces[cc] {
+                    add(cc, sc, c_re, -1.0);
+                    add(ss, sc, c_im, -1.0);
                 }
-                if let Some(ts) = &t[ss] {
-                    add(cc, ts, c_im, 1.0);
-                    add(ss, ts, c_re, -1.0);
+                if let Some(s_s) = &forces[ss] {
+                    add(cc, s_s, c_im, 1.0);
+                    add(ss, s_s, c_re, -1.0);
+                }
+            }
+            let scale_rows = Mat::<f64>::from_fn(n, r, |i, q| scale[(i, closed_rows[q])]);
+            let mut rows = jac.as_mut().subrows_mut(m * n, n);
+            for (col, u) in products.iter().enumerate() {
+                if let Some(u) = u {
+                    let block = rows.rb_mut().subcols_mut(col * n, n);
+                    matmul(block, Accum::Add, &scale_rows, u, 1.0, Par::Seq);
                 }
             }
         }
