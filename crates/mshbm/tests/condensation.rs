@@ -109,11 +109,7 @@ fn max_abs(v: impl IntoIterator<Item = c64>) -> f64 {
     v.into_iter().fold(0.0, |m, x| m.max(x.norm()))
 }
 
-/// `max |a − b| / max |b|`.
-fn rel_diff(a: &[c64], b: &[c64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    max_abs(a.iter().zip(b).map(|(x, y)| x - y)) / max_abs(b.iter().copied())
-}
+use common::complex_rel_diff as rel_diff;
 
 fn entries(m: &Mat<c64>) -> Vec<c64> {
     (0..m.nrows())
@@ -396,20 +392,7 @@ fn the_receptance_at_the_contacts_equals_the_dense_solve() {
             for with_load in [true, false] {
                 let gather =
                     |omega: f64| to_vec(&(w.transpose() * dense_response(k, omega, with_load)));
-                let central = |h: f64| -> Vec<c64> {
-                    gather(omega + h)
-                        .iter()
-                        .zip(gather(omega - h))
-                        .map(|(a, b)| (a - b) / (2.0 * h))
-                        .collect()
-                };
-                // Richardson extrapolation of central differences: O(h⁴)
-                let (coarse, fine) = (central(h), central(0.5 * h));
-                let fd: Vec<c64> = fine
-                    .iter()
-                    .zip(&coarse)
-                    .map(|(f, c)| (f * 4.0 - c) / 3.0)
-                    .collect();
+                let fd = common::richardson_derivative(gather, omega, h);
                 let analytic = at.frequency_derivative(k, &force, with_load).unwrap();
                 let e = rel_diff(&analytic, &fd);
                 println!("{mass:?} harmonic {k} (load {with_load}): ∂(Wᵀq)/∂ω vs central differences {e:.1e}");

@@ -17,13 +17,7 @@ use common::{example_model, hz, rayleigh_damped_bar};
 
 const HARMONICS: usize = 3;
 
-fn rel_diff(a: &[c64], b: &[c64]) -> f64 {
-    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.norm()));
-    a.iter()
-        .zip(b)
-        .fold(0.0f64, |m, (x, y)| m.max((x - y).norm()))
-        / scale
-}
+use common::complex_rel_diff as rel_diff;
 
 fn forces(nc: usize) -> Vec<c64> {
     (0..nc)
@@ -188,20 +182,7 @@ fn the_modal_frequency_derivative_matches_finite_differences() {
                 }
                 v
             };
-            let central = |h: f64| -> Vec<c64> {
-                gather(omega + h)
-                    .iter()
-                    .zip(gather(omega - h))
-                    .map(|(a, b)| (a - b) / (2.0 * h))
-                    .collect()
-            };
-            let h = 1e-4 * omega;
-            let (coarse, fine) = (central(h), central(0.5 * h));
-            let fd: Vec<c64> = fine
-                .iter()
-                .zip(&coarse)
-                .map(|(f, c)| (f * 4.0 - c) / 3.0)
-                .collect();
+            let fd = common::richardson_derivative(gather, omega, 1e-4 * omega);
             let analytic = at.frequency_derivative(k, &force, with_load).unwrap();
             let e = rel_diff(&analytic, &fd);
             println!("harmonic {k} (load {with_load}): ∂(Wᵀq)/∂ω vs differences {e:.1e}");

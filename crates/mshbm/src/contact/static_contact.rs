@@ -113,8 +113,8 @@ impl ActiveSet {
     }
 
     /// The closed contacts (indices, ascending).
-    pub fn closed_contacts(&self) -> Vec<usize> {
-        self.closed_list.clone()
+    pub fn closed_contacts(&self) -> &[usize] {
+        &self.closed_list
     }
 }
 

@@ -207,10 +207,11 @@ impl Receptance for ModalReceptance {
             (0..m).for_each(|j| x[(j, j)] -= c64::new(1.0 / b.eigenvalues[j], 0.0));
             let bx = &b.contact_shapes * &x;
             let receptance = &b.static_receptance + &bx * b.contact_shapes.transpose();
-            let (load_response, modal_load) = match b.load.complex(k) {
+            let load = b.load.complex(k);
+            let (load_response, modal_load) = match &load {
                 Some(f) => {
-                    let p = b.project(&f);
-                    let s = b.contacts.gather(&b.static_solve(&f));
+                    let p = b.project(f);
+                    let s = b.contacts.gather(&b.static_solve(f));
                     let correction = &bx * &p;
                     let lr = (0..nc).map(|c| s[c] + correction[(c, 0)]).collect();
                     (lr, Some(p))
@@ -221,7 +222,7 @@ impl Receptance for ModalReceptance {
                 receptance: (0..nc * nc).map(|e| receptance[(e / nc, e % nc)]).collect(),
                 load_response,
                 modal_load,
-                load: b.load.complex(k),
+                load,
                 dynamic_compliance: y,
                 correction: x,
             });

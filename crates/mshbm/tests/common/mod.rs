@@ -281,3 +281,27 @@ pub fn bilinear_backbone(m: f64, k: f64, k_c: f64, gap: f64, a: f64) -> f64 {
     let period = 2.0 * tc + 2.0 * (std::f64::consts::PI - (gap / b).acos()) / w1;
     2.0 * std::f64::consts::PI / period
 }
+
+/// `df/dx` at `x` by Richardson extrapolation of central differences with steps `h` and
+/// `h/2` (error O(h⁴)), for a complex vector function.
+pub fn richardson_derivative(f: impl Fn(f64) -> Vec<c64>, x: f64, h: f64) -> Vec<c64> {
+    let central = |h: f64| -> Vec<c64> {
+        f(x + h)
+            .iter()
+            .zip(f(x - h))
+            .map(|(a, b)| (a - b) / (2.0 * h))
+            .collect()
+    };
+    let (coarse, fine) = (central(h), central(0.5 * h));
+    fine.iter()
+        .zip(&coarse)
+        .map(|(f, c)| (f * 4.0 - c) / 3.0)
+        .collect()
+}
+
+/// `max |a − b| / max |b|` of complex vectors.
+pub fn complex_rel_diff(a: &[c64], b: &[c64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let largest = |v: &mut dyn Iterator<Item = c64>| v.fold(0.0f64, |m, x| m.max(x.norm()));
+    largest(&mut a.iter().zip(b).map(|(x, y)| x - y)) / largest(&mut b.iter().copied())
+}

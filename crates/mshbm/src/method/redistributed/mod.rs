@@ -385,7 +385,7 @@ impl RedistributedMsHbm {
                             .for_each(|(g, v)| *g += v * gmc);
                     }
                 }
-                for &a in &closed {
+                for &a in closed {
                     forces[m * n + a] += group.set.indicator_dot(a, &ug);
                 }
             }
@@ -519,7 +519,7 @@ impl RedistributedMsHbm {
                 if (0..nc).all(|c| group.gram[m * nc + c] == 0.0) {
                     continue;
                 }
-                for a in group.set.closed_contacts() {
+                for &a in group.set.closed_contacts() {
                     if position[a] == usize::MAX {
                         position[a] = closed_rows.len();
                         closed_rows.push(a);
@@ -539,7 +539,7 @@ impl RedistributedMsHbm {
                         continue;
                     }
                     let s = s_c.get_or_insert_with(|| Mat::<f64>::zeros(r, n));
-                    for a in group.set.closed_contacts() {
+                    for &a in group.set.closed_contacts() {
                         let (columns, values) = group.set.force_row(a);
                         let row = position[a];
                         columns
@@ -838,24 +838,21 @@ impl PeriodicProblem for RedistributedMsHbm {
         let mut forces_at: std::collections::HashMap<u64, Option<Vec<f64>>> =
             std::collections::HashMap::new();
         let mut q_at = |i: usize, tau: f64| -> f64 {
-            let lambda = match forces_at.get(&tau.to_bits()) {
-                Some(lambda) => lambda.clone(),
-                None => {
-                    let gamma = gap_at(tau, &mut basis_buf);
-                    let lambda = contact.solve(&gamma).ok().map(|set| set.force(&gamma));
-                    if forces_at.len() >= MAX_CACHED_INSTANTS {
-                        forces_at.clear();
-                    }
-                    forces_at.insert(tau.to_bits(), lambda.clone());
-                    lambda
+            let key = tau.to_bits();
+            if !forces_at.contains_key(&key) {
+                let gamma = gap_at(tau, &mut basis_buf);
+                let lambda = contact.solve(&gamma).ok().map(|set| set.force(&gamma));
+                if forces_at.len() >= MAX_CACHED_INSTANTS {
+                    forces_at.clear();
                 }
-            };
+                forces_at.insert(key, lambda);
+            }
             basis_into(h, tau, &mut basis_buf);
             let u: f64 = (0..ncoef)
                 .map(|m| basis_buf[m] * load_displacement[m * n_n + i])
                 .sum();
-            match lambda {
-                Some(lambda) => u + contact.force_displacement_of(i, &lambda),
+            match &forces_at[&key] {
+                Some(lambda) => u + contact.force_displacement_of(i, lambda),
                 None => f64::NAN,
             }
         };
