@@ -370,3 +370,60 @@ fn contact_state_along_an_interface() {
     let err = one_error_line(&clash);
     assert!(err.contains("--contacts-csv"), "{err}");
 }
+
+#[test]
+fn the_operator_jacobian_reaches_the_dense_solution() {
+    // the 4 × 4 × 4 plate of examples/block_3d (20 contacts): GMRES on the Jacobian's
+    // action against the dense LU (docs/theory.md §18)
+    let model = example("block_3d/model.toml");
+    let coefficients = |jacobian: &str| -> Vec<f64> {
+        let out = run(&[
+            &model,
+            "--frequency",
+            "500",
+            "--harmonics",
+            "3",
+            "--set",
+            "solid.divisions=[4,4,4]",
+            "--set",
+            "interfaces.0.gap=0.0003",
+            "--jacobian",
+            jacobian,
+            "--json",
+        ]);
+        assert_success(&out);
+        let v = stdout_json(&out);
+        assert_eq!(v["converged"], true, "{jacobian}");
+        v["contacts"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|c| c["coefficients"].as_array().unwrap().clone())
+            .map(|x| x.as_f64().unwrap())
+            .collect()
+    };
+    let (dense, operator) = (coefficients("dense"), coefficients("operator"));
+    let size = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let diff = dense
+        .iter()
+        .zip(&operator)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(size > 0.0 && diff <= 1e-9 * size, "{diff:e} of {size:e}");
+}
+
+#[test]
+fn the_jacobian_form_belongs_to_the_redistributed_method() {
+    let out = run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--method",
+        "hbm-aft",
+        "--jacobian",
+        "operator",
+    ]);
+    assert_eq!(
+        one_error_line(&out).trim_end(),
+        "error: --jacobian applies to --method redistributed only"
+    );
+}

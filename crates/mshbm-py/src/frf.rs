@@ -183,7 +183,7 @@ fn branch_dict<'py>(py: Python<'py>, b: Found) -> PyResult<Bound<'py, PyDict>> {
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (model, from_hz, to_hz, harmonics=vec![5], *, method="redistributed",
     samples=None, quadrature=None, mass=None, penalty=Vec::new(), tolerance=1e-10,
-    max_iterations=50, dof=None, stability_modes=None, receptance="auto", receptance_modes=None, step=0.01, max_step=0.1,
+    max_iterations=50, dof=None, stability_modes=None, receptance="auto", receptance_modes=None, jacobian="auto", step=0.01, max_step=0.1,
     min_step=1e-12, max_turn=20.0, stability=false, overlay_mshbm=false, max_points=None,
     callback=None, threads=None))]
 pub fn frf(
@@ -203,6 +203,7 @@ pub fn frf(
     stability_modes: Option<usize>,
     receptance: &str,
     receptance_modes: Option<usize>,
+    jacobian: &str,
     step: f64,
     max_step: f64,
     min_step: f64,
@@ -246,6 +247,7 @@ pub fn frf(
         stability_modes,
         receptance,
         receptance_modes,
+        jacobian,
     )?;
     let h = harmonics[0];
     let mut methods: Vec<MethodSettings> = args.methods(h)?;

@@ -1,14 +1,14 @@
 //! The method options of `solve` and `frf`, translated as the CLI's `MethodArgs`
 //! (crates/mshbm-cli/src/commands/solve.rs) translates `--method`, `--samples`,
 //! `--quadrature`, `--mass`, `--penalty`, `--tolerance`, `--max-iterations`, `--dof`,
-//! `--stability-modes`, `--receptance` and `--receptance-modes`, with the same defaults and checks; the messages name the Python
+//! `--stability-modes`, `--receptance`, `--receptance-modes` and `--jacobian`, with the same defaults and checks; the messages name the Python
 //! keyword instead of the option.
 
 use mshbm::harmonic::Quadrature;
 use mshbm::method::general::GeneralOptions;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
 use mshbm::method::redistributed::{
-    ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
+    JacobianForm, ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
 };
 use mshbm::method::settings::MethodSettings;
 use mshbm::newton::NewtonOptions;
@@ -40,6 +40,8 @@ pub struct MethodArgs {
     /// `"auto"`, `"exact"` or `"modal"`.
     pub receptance: String,
     pub receptance_modes: Option<usize>,
+    /// `"auto"`, `"dense"` or `"operator"`.
+    pub jacobian: JacobianForm,
 }
 
 fn one_of<T: Copy>(name: &str, value: &str, choices: &[(&str, T)]) -> PyResult<T> {
@@ -70,6 +72,7 @@ impl MethodArgs {
         stability_modes: Option<usize>,
         receptance: &str,
         receptance_modes: Option<usize>,
+        jacobian: &str,
     ) -> PyResult<Self> {
         Ok(MethodArgs {
             method: one_of(
@@ -113,6 +116,15 @@ impl MethodArgs {
             stability_modes,
             receptance: receptance.to_string(),
             receptance_modes,
+            jacobian: one_of(
+                "jacobian",
+                jacobian,
+                &[
+                    ("auto", JacobianForm::Auto),
+                    ("dense", JacobianForm::Dense),
+                    ("operator", JacobianForm::Operator),
+                ],
+            )?,
         })
     }
 
@@ -175,6 +187,9 @@ impl MethodArgs {
                 "receptance and receptance_modes apply to method='redistributed' only",
             ));
         }
+        if self.method != Method::Redistributed && self.jacobian != JacobianForm::Auto {
+            return Err(argument("jacobian applies to method='redistributed' only"));
+        }
         let quadrature = |default| self.quadrature.unwrap_or(default);
         if self.method == Method::HbmAft {
             return Ok(self
@@ -208,6 +223,7 @@ impl MethodArgs {
                     samples: self.samples,
                     quadrature: quadrature(Quadrature::Exact),
                     receptance: self.receptance_choice()?,
+                    jacobian: self.jacobian,
                 },
                 stability: StabilityOptions {
                     modes: self.stability_modes,

@@ -74,7 +74,7 @@ fn solve_start(
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (model, frequency, harmonics=5, *, method="redistributed", samples=None,
     quadrature=None, mass=None, penalty=Vec::new(), tolerance=1e-10, max_iterations=50,
-    dof=None, stability_modes=None, receptance="auto", receptance_modes=None, stability=true, start="auto", from_unknowns=None,
+    dof=None, stability_modes=None, receptance="auto", receptance_modes=None, jacobian="auto", stability=true, start="auto", from_unknowns=None,
     sweep_from=None, sweep_to=None, threads=None))]
 pub fn solve(
     py: Python<'_>,
@@ -92,6 +92,7 @@ pub fn solve(
     stability_modes: Option<usize>,
     receptance: &str,
     receptance_modes: Option<usize>,
+    jacobian: &str,
     stability: bool,
     start: &str,
     from_unknowns: Option<(PyReadonlyArray1<'_, f64>, usize)>,
@@ -119,6 +120,7 @@ pub fn solve(
         stability_modes,
         receptance,
         receptance_modes,
+        jacobian,
     )?;
     args.check_samples(harmonics)?;
     let method = args.single_method(harmonics)?;

@@ -83,6 +83,21 @@ def test_solve_with_the_modal_receptance_equals_cli(cli_json):
     assert 0 < gap < 1e-3
 
 
+def test_solve_with_the_operator_jacobian_equals_cli(cli_json):
+    bar = mshbm.Model.from_toml(BAR, DAMPED)
+    ref = cli_json("solve", BAR, "--frequency", 30000, "--harmonics", 3, "--jacobian", "operator", *DAMPED_SET)
+    s = mshbm.solve(bar, 30000, 3, jacobian="operator")
+    assert_same_numbers(s._data["solution"], ref, rel=1e-12)
+    dense = mshbm.solve(bar, 30000, 3, jacobian="dense")
+    # GMRES solves Newton's systems to 1e-9: the same solution to Newton's tolerance
+    gap = np.max(np.abs(s.unknowns - dense.unknowns)) / np.max(np.abs(dense.unknowns))
+    assert gap < 1e-9
+    with pytest.raises(mshbm.ArgumentError, match="jacobian applies to method='redistributed' only"):
+        mshbm.solve(bar, 30000, 3, method="hbm-aft", jacobian="operator")
+    with pytest.raises(mshbm.ArgumentError, match="jacobian=\"sparse\": expected one of"):
+        mshbm.solve(bar, 30000, 3, jacobian="sparse")
+
+
 def read_cli_csv(path):
     rows = [r for r in csv.reader(l for l in open(path) if not l.startswith("#"))]
     header, rows = rows[0], rows[1:]

@@ -72,6 +72,7 @@ fn ms_hbm(model: &Model, harmonics: usize) -> RedistributedMsHbm {
             samples: None,
             quadrature: Quadrature::Exact,
             receptance: Default::default(),
+            jacobian: Default::default(),
         },
     )
     .expect("MS-HBM")

@@ -37,6 +37,7 @@ fn converged_point(harmonics: usize) -> Point {
             samples: None,
             quadrature: Quadrature::Exact,
             receptance: Default::default(),
+            jacobian: Default::default(),
         },
     )
     .expect("MS-HBM");
@@ -101,7 +102,8 @@ fn bench_jacobian(c: &mut Criterion) {
             .problem
             .linearize(&p.x, p.omega)
             .expect("linearize")
-            .jacobian;
+            .jacobian
+            .to_dense();
         let fd_jac = finite_difference_jacobian(p);
         let largest = (0..p.x.len())
             .flat_map(|r| (0..p.x.len()).map(move |c| (r, c)))

@@ -24,7 +24,10 @@
 //!   contacts, 3n(n + 1) contact-node DOFs), 0.3 µm above the foundation, H = 5, sampled
 //!   quadrature, 500 Hz;
 //! * `receptance`: the 16 × 16 × 4 plate with the exact and the modal receptance (100
-//!   modes), H = 5: what the per-frequency work of each costs in a corrector iteration.
+//!   modes), H = 5: what the per-frequency work of each costs in a corrector iteration;
+//! * `newton-system`: a continuation step (Newton from the solution at 500 Hz to the one at
+//!   501.5 Hz) on the plate n × n × 4 (n = 8, 16, 24), H = 3, with the dense LU and with the
+//!   operator Jacobian (docs/theory.md §18); prints the ratio per size.
 //!
 //! After each group the fitted exponent of `time ~ variableᵖ` is printed; after the
 //! `elements` group, the peak memory of building the method and solving at one frequency for
@@ -39,7 +42,9 @@ use std::time::Duration;
 use common::{hz, median, report_growth, timed, CountingAllocator};
 use criterion::{BenchmarkId, Criterion};
 use mshbm::harmonic::Quadrature;
-use mshbm::method::redistributed::{ReceptanceChoice, RedistributedMsHbm, RedistributedOptions};
+use mshbm::method::redistributed::{
+    JacobianForm, ReceptanceChoice, RedistributedMsHbm, RedistributedOptions,
+};
 use mshbm::model::lattice::lattice_model;
 use mshbm::newton::{newton_direction, solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
@@ -56,6 +61,8 @@ const LATTICE_FORCE: f64 = 10.0;
 const ELEMENTS: [usize; 4] = [100, 1_000, 10_000, 100_000];
 const BLOCK_DIVISIONS: [usize; 3] = [4, 8, 16];
 const BLOCK_HARMONICS: usize = 5;
+const NEWTON_SYSTEM_DIVISIONS: [usize; 3] = [8, 16, 24];
+const NEWTON_SYSTEM_HARMONICS: usize = 3;
 
 /// A method at the point Newton reaches at `omega` from the linear response.
 struct Case {
@@ -107,6 +114,7 @@ fn case(
             samples,
             quadrature,
             receptance: Default::default(),
+            jacobian: Default::default(),
         },
         frequency_hz,
         label,
@@ -429,6 +437,62 @@ fn report_memory(filter_ran: bool) {
     }
 }
 
+/// Newton from the solution at 500 Hz to the one at 501.5 Hz (a continuation step) on the
+/// plate n × n × 4, H = 3, with the dense LU and with the operator Jacobian (GMRES
+/// preconditioned by the factors of an earlier Jacobian, docs/theory.md §18).
+fn bench_newton_system(c: &mut Criterion) {
+    let mut group = c.benchmark_group("newton-system");
+    configure(&mut group);
+    let mut pairs = Vec::new();
+    for n in NEWTON_SYSTEM_DIVISIONS {
+        for (label, jacobian) in [
+            ("dense", JacobianForm::Dense),
+            ("operator", JacobianForm::Operator),
+        ] {
+            let id = format!("newton-system/{label}/{n}");
+            let mut slot: Option<Case> = None;
+            group.bench_function(BenchmarkId::new(label, n), |b| {
+                let c = slot.get_or_insert_with(|| {
+                    case_with(
+                        &block(n),
+                        &RedistributedOptions {
+                            quadrature: Quadrature::Sampled,
+                            jacobian,
+                            ..RedistributedOptions::new(NEWTON_SYSTEM_HARMONICS)
+                        },
+                        500.0,
+                        &format!(
+                            "plate {n} x {n} x 4, H = {NEWTON_SYSTEM_HARMONICS}, {label} Jacobian"
+                        ),
+                    )
+                });
+                let target = c.omega * 1.003;
+                timed(b, &id, || {
+                    let out = solve(&mut c.problem, &c.x, target, &NewtonOptions::default())
+                        .expect("Newton");
+                    assert!(out.converged, "the continuation step converges");
+                    out.iterations
+                });
+            });
+            if label == "dense" {
+                pairs.push((n, id));
+            }
+        }
+    }
+    group.finish();
+    for (n, dense) in pairs {
+        if let (Some(d), Some(o)) = (
+            median(&dense),
+            median(&format!("newton-system/operator/{n}")),
+        ) {
+            println!(
+                "plate {n} x {n} x 4, H = {NEWTON_SYSTEM_HARMONICS}: continuation step dense {d:.3} s, operator {o:.3} s, ratio operator / dense {:.2}",
+                o / d
+            );
+        }
+    }
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     bench_harmonics(&mut c);
@@ -437,6 +501,7 @@ fn main() {
     bench_elements(&mut c);
     bench_block(&mut c);
     bench_receptance(&mut c);
+    bench_newton_system(&mut c);
     // memory only when the elements group ran (it holds the largest case)
     report_memory(median(&format!("elements/{}", ELEMENTS[ELEMENTS.len() - 1])).is_some());
     c.final_summary();

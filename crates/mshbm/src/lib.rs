@@ -13,6 +13,7 @@ pub mod dense;
 pub mod error;
 pub mod fe;
 pub mod frd;
+pub mod krylov;
 pub mod limits;
 pub mod model;
 pub mod modes;

@@ -3,11 +3,8 @@
 //! docs/theory.md §5 "Nondifferentiability", so the full step is not always a descent
 //! step).
 
-use faer::linalg::solvers::Solve;
-use faer::Mat;
-
 use crate::error::{Error, Result, SingularSystem};
-use crate::problem::PeriodicProblem;
+use crate::problem::{Jacobian, PeriodicProblem};
 
 /// Newton settings. Norms are max-norms relative to the problem's length scale.
 #[derive(Clone, Debug)]
@@ -127,19 +124,10 @@ fn sum_squares(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum()
 }
 
-/// Solve `A y = b` densely (LU with partial pivoting, faer), `b_i = rhs(i)`; `None` when the
-/// solution is not finite (`A` singular). The one linear solve of Newton's method and of the
-/// continuation's bordered systems.
-pub(crate) fn dense_solve(a: &Mat<f64>, n: usize, rhs: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
-    let b = Mat::<f64>::from_fn(n, 1, |i, _| rhs(i));
-    let y = a.partial_piv_lu().solve(&b);
-    let y: Vec<f64> = (0..n).map(|i| y[(i, 0)]).collect();
-    y.iter().all(|v| v.is_finite()).then_some(y)
-}
-
-/// Solve `J d = −R` densely.
-pub fn newton_direction(jacobian: &Mat<f64>, residual: &[f64]) -> Result<Vec<f64>> {
-    dense_solve(jacobian, residual.len(), |i| -residual[i])
+/// Solve `J d = −R` ([`Jacobian::solve`]).
+pub fn newton_direction(jacobian: &Jacobian, residual: &[f64]) -> Result<Vec<f64>> {
+    jacobian
+        .solve(|i| -residual[i])
         .ok_or(Error::SingularSystem(SingularSystem::Jacobian))
 }
 
@@ -148,7 +136,7 @@ pub fn newton_direction(jacobian: &Mat<f64>, residual: &[f64]) -> Result<Vec<f64
 pub(crate) trait NewtonSystem {
     /// The Jacobian `∂F/∂y` and `F(y)`, or `None` where the system cannot be evaluated
     /// (Newton then stops, [`Iterated::Stopped`]).
-    fn linearize(&mut self, y: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>>;
+    fn linearize(&mut self, y: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>>;
     /// Whether `y`, with `F(y) = f`, is converged after `iterations` iterations.
     fn converged(&mut self, y: &[f64], f: &[f64], iterations: usize) -> bool;
     /// The next iterate from `y` along the Newton direction `d` (`J d = −F`): a line search,
@@ -195,7 +183,7 @@ pub(crate) fn iterate(
         if iterations == max_iterations {
             return Ok(Iterated::IterationLimit { y, iterations });
         }
-        let Some(d) = dense_solve(&jacobian, f.len(), |i| -f[i]) else {
+        let Some(d) = jacobian.solve(|i| -f[i]) else {
             return Ok(Iterated::SingularJacobian { y, iterations });
         };
         match system.advance(y, &f, &d)? {
@@ -218,7 +206,7 @@ struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
 }
 
 impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
-    fn linearize(&mut self, x: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>> {
+    fn linearize(&mut self, x: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>> {
         let lin = self.problem.linearize(x, self.omega)?;
         Ok(Some((lin.jacobian, lin.residual)))
     }
@@ -339,7 +327,9 @@ pub fn solve_at_frequency_observed<P: PeriodicProblem + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{ArclengthFallback, ContinuationPolicy, Linearization, NewtonContraction};
+    use crate::problem::{
+        ArclengthFallback, ContinuationPolicy, Jacobian, Linearization, NewtonContraction,
+    };
     use crate::solution::PeriodicSolution;
 
     /// `R(x, ω) = a x − ω` in one unknown (`a = 0`: singular Jacobian).
@@ -363,7 +353,7 @@ mod tests {
         fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
             Ok(Linearization {
                 residual: self.residual(x, omega)?,
-                jacobian: Mat::from_fn(1, 1, |_, _| self.a),
+                jacobian: Jacobian::Dense(faer::Mat::from_fn(1, 1, |_, _| self.a)),
                 d_omega: vec![-1.0],
             })
         }
@@ -426,7 +416,7 @@ mod tests {
         assert!(!out.converged);
         assert_eq!(out.reason, Some(NewtonFailure::SingularJacobian));
         assert_eq!(out.reason.unwrap().to_string(), "the Jacobian is singular");
-        let e = newton_direction(&Mat::zeros(1, 1), &[1.0]).unwrap_err();
+        let e = newton_direction(&Jacobian::Dense(faer::Mat::zeros(1, 1)), &[1.0]).unwrap_err();
         assert!(matches!(e, Error::SingularSystem(SingularSystem::Jacobian)));
         assert_eq!(e.kind(), crate::error::ErrorKind::Singular);
         assert_eq!(e.to_string(), "the Jacobian is singular");

@@ -12,9 +12,122 @@ use crate::stability::Floquet;
 pub struct Linearization {
     pub residual: Vec<f64>,
     /// `∂R/∂x` (`dimension × dimension`).
-    pub jacobian: Mat<f64>,
+    pub jacobian: Jacobian,
     /// `∂R/∂ω` (ω in rad/s).
     pub d_omega: Vec<f64>,
+}
+
+/// The Jacobian of a Newton system: a dense matrix, or an operator that applies it and
+/// approximately inverts it (solved by preconditioned GMRES, docs/theory.md §18).
+pub enum Jacobian {
+    Dense(Mat<f64>),
+    Operator(Box<dyn JacobianOperator>),
+}
+
+/// A Jacobian given by its action (docs/theory.md §18).
+pub trait JacobianOperator {
+    /// Number of rows and columns.
+    fn dimension(&self) -> usize;
+    /// `out = J x`.
+    fn apply(&self, x: &[f64], out: &mut [f64]);
+    /// `out ≈ J⁻¹ r` (the preconditioner).
+    fn precondition(&self, r: &[f64], out: &mut [f64]);
+    /// The whole matrix (what a dense solve falls back on when GMRES does not converge).
+    fn dense(&self) -> Mat<f64>;
+    /// Make the preconditioner exact for this operator (e.g. factor its dense matrix),
+    /// because GMRES did not converge within [`KRYLOV_REFRESH_ITERATIONS`]; `false` when it
+    /// cannot do better than it does.
+    fn refresh_preconditioner(&self) -> bool {
+        false
+    }
+}
+
+/// Relative residual to which GMRES solves Newton's and the continuation's linear systems:
+/// an inexact Newton step with this forcing term contracts as the exact one does down to
+/// Newton's tolerances (docs/theory.md §18).
+pub const KRYLOV_TOLERANCE: f64 = 1e-9;
+/// Operator applications after which the preconditioner is refreshed
+/// ([`JacobianOperator::refresh_preconditioner`]); also the Krylov vectors kept.
+pub const KRYLOV_REFRESH_ITERATIONS: usize = 30;
+
+impl Jacobian {
+    pub fn dimension(&self) -> usize {
+        match self {
+            Jacobian::Dense(m) => m.nrows(),
+            Jacobian::Operator(op) => op.dimension(),
+        }
+    }
+
+    /// The whole matrix.
+    pub fn to_dense(&self) -> Mat<f64> {
+        match self {
+            Jacobian::Dense(m) => m.clone(),
+            Jacobian::Operator(op) => op.dense(),
+        }
+    }
+
+    /// `J x`.
+    pub fn apply(&self, x: &[f64]) -> Vec<f64> {
+        match self {
+            Jacobian::Dense(m) => (0..m.nrows())
+                .map(|i| (0..m.ncols()).map(|j| m[(i, j)] * x[j]).sum())
+                .collect(),
+            Jacobian::Operator(op) => {
+                let mut out = vec![0.0; op.dimension()];
+                op.apply(x, &mut out);
+                out
+            }
+        }
+    }
+
+    /// Solve `J y = b`, `b_i = rhs(i)`: LU with partial pivoting for a dense matrix. For an
+    /// operator, GMRES with the operator's preconditioner to [`KRYLOV_TOLERANCE`]; when it
+    /// has not converged after [`KRYLOV_REFRESH_ITERATIONS`] applications the preconditioner
+    /// is refreshed and GMRES runs again, and the dense LU of the operator's matrix is the
+    /// last resort. `None` when the solution is not finite (`J` singular).
+    pub fn solve(&self, rhs: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
+        let n = self.dimension();
+        match self {
+            Jacobian::Dense(m) => dense_solve(m, rhs),
+            Jacobian::Operator(op) => {
+                let b: Vec<f64> = (0..n).map(&rhs).collect();
+                let gmres = || {
+                    crate::krylov::gmres(
+                        &b,
+                        |x, y| op.apply(x, y),
+                        |r, z| op.precondition(r, z),
+                        &crate::krylov::GmresOptions {
+                            relative_tolerance: KRYLOV_TOLERANCE,
+                            restart: KRYLOV_REFRESH_ITERATIONS,
+                            max_iterations: KRYLOV_REFRESH_ITERATIONS,
+                        },
+                    )
+                };
+                let out = gmres();
+                if out.converged {
+                    return Some(out.x);
+                }
+                if op.refresh_preconditioner() {
+                    let out = gmres();
+                    if out.converged {
+                        return Some(out.x);
+                    }
+                }
+                dense_solve(&op.dense(), rhs)
+            }
+        }
+    }
+}
+
+/// Solve `A y = b` densely (LU with partial pivoting, faer), `b_i = rhs(i)`; `None` when the
+/// solution is not finite (`A` singular).
+fn dense_solve(a: &Mat<f64>, rhs: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
+    use faer::linalg::solvers::Solve;
+    let n = a.nrows();
+    let b = Mat::<f64>::from_fn(n, 1, |i, _| rhs(i));
+    let y = a.partial_piv_lu().solve(&b);
+    let y: Vec<f64> = (0..n).map(|i| y[(i, 0)]).collect();
+    y.iter().all(|v| v.is_finite()).then_some(y)
 }
 
 /// What a method's residual lets the pseudo-arclength continuation assume (docs/theory.md §10):
@@ -123,5 +236,118 @@ impl PeriodicProblem for StartingAt<'_> {
     }
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
         self.problem.floquet(x, omega)
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use std::cell::Cell;
+
+    use faer::linalg::solvers::Solve;
+    use faer::Mat;
+
+    use super::{Jacobian, JacobianOperator};
+
+    /// A dense matrix as an operator: preconditioned by the identity until refreshed, then
+    /// by its own LU (or never, with `refreshable = false`).
+    pub(crate) struct DenseOperator {
+        pub matrix: Mat<f64>,
+        pub refreshable: bool,
+        pub refreshed: Cell<usize>,
+    }
+
+    impl DenseOperator {
+        pub(crate) fn new(matrix: Mat<f64>, refreshable: bool) -> Self {
+            DenseOperator {
+                matrix,
+                refreshable,
+                refreshed: Cell::new(0),
+            }
+        }
+    }
+
+    impl JacobianOperator for DenseOperator {
+        fn dimension(&self) -> usize {
+            self.matrix.nrows()
+        }
+        fn apply(&self, x: &[f64], out: &mut [f64]) {
+            for (i, o) in out.iter_mut().enumerate() {
+                *o = x.iter().enumerate().map(|(j, v)| self.matrix[(i, j)] * v).sum();
+            }
+        }
+        fn precondition(&self, r: &[f64], out: &mut [f64]) {
+            if self.refreshed.get() == 0 {
+                out.copy_from_slice(r);
+            } else {
+                let b = faer::MatRef::from_column_major_slice(r, r.len(), 1);
+                let y = self.matrix.partial_piv_lu().solve(b);
+                out.iter_mut().enumerate().for_each(|(i, o)| *o = y[(i, 0)]);
+            }
+        }
+        fn dense(&self) -> Mat<f64> {
+            self.matrix.clone()
+        }
+        fn refresh_preconditioner(&self) -> bool {
+            if !self.refreshable || self.refreshed.get() > 0 {
+                return false;
+            }
+            self.refreshed.set(1);
+            true
+        }
+    }
+
+    /// A nonsymmetric matrix whose spectrum is spread over four decades (unpreconditioned
+    /// GMRES needs far more than `KRYLOV_REFRESH_ITERATIONS` applications).
+    pub(crate) fn spread_matrix(n: usize) -> Mat<f64> {
+        Mat::from_fn(n, n, |i, j| {
+            let diagonal = if i == j {
+                10f64.powf(4.0 * i as f64 / n as f64)
+            } else {
+                0.0
+            };
+            diagonal + 0.3 * (((i * 5 + j * 11) % 7) as f64 / 7.0 - 0.5)
+        })
+    }
+
+    fn check(jacobian: &Jacobian, matrix: &Mat<f64>) {
+        let n = matrix.nrows();
+        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.3).cos()).collect();
+        let x = jacobian.solve(|i| b[i]).expect("regular");
+        let r = Jacobian::Dense(matrix.clone()).apply(&x);
+        let err = r
+            .iter()
+            .zip(&b)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-8, "residual {err:.2e}");
+    }
+
+    #[test]
+    fn an_operator_refreshes_a_poor_preconditioner_and_then_converges() {
+        let matrix = spread_matrix(80);
+        let op = Box::new(DenseOperator::new(matrix.clone(), true));
+        let jacobian = Jacobian::Operator(op);
+        check(&jacobian, &matrix);
+        let Jacobian::Operator(op) = &jacobian else {
+            unreachable!()
+        };
+        assert!(!op.refresh_preconditioner(), "refreshed once already");
+    }
+
+    #[test]
+    fn an_operator_gmres_cannot_solve_falls_back_to_the_dense_lu() {
+        let matrix = spread_matrix(80);
+        let jacobian = Jacobian::Operator(Box::new(DenseOperator::new(matrix.clone(), false)));
+        check(&jacobian, &matrix);
+    }
+
+    #[test]
+    fn a_singular_operator_has_no_solution() {
+        let mut matrix = spread_matrix(10);
+        for j in 0..10 {
+            matrix[(3, j)] = 0.0;
+        }
+        let jacobian = Jacobian::Operator(Box::new(DenseOperator::new(matrix, true)));
+        assert!(jacobian.solve(|_| 1.0).is_none());
     }
 }

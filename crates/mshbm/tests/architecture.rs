@@ -12,7 +12,9 @@ use std::path::{Path, PathBuf};
 /// The rooms of the library, lowest layer first. A room may import rooms of its own layer
 /// and of the layers before it.
 const LAYERS: &[&[&str]] = &[
-    &["error", "limits", "sparse", "dense", "roots", "analytic"],
+    &[
+        "error", "limits", "sparse", "dense", "roots", "analytic", "krylov",
+    ],
     &["harmonic", "fe", "contact", "modes"],
     &["model"],
     &["linear", "stability", "integrate", "solution"],

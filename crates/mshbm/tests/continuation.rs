@@ -34,6 +34,7 @@ fn method(model: &Model, harmonics: usize) -> RedistributedMsHbm {
             samples: None,
             quadrature: Quadrature::Exact,
             receptance: Default::default(),
+            jacobian: Default::default(),
         },
     )
     .unwrap()
@@ -56,13 +57,14 @@ fn phase_parametrised(
     let (mut x, mut w) = (x0.to_vec(), w0);
     for _ in 0..60 {
         let lin = p.linearize(&x, w).ok()?;
+        let jacobian = lin.jacobian.to_dense();
         let g = x[2] - c * x[1];
         let norm = lin.residual.iter().fold(g.abs(), |m, v| m.max(v.abs()));
         if norm < 1e-13 {
             return Some((x, w));
         }
         let a = Mat::<f64>::from_fn(n + 1, n + 1, |i, j| match (i < n, j < n) {
-            (true, true) => lin.jacobian[(i, j)],
+            (true, true) => jacobian[(i, j)],
             (true, false) => lin.d_omega[i],
             (false, true) => [0.0, -c, 1.0].get(j).copied().unwrap_or(0.0),
             (false, false) => 0.0,

@@ -9,7 +9,7 @@ use mshbm::harmonic::Quadrature;
 use mshbm::method::general::GeneralOptions;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
 use mshbm::method::redistributed::{
-    ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
+    JacobianForm, ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
 };
 use mshbm::method::settings::MethodSettings;
 use mshbm::newton::NewtonOptions;
@@ -96,6 +96,17 @@ pub enum ReceptanceArg {
     Modal,
 }
 
+/// How Newton's linear systems are solved (redistributed MS-HBM).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum JacobianArg {
+    /// Dense below 3000 unknowns, the operator from there.
+    Auto,
+    /// The dense Jacobian and its LU.
+    Dense,
+    /// GMRES on the Jacobian's action, preconditioned by an earlier Jacobian's factors.
+    Operator,
+}
+
 /// Method settings shared by `solve` and `frf`.
 #[derive(Args, Debug, Clone)]
 pub struct MethodArgs {
@@ -167,6 +178,13 @@ pub struct MethodArgs {
     /// Modes of --receptance modal (default 200, at most the DOFs with mass).
     #[arg(long, value_name = "N")]
     pub receptance_modes: Option<usize>,
+
+    /// Newton's linear systems (redistributed MS-HBM, docs/theory.md §18): dense (form the
+    /// Jacobian, LU) or operator (GMRES on its action, preconditioned by the factors of an
+    /// earlier Jacobian; for many contacts times harmonics). Default: auto (the operator
+    /// from 3000 unknowns).
+    #[arg(long, value_enum, default_value_t = JacobianArg::Auto)]
+    pub jacobian: JacobianArg,
 }
 
 impl MethodArgs {
@@ -220,6 +238,9 @@ impl MethodArgs {
         {
             bail!("--receptance and --receptance-modes apply to --method redistributed only");
         }
+        if self.method != Method::Redistributed && self.jacobian != JacobianArg::Auto {
+            bail!("--jacobian applies to --method redistributed only");
+        }
         let quadrature = |default| match self.quadrature.unwrap_or(default) {
             QuadratureArg::Exact => Quadrature::Exact,
             QuadratureArg::Sampled => Quadrature::Sampled,
@@ -255,6 +276,11 @@ impl MethodArgs {
                     samples: self.samples,
                     quadrature: quadrature(QuadratureArg::Exact),
                     receptance: self.receptance_choice()?,
+                    jacobian: match self.jacobian {
+                        JacobianArg::Auto => JacobianForm::Auto,
+                        JacobianArg::Dense => JacobianForm::Dense,
+                        JacobianArg::Operator => JacobianForm::Operator,
+                    },
                 },
                 stability: StabilityOptions {
                     modes: self.stability_modes,

@@ -49,6 +49,7 @@ def solve(
     stability_modes: int | None = None,
     receptance: str = "auto",
     receptance_modes: int | None = None,
+    jacobian: str = "auto",
     stability: bool = True,
     start: str | Solution = "auto",
     sweep_from: float | None = None,
@@ -67,7 +68,9 @@ def solve(
     ``dof``: the response DOF (default: the first contact's). ``receptance``:
     ``"auto"`` (exact up to 20 000 DOFs, modal above), ``"exact"`` or ``"modal"`` (the
     lowest ``receptance_modes`` modes, default 200, plus the exact static compliance;
-    docs/theory.md §17). ``start``: ``"auto"``
+    docs/theory.md §17). ``jacobian``: Newton's linear systems, ``"auto"`` (dense below
+    3000 unknowns, the operator above), ``"dense"`` (LU) or ``"operator"`` (GMRES on the
+    Jacobian's action; docs/theory.md §18). ``start``: ``"auto"``
     (linear response, then continuation from a lower frequency if Newton fails),
     ``"linear"``, or a :class:`Solution` to start from (``--from-solution``);
     ``sweep_from``/``sweep_to`` [Hz]: trace the branch and list every solution at the
@@ -98,6 +101,7 @@ def solve(
         stability_modes=stability_modes,
         receptance=receptance,
         receptance_modes=receptance_modes,
+        jacobian=jacobian,
         stability=bool(stability),
         start=start_kind,
         from_unknowns=from_unknowns,
@@ -145,6 +149,7 @@ def frf(
     stability_modes: int | None = None,
     receptance: str = "auto",
     receptance_modes: int | None = None,
+    jacobian: str = "auto",
     step: float = 0.01,
     max_step: float = 0.1,
     min_step: float = 1e-12,
@@ -189,6 +194,7 @@ def frf(
         stability_modes=stability_modes,
         receptance=receptance,
         receptance_modes=receptance_modes,
+        jacobian=jacobian,
         step=float(step),
         max_step=float(max_step),
         min_step=float(min_step),

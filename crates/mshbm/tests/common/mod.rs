@@ -86,6 +86,7 @@ pub fn try_ms_hbm(
             samples,
             quadrature,
             receptance: Default::default(),
+            jacobian: Default::default(),
         },
     )
 }
@@ -125,7 +126,7 @@ pub fn jacobian_errors(p: &mut impl PeriodicProblem, x: &[f64], omega: f64) -> (
     let jac_err = max_abs(
         entries(&fd)
             .iter()
-            .zip(entries(&lin.jacobian))
+            .zip(entries(&lin.jacobian.to_dense()))
             .map(|(a, b)| a - b),
     );
     let jac_rel = jac_err / max_abs(entries(&fd));

@@ -5,12 +5,11 @@
 //! steps.
 
 use super::predictor::predict;
-use faer::Mat;
 
 use super::scaled::{bordered, difference, dot, max_abs, Scaling};
 use crate::error::{ErrorKind, Result};
 use crate::newton::{self, Iterated, NewtonOptions, NewtonSystem};
-use crate::problem::{NewtonContraction, PeriodicProblem};
+use crate::problem::{Jacobian, NewtonContraction, PeriodicProblem};
 
 /// Largest ratio of two successive updates of a quadratically contracting Newton: each
 /// update at least halves the previous one ([`NewtonContraction::Quadratic`]).
@@ -97,7 +96,7 @@ struct Bordered<'a, P: PeriodicProblem + ?Sized, G: ClosingEquation> {
 impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<'_, P, G> {
     /// `[R_X; ∂g/∂X]` and `[R; g]`; `None` off positive frequencies or where a matrix of the
     /// problem is singular.
-    fn linearize(&mut self, xs: &[f64]) -> Result<Option<(Mat<f64>, Vec<f64>)>> {
+    fn linearize(&mut self, xs: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>> {
         let (x, omega) = self.sc.unscale(xs);
         if !(omega.is_finite() && omega > 0.0) {
             return Ok(None);

@@ -1,11 +1,12 @@
 //! Scaled unknowns and the bordered system `[R_X; cᵀ]` shared by the predictor, the
 //! corrector and the fallbacks (docs/theory.md (T72)–(T73)).
 
+use std::cell::RefCell;
+
 use faer::Mat;
 
 use crate::error::{Error, Result, SingularSystem};
-use crate::newton::dense_solve;
-use crate::problem::PeriodicProblem;
+use crate::problem::{Jacobian, JacobianOperator, PeriodicProblem};
 
 pub(super) fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
@@ -54,30 +55,175 @@ impl Scaling {
 }
 
 /// The bordered matrix `[R_X; cᵀ]` in scaled variables (`c`: `border`), with the residual
-/// `R(x, ω)`.
+/// `R(x, ω)`: dense when the problem's Jacobian is, else an operator ([`BorderedOperator`]).
 pub(super) fn bordered<P: PeriodicProblem + ?Sized>(
     problem: &mut P,
     sc: &Scaling,
     x: &[f64],
     omega: f64,
     border: &[f64],
-) -> Result<(Mat<f64>, Vec<f64>)> {
+) -> Result<(Jacobian, Vec<f64>)> {
     let lin = problem.linearize(x, omega)?;
-    let n = x.len();
-    let mut a = Mat::<f64>::zeros(n + 1, n + 1);
-    for i in 0..n {
-        for j in 0..n {
-            a[(i, j)] = lin.jacobian[(i, j)] * sc.length;
+    // dR / d ln ω
+    let column: Vec<f64> = lin.d_omega.iter().map(|v| v * omega).collect();
+    let jacobian = match lin.jacobian {
+        Jacobian::Dense(j) => Jacobian::Dense(bordered_matrix(&j, sc.length, &column, border)),
+        Jacobian::Operator(inner) => Jacobian::Operator(Box::new(BorderedOperator::new(
+            inner,
+            sc.length,
+            column,
+            border.to_vec(),
+        ))),
+    };
+    Ok((jacobian, lin.residual))
+}
+
+/// `[ℓ J, column; borderᵀ]`.
+fn bordered_matrix(j: &Mat<f64>, length: f64, column: &[f64], border: &[f64]) -> Mat<f64> {
+    let n = column.len();
+    Mat::<f64>::from_fn(n + 1, n + 1, |i, k| match (i < n, k < n) {
+        (true, true) => j[(i, k)] * length,
+        (true, false) => column[i],
+        (false, _) => border[k],
+    })
+}
+
+/// The bordered matrix `[ℓ J, b; cᵀ, d]` of an operator Jacobian `J` (docs/theory.md §18):
+/// applied blockwise, and preconditioned by block elimination with `J`'s own
+/// preconditioner `P ≈ J⁻¹`: with `y_b = P b / ℓ` and `σ = d − cᵀ y_b`, the right-hand side
+/// `(r, ρ)` gives `s = (ρ − cᵀ P r / ℓ) / σ` and `x = P r / ℓ − y_b s`; exact when `P` is.
+/// At a fold `J` is singular but the bordered matrix is not; where `σ` vanishes numerically
+/// (or `P` is not finite there) the block-diagonal preconditioner `[P / ℓ, 0; 0, 1/d]`
+/// (`1` for `d = 0`) is used instead.
+pub(super) struct BorderedOperator {
+    inner: Box<dyn JacobianOperator>,
+    length: f64,
+    column: Vec<f64>,
+    border: Vec<f64>,
+    /// `P b / ℓ` and the Schur complement `σ`, when usable.
+    elimination: RefCell<Option<(Vec<f64>, f64)>>,
+}
+
+impl BorderedOperator {
+    fn new(
+        inner: Box<dyn JacobianOperator>,
+        length: f64,
+        column: Vec<f64>,
+        border: Vec<f64>,
+    ) -> Self {
+        let operator = BorderedOperator {
+            inner,
+            length,
+            column,
+            border,
+            elimination: RefCell::new(None),
+        };
+        operator.eliminate();
+        operator
+    }
+
+    /// `y_b` and `σ` with the inner preconditioner as it is now.
+    fn eliminate(&self) {
+        let n = self.column.len();
+        let mut y_b = vec![0.0; n];
+        self.inner.precondition(&self.column, &mut y_b);
+        y_b.iter_mut().for_each(|v| *v /= self.length);
+        let coupling = dot(&self.border[..n], &y_b);
+        let sigma = self.border[n] - coupling;
+        let size = self.border[n].abs() + coupling.abs();
+        *self.elimination.borrow_mut() =
+            (sigma.is_finite() && sigma.abs() > 1e-12 * size).then_some((y_b, sigma));
+    }
+}
+
+impl JacobianOperator for BorderedOperator {
+    fn dimension(&self) -> usize {
+        self.column.len() + 1
+    }
+
+    fn apply(&self, x: &[f64], out: &mut [f64]) {
+        let n = self.column.len();
+        self.inner.apply(&x[..n], &mut out[..n]);
+        let s = x[n];
+        out[..n]
+            .iter_mut()
+            .zip(&self.column)
+            .for_each(|(o, c)| *o = *o * self.length + c * s);
+        out[n] = dot(&self.border, x);
+    }
+
+    fn precondition(&self, r: &[f64], out: &mut [f64]) {
+        let n = self.column.len();
+        self.inner.precondition(&r[..n], &mut out[..n]);
+        out[..n].iter_mut().for_each(|v| *v /= self.length);
+        match &*self.elimination.borrow() {
+            Some((y_b, sigma)) => {
+                let s = (r[n] - dot(&self.border[..n], &out[..n])) / sigma;
+                out[..n].iter_mut().zip(y_b).for_each(|(o, y)| *o -= y * s);
+                out[n] = s;
+            }
+            None => {
+                let d = self.border[n];
+                out[n] = if d != 0.0 { r[n] / d } else { r[n] };
+            }
         }
-        a[(i, n)] = lin.d_omega[i] * omega; // dω / d ln ω
     }
-    for j in 0..=n {
-        a[(n, j)] = border[j];
+
+    fn dense(&self) -> Mat<f64> {
+        bordered_matrix(&self.inner.dense(), self.length, &self.column, &self.border)
     }
-    Ok((a, lin.residual))
+
+    fn refresh_preconditioner(&self) -> bool {
+        let refreshed = self.inner.refresh_preconditioner();
+        if refreshed {
+            self.eliminate();
+        }
+        refreshed
+    }
 }
 
 /// Solve the bordered system `a y = b` (`b_i = rhs(i)`, `i ≤ n`) with Newton's linear solve.
-pub(super) fn solve_bordered(a: &Mat<f64>, rhs: impl Fn(usize) -> f64) -> Result<Vec<f64>> {
-    dense_solve(a, a.nrows(), rhs).ok_or(Error::SingularSystem(SingularSystem::BorderedMatrix))
+pub(super) fn solve_bordered(a: &Jacobian, rhs: impl Fn(usize) -> f64) -> Result<Vec<f64>> {
+    a.solve(rhs)
+        .ok_or(Error::SingularSystem(SingularSystem::BorderedMatrix))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::tests::{spread_matrix, DenseOperator};
+
+    #[test]
+    fn the_bordered_operator_is_the_bordered_matrix_and_its_preconditioner_inverts_it() {
+        let n = 30;
+        let matrix = spread_matrix(n);
+        let column: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
+        let border: Vec<f64> = (0..=n).map(|i| 0.1 + (i as f64 * 0.7).cos()).collect();
+        let length = 2.5;
+        let inner = DenseOperator::new(matrix.clone(), true);
+        assert!(
+            inner.refresh_preconditioner(),
+            "make the inner preconditioner exact"
+        );
+        let op = BorderedOperator::new(Box::new(inner), length, column.clone(), border.clone());
+        let dense = bordered_matrix(&matrix, length, &column, &border);
+        let x: Vec<f64> = (0..=n).map(|i| 1.0 + (i as f64 * 0.37).sin()).collect();
+        let mut ax = vec![0.0; n + 1];
+        op.apply(&x, &mut ax);
+        let expected = Jacobian::Dense(dense).apply(&x);
+        let err = ax
+            .iter()
+            .zip(&expected)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-10, "apply: {err:.2e}");
+        let mut back = vec![0.0; n + 1];
+        op.precondition(&ax, &mut back);
+        let err = back
+            .iter()
+            .zip(&x)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(err < 1e-10, "precondition: {err:.2e}");
+    }
 }

@@ -86,7 +86,7 @@ use crate::limits::Limits;
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::model::{MassKind, Model, System, SystemContact, SystemFriction};
-use crate::problem::{Linearization, PeriodicProblem};
+use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::Floquet;
@@ -437,7 +437,7 @@ impl PeriodicProblem for GeneralMsHbm {
             .collect();
         Ok(Linearization {
             residual,
-            jacobian,
+            jacobian: Jacobian::Dense(jacobian),
             d_omega,
         })
     }

@@ -102,7 +102,7 @@ use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
-use crate::problem::{Linearization, PeriodicProblem};
+use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 
 /// Default penalty stiffness as a multiple of the contact's own stiffness
@@ -514,7 +514,7 @@ impl PeriodicProblem for HbmAft {
         let d_omega = self.frequency_derivative(x)?;
         Ok(Linearization {
             residual,
-            jacobian,
+            jacobian: Jacobian::Dense(jacobian),
             d_omega,
         })
     }

@@ -25,6 +25,7 @@
 //! semi-analytical Jacobian (eqs. 32–44 in these coordinates, docs/theory.md (T129)) is
 //! `J = blockdiag(D R_k⁻¹) − (I ⊗ D) Σ_A (Γ_A ⊗ F_A) blockdiag(I − D R_k⁻¹)`.
 
+mod jacobian;
 pub mod quadrature;
 
 use std::rc::Rc;
@@ -45,10 +46,14 @@ use crate::linear::{complex_harmonic, store_harmonic, PartitionedSystem};
 use crate::linear::{ExactReceptance, ModalReceptance, Receptance, ReceptanceAtFrequency};
 use crate::method::{default_samples, SetupObserver};
 use crate::model::{MassKind, Model, System};
-use crate::problem::{Linearization, PeriodicProblem};
+use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
+use jacobian::{
+    assemble_forces, dense_jacobian, per_harmonic, times_each_coefficient, ContactJacobian,
+    FrequencyMatrices, PreconditionerSlot,
+};
 use quadrature::{integrate, signal_at, Integration};
 
 /// Instants whose contact forces a solution's extremum search keeps (each `n_c` numbers).
@@ -67,6 +72,37 @@ pub struct RedistributedOptions {
     pub quadrature: Quadrature,
     /// How the receptance at the contacts (docs/theory.md (T125)) is computed.
     pub receptance: ReceptanceChoice,
+    /// How Newton's linear systems are formed and solved (docs/theory.md §18).
+    pub jacobian: JacobianForm,
+}
+
+/// Newton systems with at least this many unknowns `n_c (2H + 1)` use the operator Jacobian
+/// under [`JacobianForm::Auto`] (below it the dense LU is faster; docs/theory.md §18).
+pub const OPERATOR_JACOBIAN_UNKNOWNS: usize = 3000;
+
+/// How the Jacobian (T129) reaches Newton and the continuation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum JacobianForm {
+    /// [`JacobianForm::Dense`] below [`OPERATOR_JACOBIAN_UNKNOWNS`] unknowns, else
+    /// [`JacobianForm::Operator`].
+    #[default]
+    Auto,
+    /// The dense matrix, solved by LU (`O((n_c(2H+1))³)` per solve).
+    Dense,
+    /// Its action and the harmonic-block preconditioner, solved by GMRES (the dense LU only
+    /// where GMRES does not converge).
+    Operator,
+}
+
+impl JacobianForm {
+    /// Whether a system of `unknowns` unknowns uses the operator.
+    pub fn is_operator(self, unknowns: usize) -> bool {
+        match self {
+            JacobianForm::Auto => unknowns >= OPERATOR_JACOBIAN_UNKNOWNS,
+            JacobianForm::Dense => false,
+            JacobianForm::Operator => true,
+        }
+    }
 }
 
 impl RedistributedOptions {
@@ -77,6 +113,7 @@ impl RedistributedOptions {
             samples: None,
             quadrature: Quadrature::Exact,
             receptance: ReceptanceChoice::Auto,
+            jacobian: JacobianForm::Auto,
         }
     }
 }
@@ -155,10 +192,7 @@ impl ReceptanceChoice {
 /// The receptance at one frequency with the matrices of the residual (T128).
 struct Frequency {
     receptance: Box<dyn ReceptanceAtFrequency>,
-    /// `R_k⁻¹`, `D R_k⁻¹` and `Λ R_k⁻¹` (`n_c × n_c`), `k = 0..=H`.
-    inverse: Vec<Mat<c64>>,
-    scaled_inverse: Vec<Mat<c64>>,
-    residual_inverse: Vec<Mat<c64>>,
+    matrices: Rc<FrequencyMatrices>,
 }
 
 /// The redistributed MS-HBM for one model.
@@ -173,7 +207,11 @@ pub struct RedistributedMsHbm {
     partition: Partition,
     contact: StaticContact,
     /// `Λ` of the residual (T128): `‖Λ f‖ = ‖K_NN⁻¹ W f‖` (`n_c × n_c`, row-major).
-    residual_scale: Vec<f64>,
+    residual_scale: Rc<Vec<f64>>,
+    /// The factors preconditioning the operator Jacobian (docs/theory.md §18).
+    preconditioner: PreconditionerSlot,
+    /// Whether Newton's systems are dense or operators (resolved from [`JacobianForm`]).
+    operator_jacobian: bool,
     /// `K_NN` and `W` (`n_N × n_c`, row-major) of the contact nodes.
     stiffness_nn: SparseMatrix,
     directions: Vec<f64>,
@@ -269,6 +307,7 @@ impl RedistributedMsHbm {
         let directions = contact_directions(&system);
         let contact = StaticContact::new(&stiffness_nn, directions.clone(), gap)?;
         let residual_scale = contact.displacement_scale()?;
+        let n_contacts = system.contacts.len();
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         let receptance = options.receptance.build(&system, observer)?;
@@ -279,7 +318,9 @@ impl RedistributedMsHbm {
             quadrature: options.quadrature,
             receptance,
             contact,
-            residual_scale,
+            residual_scale: Rc::new(residual_scale),
+            preconditioner: Default::default(),
+            operator_jacobian: options.jacobian.is_operator(n_contacts * n_coefficients(h)),
             stiffness_nn,
             directions,
             frequency: None,
@@ -344,9 +385,11 @@ impl RedistributedMsHbm {
         }
         self.frequency = Some(Frequency {
             receptance,
-            inverse,
-            scaled_inverse,
-            residual_inverse,
+            matrices: Rc::new(FrequencyMatrices {
+                inverse,
+                scaled_inverse,
+                residual_inverse,
+            }),
         });
         Ok(())
     }
@@ -363,66 +406,9 @@ impl RedistributedMsHbm {
         self.frequency.as_ref().expect("prepared")
     }
 
-    /// `λ̂ = Σ_A (Γ_A ⊗ F_A) u` (harmonic-major, `n_c` per coefficient; docs/theory.md
-    /// (T124)–(T125)): linear in the free-gap coefficients `u`.
-    fn assemble_forces(&self, integration: &Integration, u: &[f64]) -> Vec<f64> {
-        let n = self.n();
-        let nc = n_coefficients(self.harmonics);
-        let mut forces = vec![0.0; n * nc];
-        let mut ug = vec![0.0; n];
-        for group in &integration.groups {
-            let closed = group.set.closed_contacts();
-            if closed.is_empty() {
-                continue;
-            }
-            for m in 0..nc {
-                ug.iter_mut().for_each(|v| *v = 0.0);
-                for c in 0..nc {
-                    let gmc = group.gram[m * nc + c];
-                    if gmc != 0.0 {
-                        ug.iter_mut()
-                            .zip(&u[c * n..(c + 1) * n])
-                            .for_each(|(g, v)| *g += v * gmc);
-                    }
-                }
-                for &a in closed {
-                    forces[m * n + a] += group.set.indicator_dot(a, &ug);
-                }
-            }
-        }
-        forces
-    }
-
-    /// `out_k = M_k z_k` per harmonic for complex `n_c × n_c` matrices `M_k` and
-    /// harmonic-major real coefficients `z` (the real form (T15)).
-    fn per_harmonic(&self, matrices: &[Mat<c64>], z: &[f64]) -> Vec<f64> {
-        let n = self.n();
-        let mut out = vec![0.0; z.len()];
-        for (k, m) in matrices.iter().enumerate() {
-            let zk = complex_harmonic(z, n, k);
-            let v: Vec<c64> = (0..n)
-                .map(|i| (0..n).fold(c64::new(0.0, 0.0), |s, j| s + m[(i, j)] * zk[j]))
-                .collect();
-            store_harmonic(&v, n, k, &mut out);
-        }
-        out
-    }
-
     /// `D z` per coefficient.
     fn delassus_times(&self, z: &[f64]) -> Vec<f64> {
-        self.times_each_coefficient(self.contact.delassus(), z)
-    }
-
-    /// `M z` per coefficient for a real `n_c × n_c` matrix `M` (row-major).
-    fn times_each_coefficient(&self, d: &[f64], z: &[f64]) -> Vec<f64> {
-        let n = self.n();
-        let mut out = vec![0.0; z.len()];
-        for (o, zc) in out.chunks_mut(n).zip(z.chunks(n)) {
-            for i in 0..n {
-                o[i] = (0..n).map(|j| d[i * n + j] * zc[j]).sum();
-            }
-        }
-        out
+        times_each_coefficient(self.n(), self.contact.delassus(), z)
     }
 
     /// `v − Wᵀ A_k⁻¹ f_k` per harmonic: the displacement the contact forces must make.
@@ -441,8 +427,8 @@ impl RedistributedMsHbm {
     fn force_and_free_gap(&self, v: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let by_forces = self.displacement_by_forces(v);
         let f = self.prepared();
-        let phi = self.per_harmonic(&f.inverse, &by_forces);
-        let d_phi = self.per_harmonic(&f.scaled_inverse, &by_forces);
+        let phi = per_harmonic(self.n(), &f.matrices.inverse, &by_forces);
+        let d_phi = per_harmonic(self.n(), &f.matrices.scaled_inverse, &by_forces);
         let mut u: Vec<f64> = v.iter().zip(&d_phi).map(|(a, b)| a - b).collect();
         u.iter_mut()
             .zip(self.contact.initial_gap())
@@ -456,131 +442,13 @@ impl RedistributedMsHbm {
         self.prepare(omega)?;
         let (phi, u) = self.force_and_free_gap(v);
         let integration = integrate(&mut self.contact, &u, &self.sampling, self.quadrature)?;
-        let forces = self.assemble_forces(&integration, &u);
+        let forces = assemble_forces(self.n(), self.harmonics, &integration, &u);
         let mismatch: Vec<f64> = phi.iter().zip(&forces).map(|(a, b)| a - b).collect();
         Ok((
-            self.times_each_coefficient(&self.residual_scale, &mismatch),
+            times_each_coefficient(self.n(), &self.residual_scale, &mismatch),
             integration,
             forces,
         ))
-    }
-
-    /// `J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(C_k)` (docs/theory.md (T129)) with
-    /// `C_k = I − D R_k⁻¹` and `S_mc = Σ_A Γ_A[m, c] F_A` (the rows of the
-    /// closed contacts), in the real form (T15): a complex `M` acting on the `(cos, sin)`
-    /// coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`. `S_mc` has rows only
-    /// for the `r` contacts closed in some active set that row block `m` sees, so the row
-    /// block costs `2(2H + 1)` products `(r × n_c)(n_c × n_c)` for `U = Σ ± S C` and
-    /// `2H + 1` products `Λ[:, r] U`, whatever the number of active sets.
-    fn jacobian_matrix(&self, integration: &Integration) -> Mat<f64> {
-        use faer::linalg::matmul::matmul;
-        use faer::reborrow::ReborrowMut;
-        use faer::{Accum, Par};
-        let f = self.prepared();
-        let n = self.n();
-        let h = self.harmonics;
-        let nc = n_coefficients(h);
-        let dim = n * nc;
-        let mut jac = Mat::<f64>::zeros(dim, dim);
-        let real_form = |m: &Mat<c64>| -> (Mat<f64>, Mat<f64>) {
-            (
-                Mat::from_fn(n, n, |i, j| m[(i, j)].re),
-                Mat::from_fn(n, n, |i, j| m[(i, j)].im),
-            )
-        };
-        // the columns (cos, sin) of each harmonic: (coefficient, (Re, Im) of C_k)
-        let complement: Vec<(Mat<f64>, Mat<f64>)> = f
-            .scaled_inverse
-            .iter()
-            .map(|p| {
-                let (re, im) = real_form(p);
-                (Mat::<f64>::identity(n, n) - re, -im)
-            })
-            .collect();
-        for (k, p) in f.residual_inverse.iter().enumerate() {
-            let (re, im) = real_form(p);
-            if k == 0 {
-                jac.as_mut().submatrix_mut(0, 0, n, n).copy_from(&re);
-            } else {
-                let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-                jac.as_mut().submatrix_mut(ci, ci, n, n).copy_from(&re);
-                jac.as_mut().submatrix_mut(ci, si, n, n).copy_from(&im);
-                jac.as_mut().submatrix_mut(si, ci, n, n).copy_from(-&im);
-                jac.as_mut().submatrix_mut(si, si, n, n).copy_from(&re);
-            }
-        }
-        let scale = faer::MatRef::from_row_major_slice(&self.residual_scale, n, n);
-        for m in 0..nc {
-            // the contacts closed in some group that row block m sees: only their rows of
-            // S_mc (the force maps) are nonzero
-            let mut position = vec![usize::MAX; n];
-            let mut closed_rows: Vec<usize> = Vec::new();
-            for group in &integration.groups {
-                if (0..nc).all(|c| group.gram[m * nc + c] == 0.0) {
-                    continue;
-                }
-                for &a in group.set.closed_contacts() {
-                    if position[a] == usize::MAX {
-                        position[a] = closed_rows.len();
-                        closed_rows.push(a);
-                    }
-                }
-            }
-            let r = closed_rows.len();
-            if r == 0 {
-                continue;
-            }
-            // S_mc restricted to those rows (r × n_c)
-            let mut forces: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
-            for (c, s_c) in forces.iter_mut().enumerate() {
-                for group in &integration.groups {
-                    let g = group.gram[m * nc + c];
-                    if g == 0.0 {
-                        continue;
-                    }
-                    let s = s_c.get_or_insert_with(|| Mat::<f64>::zeros(r, n));
-                    for &a in group.set.closed_contacts() {
-                        let (columns, values) = group.set.force_row(a);
-                        let row = position[a];
-                        columns
-                            .iter()
-                            .zip(values)
-                            .for_each(|(&j, v)| s[(row, j)] += g * v);
-                    }
-                }
-            }
-            // U_col = Σ_c ± S_mc · realform(C_k) (r × n_c per output column block), then
-            // the row block gets −Λ[:, rows] U_col
-            let mut products: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
-            let mut add = |col: usize, s: &Mat<f64>, c: &Mat<f64>, sign: f64| {
-                let u = products[col].get_or_insert_with(|| Mat::<f64>::zeros(r, n));
-                matmul(u.as_mut(), Accum::Add, s, c, sign, Par::Seq);
-            };
-            if let Some(s0) = &forces[0] {
-                add(0, s0, &complement[0].0, -1.0);
-            }
-            for (k, (c_re, c_im)) in complement.iter().enumerate().skip(1) {
-                let (cc, ss) = (2 * k - 1, 2 * k);
-                // output column cos: S_cos Re C − S_sin Im C; column sin: S_cos Im C + S_sin Re C
-                if let Some(sc) = &forces[cc] {
-                    add(cc, sc, c_re, -1.0);
-                    add(ss, sc, c_im, -1.0);
-                }
-                if let Some(s_s) = &forces[ss] {
-                    add(cc, s_s, c_im, 1.0);
-                    add(ss, s_s, c_re, -1.0);
-                }
-            }
-            let scale_rows = Mat::<f64>::from_fn(n, r, |i, q| scale[(i, closed_rows[q])]);
-            let mut rows = jac.as_mut().subrows_mut(m * n, n);
-            for (col, u) in products.iter().enumerate() {
-                if let Some(u) = u {
-                    let block = rows.rb_mut().subcols_mut(col * n, n);
-                    matmul(block, Accum::Add, &scale_rows, u, 1.0, Par::Seq);
-                }
-            }
-        }
-        jac
     }
 
     /// `∂R/∂ω` at fixed `v` (docs/theory.md (T129)): with
@@ -598,12 +466,11 @@ impl RedistributedMsHbm {
                 .frequency_derivative(k, &complex_harmonic(&phi, n, k), true)?;
             store_harmonic(&dg, n, k, &mut derivative);
         }
-        let psi = self.per_harmonic(&f.inverse, &derivative);
+        let psi = per_harmonic(n, &f.matrices.inverse, &derivative);
         let d_psi = self.delassus_times(&psi);
-        let s_d_psi = self.assemble_forces(integration, &d_psi);
+        let s_d_psi = assemble_forces(n, self.harmonics, integration, &d_psi);
         let both: Vec<f64> = psi.iter().zip(&s_d_psi).map(|(a, b)| a + b).collect();
-        Ok(self
-            .times_each_coefficient(&self.residual_scale, &both)
+        Ok(times_each_coefficient(n, &self.residual_scale, &both)
             .iter()
             .map(|v| -v)
             .collect())
@@ -740,8 +607,27 @@ impl PeriodicProblem for RedistributedMsHbm {
 
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
         let (residual, integration, _) = self.evaluate(x, omega)?;
-        let jacobian = self.jacobian_matrix(&integration);
         let d_omega = self.frequency_derivative(x, &integration)?;
+        let n = self.n();
+        let matrices = Rc::clone(&self.prepared().matrices);
+        let jacobian = if self.operator_jacobian {
+            Jacobian::Operator(Box::new(ContactJacobian::new(
+                n,
+                self.harmonics,
+                matrices,
+                Rc::clone(&self.residual_scale),
+                integration,
+                Rc::clone(&self.preconditioner),
+            )))
+        } else {
+            Jacobian::Dense(dense_jacobian(
+                n,
+                self.harmonics,
+                &matrices,
+                &self.residual_scale,
+                &integration,
+            ))
+        };
         Ok(Linearization {
             residual,
             jacobian,

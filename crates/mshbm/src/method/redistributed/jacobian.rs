@@ -1,0 +1,305 @@
+//! The semi-analytical Jacobian of the redistributed MS-HBM in contact coordinates
+//! (docs/theory.md (T129)),
+//!
+//! ```text
+//! J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(C_k),   C_k = I − D R_k⁻¹,   S = Σ_A Γ_A ⊗ F_A,
+//! ```
+//!
+//! in two forms: the dense matrix ([`dense_jacobian`]), and the operator
+//! ([`ContactJacobian`]) that applies it in `O(n_c²(2H+1))` plus the force maps' sums,
+//! preconditioned by the factors of an earlier dense Jacobian (docs/theory.md §18).
+
+use std::cell::{Cell, RefCell};
+use std::rc::Rc;
+
+use faer::linalg::solvers::{PartialPivLu, Solve};
+use faer::{c64, Mat};
+
+use super::quadrature::Integration;
+use crate::harmonic::n_coefficients;
+use crate::linear::{complex_harmonic, store_harmonic};
+use crate::problem::JacobianOperator;
+
+/// The matrices of the residual (T128) at one frequency, per harmonic `k = 0..=H`
+/// (`n_c × n_c` complex).
+pub(super) struct FrequencyMatrices {
+    /// `R_k⁻¹`.
+    pub inverse: Vec<Mat<c64>>,
+    /// `D R_k⁻¹`.
+    pub scaled_inverse: Vec<Mat<c64>>,
+    /// `Λ R_k⁻¹`.
+    pub residual_inverse: Vec<Mat<c64>>,
+}
+
+/// `out_k = M_k z_k` per harmonic for complex `n_c × n_c` matrices `M_k` and harmonic-major
+/// real coefficients `z` (the real form (T15)).
+pub(super) fn per_harmonic(n: usize, matrices: &[Mat<c64>], z: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; z.len()];
+    for (k, m) in matrices.iter().enumerate() {
+        let zk = complex_harmonic(z, n, k);
+        let product = m * faer::ColRef::from_slice(&zk);
+        let v: Vec<c64> = product.iter().copied().collect();
+        store_harmonic(&v, n, k, &mut out);
+    }
+    out
+}
+
+/// `M z` per coefficient for a real `n_c × n_c` matrix `M` (row-major): one product
+/// `M Z` with `Z` the `n_c × (2H+1)` matrix of the coefficients.
+pub(super) fn times_each_coefficient(n: usize, d: &[f64], z: &[f64]) -> Vec<f64> {
+    let m = faer::MatRef::from_row_major_slice(d, n, n);
+    let columns = z.len() / n;
+    let product = m * faer::MatRef::from_column_major_slice(z, n, columns);
+    (0..z.len()).map(|q| product[(q % n, q / n)]).collect()
+}
+
+/// `λ̂ = Σ_A (Γ_A ⊗ F_A) u` (harmonic-major, `n_c` per coefficient; docs/theory.md
+/// (T124)–(T125)): linear in the free-gap coefficients `u`. Per active set, on its `n_A`
+/// closed contacts only (the force map's other rows vanish): `Λ_A += F_AA (U_A Γ_Aᵀ)`, with
+/// `U` the `n_c × (2H+1)` matrix of the coefficients — two matrix products.
+pub(super) fn assemble_forces(
+    n: usize,
+    harmonics: usize,
+    integration: &Integration,
+    u: &[f64],
+) -> Vec<f64> {
+    let nc = n_coefficients(harmonics);
+    let mut forces = vec![0.0; n * nc];
+    for group in &integration.groups {
+        let closed = group.set.closed_contacts();
+        let na = closed.len();
+        if na == 0 {
+            continue;
+        }
+        let u_closed = Mat::<f64>::from_fn(na, nc, |r, c| u[c * n + closed[r]]);
+        let gram = faer::MatRef::from_row_major_slice(&group.gram, nc, nc);
+        let filtered = &u_closed * gram.transpose();
+        let force_map = Mat::<f64>::from_fn(na, na, |r, s| group.set.force_row(closed[r]).1[s]);
+        let block = &force_map * &filtered;
+        for m in 0..nc {
+            for (r, &a) in closed.iter().enumerate() {
+                forces[m * n + a] += block[(r, m)];
+            }
+        }
+    }
+    forces
+}
+
+/// The dense `J` of (T129) in the real form (T15): a complex `M` acting on the `(cos, sin)`
+/// coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`. `S_mc = Σ_A Γ_A[m, c] F_A`
+/// has rows only for the `r` contacts closed in some active set that row block `m` sees, so
+/// the row block costs `2(2H + 1)` products `(r × n_c)(n_c × n_c)` for `U = Σ ± S C` and
+/// `2H + 1` products `Λ[:, r] U`, whatever the number of active sets.
+pub(super) fn dense_jacobian(
+    n: usize,
+    harmonics: usize,
+    f: &FrequencyMatrices,
+    residual_scale: &[f64],
+    integration: &Integration,
+) -> Mat<f64> {
+    use faer::linalg::matmul::matmul;
+    use faer::reborrow::ReborrowMut;
+    use faer::{Accum, Par};
+    let nc = n_coefficients(harmonics);
+    let dim = n * nc;
+    let mut jac = Mat::<f64>::zeros(dim, dim);
+    let real_form = |m: &Mat<c64>| -> (Mat<f64>, Mat<f64>) {
+        (
+            Mat::from_fn(n, n, |i, j| m[(i, j)].re),
+            Mat::from_fn(n, n, |i, j| m[(i, j)].im),
+        )
+    };
+    // the columns (cos, sin) of each harmonic: (coefficient, (Re, Im) of C_k)
+    let complement: Vec<(Mat<f64>, Mat<f64>)> = f
+        .scaled_inverse
+        .iter()
+        .map(|p| {
+            let (re, im) = real_form(p);
+            (Mat::<f64>::identity(n, n) - re, -im)
+        })
+        .collect();
+    for (k, p) in f.residual_inverse.iter().enumerate() {
+        let (re, im) = real_form(p);
+        if k == 0 {
+            jac.as_mut().submatrix_mut(0, 0, n, n).copy_from(&re);
+        } else {
+            let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+            jac.as_mut().submatrix_mut(ci, ci, n, n).copy_from(&re);
+            jac.as_mut().submatrix_mut(ci, si, n, n).copy_from(&im);
+            jac.as_mut().submatrix_mut(si, ci, n, n).copy_from(-&im);
+            jac.as_mut().submatrix_mut(si, si, n, n).copy_from(&re);
+        }
+    }
+    let scale = faer::MatRef::from_row_major_slice(residual_scale, n, n);
+    for m in 0..nc {
+        // the contacts closed in some group that row block m sees: only their rows of
+        // S_mc (the force maps) are nonzero
+        let mut position = vec![usize::MAX; n];
+        let mut closed_rows: Vec<usize> = Vec::new();
+        for group in &integration.groups {
+            if (0..nc).all(|c| group.gram[m * nc + c] == 0.0) {
+                continue;
+            }
+            for &a in group.set.closed_contacts() {
+                if position[a] == usize::MAX {
+                    position[a] = closed_rows.len();
+                    closed_rows.push(a);
+                }
+            }
+        }
+        let r = closed_rows.len();
+        if r == 0 {
+            continue;
+        }
+        // S_mc restricted to those rows (r × n_c)
+        let mut forces: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
+        for (c, s_c) in forces.iter_mut().enumerate() {
+            for group in &integration.groups {
+                let g = group.gram[m * nc + c];
+                if g == 0.0 {
+                    continue;
+                }
+                let s = s_c.get_or_insert_with(|| Mat::<f64>::zeros(r, n));
+                for &a in group.set.closed_contacts() {
+                    let (columns, values) = group.set.force_row(a);
+                    let row = position[a];
+                    columns
+                        .iter()
+                        .zip(values)
+                        .for_each(|(&j, v)| s[(row, j)] += g * v);
+                }
+            }
+        }
+        // U_col = Σ_c ± S_mc · realform(C_k) (r × n_c per output column block), then
+        // the row block gets −Λ[:, rows] U_col
+        let mut products: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
+        let mut add = |col: usize, s: &Mat<f64>, c: &Mat<f64>, sign: f64| {
+            let u = products[col].get_or_insert_with(|| Mat::<f64>::zeros(r, n));
+            matmul(u.as_mut(), Accum::Add, s, c, sign, Par::Seq);
+        };
+        if let Some(s0) = &forces[0] {
+            add(0, s0, &complement[0].0, -1.0);
+        }
+        for (k, (c_re, c_im)) in complement.iter().enumerate().skip(1) {
+            let (cc, ss) = (2 * k - 1, 2 * k);
+            // output column cos: S_cos Re C − S_sin Im C; column sin: S_cos Im C + S_sin Re C
+            if let Some(sc) = &forces[cc] {
+                add(cc, sc, c_re, -1.0);
+                add(ss, sc, c_im, -1.0);
+            }
+            if let Some(s_s) = &forces[ss] {
+                add(cc, s_s, c_im, 1.0);
+                add(ss, s_s, c_re, -1.0);
+            }
+        }
+        let scale_rows = Mat::<f64>::from_fn(n, r, |i, q| scale[(i, closed_rows[q])]);
+        let mut rows = jac.as_mut().subrows_mut(m * n, n);
+        for (col, u) in products.iter().enumerate() {
+            if let Some(u) = u {
+                let block = rows.rb_mut().subcols_mut(col * n, n);
+                matmul(block, Accum::Add, &scale_rows, u, 1.0, Par::Seq);
+            }
+        }
+    }
+    jac
+}
+
+/// The LU factors of a dense Jacobian, kept by the method between linearizations as the
+/// preconditioner of the next ones (docs/theory.md §18).
+pub(super) type PreconditionerSlot = Rc<RefCell<Option<Rc<PartialPivLu<f64>>>>>;
+
+/// The Jacobian (T129) as an operator, preconditioned by the LU factors of the dense
+/// Jacobian at an earlier linearization (docs/theory.md §18): along a continuation the
+/// active sets and the frequency change little between corrector iterations and points, so
+/// GMRES needs a few applications where a new LU would cost `O((n_c(2H+1))³)`. The factors
+/// are formed on the first use and again when GMRES stops converging quickly
+/// ([`JacobianOperator::refresh_preconditioner`]).
+pub(super) struct ContactJacobian {
+    n: usize,
+    harmonics: usize,
+    matrices: Rc<FrequencyMatrices>,
+    /// `Λ` (`n_c × n_c`, row-major).
+    residual_scale: Rc<Vec<f64>>,
+    integration: Integration,
+    /// The method's factors, shared with later linearizations.
+    slot: PreconditionerSlot,
+    /// The factors this operator preconditions with, and whether they are its own.
+    current: RefCell<Option<Rc<PartialPivLu<f64>>>>,
+    exact: Cell<bool>,
+}
+
+impl ContactJacobian {
+    pub(super) fn new(
+        n: usize,
+        harmonics: usize,
+        matrices: Rc<FrequencyMatrices>,
+        residual_scale: Rc<Vec<f64>>,
+        integration: Integration,
+        slot: PreconditionerSlot,
+    ) -> Self {
+        let current = RefCell::new(slot.borrow().clone());
+        ContactJacobian {
+            n,
+            harmonics,
+            matrices,
+            residual_scale,
+            integration,
+            slot,
+            current,
+            exact: Cell::new(false),
+        }
+    }
+
+    /// Factor this operator's own dense matrix and share the factors.
+    fn factor(&self) -> Rc<PartialPivLu<f64>> {
+        let lu = Rc::new(self.dense().partial_piv_lu());
+        *self.current.borrow_mut() = Some(Rc::clone(&lu));
+        *self.slot.borrow_mut() = Some(Rc::clone(&lu));
+        self.exact.set(true);
+        lu
+    }
+}
+
+impl JacobianOperator for ContactJacobian {
+    fn dimension(&self) -> usize {
+        self.n * n_coefficients(self.harmonics)
+    }
+
+    fn apply(&self, x: &[f64], out: &mut [f64]) {
+        let n = self.n;
+        let direct = per_harmonic(n, &self.matrices.residual_inverse, x);
+        let d_x = per_harmonic(n, &self.matrices.scaled_inverse, x);
+        let complement: Vec<f64> = x.iter().zip(&d_x).map(|(a, b)| a - b).collect();
+        let forces = assemble_forces(n, self.harmonics, &self.integration, &complement);
+        let scaled = times_each_coefficient(n, &self.residual_scale, &forces);
+        out.iter_mut()
+            .zip(direct.iter().zip(&scaled))
+            .for_each(|(o, (a, b))| *o = a - b);
+    }
+
+    fn precondition(&self, r: &[f64], out: &mut [f64]) {
+        let current = self.current.borrow().clone();
+        let lu = current.unwrap_or_else(|| self.factor());
+        let rhs = faer::MatRef::from_column_major_slice(r, r.len(), 1);
+        let y = lu.solve(rhs);
+        out.iter_mut().enumerate().for_each(|(i, o)| *o = y[(i, 0)]);
+    }
+
+    fn dense(&self) -> Mat<f64> {
+        dense_jacobian(
+            self.n,
+            self.harmonics,
+            &self.matrices,
+            &self.residual_scale,
+            &self.integration,
+        )
+    }
+
+    fn refresh_preconditioner(&self) -> bool {
+        if self.exact.get() {
+            return false;
+        }
+        self.factor();
+        true
+    }
+}
