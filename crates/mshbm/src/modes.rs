@@ -4,8 +4,8 @@
 //! condensed statically first, `K* = K_dd − K_dc K_cc⁻¹ K_cd` (docs/theory.md (T30)): a singular
 //! mass never reaches the symmetric-definite eigensolver. The reduced problem is solved
 //! densely through a Cholesky factor of `M_dd` (`L⁻¹ K* L⁻ᵀ ψ = ω² ψ`) up to
-//! [`DENSE_EIGEN_LIMIT`] DOFs with mass; larger models use the sparse subspace iteration
-//! [`lowest_modes`]. Either path refuses a stiffness that is not positive definite (rigid-body
+//! [`DENSE_EIGEN_LIMIT`] DOFs with mass; larger models use the block Krylov method (with
+//! subspace iteration as its fallback) of [`lowest_modes`]. Either path refuses a stiffness that is not positive definite (rigid-body
 //! modes, negative stiffness) and plans its memory against [`Limits`] before allocating.
 //! [`first_angular_frequency`] uses sparse inverse iteration and works for large models.
 
@@ -30,7 +30,7 @@ pub fn massless_dofs(mass: &SparseMatrix) -> Vec<usize> {
 
 /// Largest number of DOFs with mass solved by the dense path (a dense symmetric
 /// eigenproblem of that size takes about a second and 50 MB); larger models use the sparse
-/// subspace iteration [`lowest_modes`], whose cost grows linearly with the DOFs.
+/// block Krylov method of [`lowest_modes`], whose cost grows linearly with the DOFs.
 pub const DENSE_EIGEN_LIMIT: usize = 1500;
 
 /// Eigenvalues `ω²` within this fraction of the largest are zero (rigid-body modes) for the
@@ -41,8 +41,10 @@ const ZERO_EIGENVALUE: f64 = 1e-11;
 /// symmetric product, eigenvectors and the solver's workspace).
 const DENSE_MATRICES: u64 = 6;
 
-/// Blocks of `n × p` values alive at once in the subspace iteration (`X`, `M X`,
-/// `K⁻¹ M X`, its thin QR, `K Y`, `M Y`, Ritz vectors and a spare).
+/// Blocks of `n × p` values (`p = 2·count`) alive at once in [`lowest_modes`]: the block
+/// Krylov basis of at most `3p` vectors, the Ritz vectors and their products with `K` and
+/// `M` (`3p/2`), and a spare; the subspace iteration (`X`, `M X`, `K⁻¹ M X`, its thin QR,
+/// `K Y`, `M Y`, Ritz vectors and a spare) needs the same.
 const SUBSPACE_BLOCKS: u64 = 8;
 
 /// The `count` lowest eigenfrequencies (Hz) of `K φ = ω² M φ`, ascending, within the
@@ -58,7 +60,7 @@ pub fn eigenfrequencies_hz(
 /// The `count` lowest eigenfrequencies (Hz) of `K φ = ω² M φ`, ascending, refusing before
 /// allocating when the solver's memory exceeds `limits`. Up to [`DENSE_EIGEN_LIMIT`] DOFs
 /// with mass the problem is condensed statically (docs/theory.md (T30)) and solved
-/// densely; above, by the sparse subspace iteration [`lowest_modes`] on the whole model
+/// densely; above, by the sparse block Krylov method of [`lowest_modes`] on the whole model
 /// (massless DOFs need no condensation there: `K⁻¹M` maps them to zero, their eigenvalues
 /// are infinite and never among the lowest).
 ///
@@ -91,7 +93,7 @@ pub fn eigenfrequencies_hz_within(
         let block = dense_f64_bytes(n, p).and_then(|b| b.checked_mul(SUBSPACE_BLOCKS));
         let factor = (stiffness.nnz() as u64).checked_mul(16 * 4);
         limits.check_memory(
-            &format!("the lowest {count} modes of {n} DOFs (sparse subspace iteration)"),
+            &format!("the lowest {count} modes of {n} DOFs (sparse block Krylov)"),
             block.zip(factor).and_then(|(a, b)| a.checked_add(b)),
         )?;
         let modes = lowest_modes(mass, stiffness, count).map_err(|e| match e {
@@ -170,7 +172,7 @@ fn not_definite(rigid: Option<usize>) -> Error {
     })
 }
 
-/// Lowest angular eigenfrequency (rad/s) of `K φ = ω² M φ` by subspace iteration
+/// Lowest angular eigenfrequency (rad/s) of `K φ = ω² M φ` by [`lowest_modes`]
 /// ([`lowest_modes`]) with a sparse Cholesky factor of `K` (positive definite: Dirichlet
 /// DOFs removed). Works with massless DOFs (they follow statically). Converges with the
 /// ratio `ω₁²/ω₁₀²`, so close second modes (plates) do not slow it down as they slow inverse
@@ -197,16 +199,44 @@ pub struct LowestModes {
     pub eigenvalues: Vec<f64>,
     /// The mode shapes as columns, mass-normalised (`Φᵀ M Φ = I`, `Φᵀ K Φ = diag(ω²)`).
     pub shapes: Mat<f64>,
+    /// Which algorithm of [`lowest_modes`] found them.
+    pub solver: ModeSolver,
 }
 
+/// The algorithms of [`lowest_modes`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModeSolver {
+    /// One Rayleigh–Ritz step on the identity (few DOFs, none massless).
+    Dense,
+    /// The block Krylov space.
+    BlockKrylov,
+    /// Subspace iteration (where the Krylov space did not converge within its size).
+    SubspaceIteration,
+}
+
+/// Relative residual `‖K φ − ω² M φ‖ / ‖ω² M φ‖` at which the block Krylov method of
+/// [`lowest_modes`] accepts a Ritz pair (its eigenvalue is then exact to about the square
+/// of this over the relative gap).
+pub const MODE_RESIDUAL_TOLERANCE: f64 = 1e-8;
+
 /// The `count` lowest modes of `K φ = ω² M φ` (`K` positive definite, `M` positive
-/// definite on the `n_m` DOFs with mass, zero elsewhere) by subspace iteration with a sparse
-/// Cholesky factor of `K` (Bathe's method): the block `Y = K⁻¹ M X` of
-/// `p = min(n_m, max(2·count, count + 8))` vectors is improved by a
-/// Rayleigh–Ritz step per iteration, and eigenvalue `i` converges with the ratio
-/// `λ_i/λ_{p+1}`. Iterates until the `count` lowest Ritz values change by less than
-/// `1e-11` (relative). With `p = n` (no massless DOFs) one Rayleigh–Ritz step on the
-/// identity is the dense solution; with `p = n_m` the first block spans every mode with mass.
+/// definite on the `n_m` DOFs with mass, zero elsewhere), with a sparse Cholesky factor of
+/// `K` (docs/theory.md §17, "Modes"):
+///
+/// 1. **Block Krylov** (block shift-invert Lanczos at `σ = 0` with full
+///    reorthogonalisation): the basis `[Y, A Y, A² Y, …]`, `A = K⁻¹ M`, `Y = A X` for `b`
+///    deterministic start vectors, is extended one block solve at a time and orthonormalised;
+///    Rayleigh–Ritz on it gives Ritz pairs, accepted when the `count` lowest have a relative
+///    residual below [`MODE_RESIDUAL_TOLERANCE`]. The Krylov space holds the lowest modes
+///    after about `2·count` vectors, where subspace iteration needs tens of block
+///    iterations of `2·count` solves each.
+/// 2. Where that has not converged at `min(n_m, 6·count + b)` vectors, **subspace
+///    iteration** (Bathe's method) from the Ritz vectors: the block `Y = K⁻¹ M X` of
+///    `p = min(n_m, max(2·count, count + 8))` vectors improved by a Rayleigh–Ritz step per
+///    iteration until the `count` lowest Ritz values change by less than `1e-11`.
+///
+/// With `p = n` (no massless DOFs and few DOFs) one Rayleigh–Ritz step on the identity is
+/// the dense solution.
 pub fn lowest_modes(
     mass: &SparseMatrix,
     stiffness: &SparseMatrix,
@@ -243,6 +273,15 @@ pub fn lowest_modes(
         .transpose()?;
     let k = stiffness.to_faer();
     let m = mass.to_faer();
+    if let Some(llt) = &llt {
+        match block_krylov(llt, &k, &m, &x, count, massive) {
+            Ok(Krylov::Converged(modes)) => return Ok(modes),
+            Ok(Krylov::Unconverged(shapes)) if shapes.ncols() == x.ncols() => x = shapes,
+            // a Krylov space that lost rank (an invariant subspace met early) or stopped
+            // short of p vectors: the subspace iteration from the start block
+            _ => {}
+        }
+    }
     let mut previous: Option<Vec<f64>> = None;
     for _ in 0..500 {
         let y = match &llt {
@@ -262,6 +301,11 @@ pub fn lowest_modes(
             return Ok(LowestModes {
                 eigenvalues: values[..count].to_vec(),
                 shapes: shapes.subcols(0, count).to_owned(),
+                solver: if llt.is_none() {
+                    ModeSolver::Dense
+                } else {
+                    ModeSolver::SubspaceIteration
+                },
             });
         }
         previous = Some(values);
@@ -272,19 +316,148 @@ pub fn lowest_modes(
     )))
 }
 
+/// Vectors per block of [`block_krylov`]: the Krylov polynomial's degree is the basis size
+/// over this, and the block solves stay efficient.
+const BLOCK: usize = 16;
+
+/// What [`block_krylov`] found.
+enum Krylov {
+    Converged(LowestModes),
+    /// Not converged within its size: the Ritz vectors (`p` of them) to polish by subspace
+    /// iteration.
+    Unconverged(Mat<f64>),
+}
+
+/// Step 1 of [`lowest_modes`]: the block Krylov space of `K⁻¹ M` from the first [`BLOCK`]
+/// columns of the start block `x` (`p` columns). The projections `Qᵀ K Q`, `Qᵀ M Q` grow
+/// with the basis (each vector meets `K` and `M` once); Rayleigh–Ritz is tried every
+/// `count/4` vectors from `2·count` on, and the residuals are formed once the `count`
+/// lowest Ritz values have settled (relative change below `1e-9` since the last try).
+fn block_krylov(
+    llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
+    k: &faer::sparse::SparseColMat<usize, f64>,
+    m: &faer::sparse::SparseColMat<usize, f64>,
+    x: &Mat<f64>,
+    count: usize,
+    massive: usize,
+) -> Result<Krylov> {
+    let p = x.ncols();
+    let block = p.min(BLOCK);
+    let cap = massive.min(6 * count + block);
+    let check_every = (count / 4).max(block);
+    let mut next_check = (2 * count).min(cap);
+    let apply = |v: &Mat<f64>| -> Mat<f64> {
+        let mut y = m * v;
+        llt.solve_in_place(y.as_mut());
+        y
+    };
+    // the basis is allocated once at its largest and filled block by block
+    let mut storage = Mat::<f64>::zeros(x.nrows(), cap);
+    let mut len = 0;
+    let mut kr = Mat::<f64>::zeros(0, 0);
+    let mut mr = Mat::<f64>::zeros(0, 0);
+    let mut next = apply(&x.subcols(0, block).to_owned());
+    let mut previous: Option<Vec<f64>> = None;
+    loop {
+        let basis = storage.subcols(0, len);
+        // orthonormalise the new block against the basis (twice) and itself
+        for _ in 0..2 {
+            let coefficients = basis.transpose() * &next;
+            next -= basis * &coefficients;
+        }
+        let q = next.qr().compute_thin_Q();
+        let width = q.ncols().min(cap - len);
+        let q = q.subcols(0, width);
+        let (kq, mq) = (k * q, m * q);
+        kr = grow(&kr, &(basis.transpose() * &kq), &(q.transpose() * &kq));
+        mr = grow(&mr, &(basis.transpose() * &mq), &(q.transpose() * &mq));
+        storage.subcols_mut(len, width).copy_from(q);
+        len += width;
+        let basis = storage.subcols(0, len);
+        let full = len + block > cap;
+        if basis.ncols() >= next_check || full {
+            next_check = basis.ncols() + check_every;
+            let keep = count.min(basis.ncols());
+            let (values, shapes) = rayleigh_ritz_projected(&kr, &mr, basis, keep)?;
+            let settled = previous.as_ref().is_some_and(|old| {
+                (0..keep).all(|i| (values[i] - old[i]).abs() <= 1e-9 * values[i].abs())
+            });
+            if (settled || full) && keep == count && residuals_below(k, m, &values, &shapes) {
+                return Ok(Krylov::Converged(LowestModes {
+                    eigenvalues: values[..count].to_vec(),
+                    shapes,
+                    solver: ModeSolver::BlockKrylov,
+                }));
+            }
+            if full {
+                // polish the p lowest Ritz vectors of the whole space
+                let keep = p.min(basis.ncols());
+                let (_, shapes) = rayleigh_ritz_projected(&kr, &mr, basis, keep)?;
+                return Ok(Krylov::Unconverged(shapes));
+            }
+            previous = Some(values);
+        }
+        next = apply(&storage.subcols(len - width, width).to_owned());
+    }
+}
+
+/// `[[a, c], [cᵀ, d]]` for symmetric `a` and `d`.
+fn grow(a: &Mat<f64>, c: &Mat<f64>, d: &Mat<f64>) -> Mat<f64> {
+    let (n, b) = (a.nrows(), d.nrows());
+    Mat::from_fn(n + b, n + b, |i, j| match (i < n, j < n) {
+        (true, true) => a[(i, j)],
+        (true, false) => c[(i, j - n)],
+        (false, true) => c[(j, i - n)],
+        (false, false) => d[(i - n, j - n)],
+    })
+}
+
+/// Whether every Ritz pair has `‖K φ − ω² M φ‖ ≤ MODE_RESIDUAL_TOLERANCE ‖ω² M φ‖`.
+fn residuals_below(
+    k: &faer::sparse::SparseColMat<usize, f64>,
+    m: &faer::sparse::SparseColMat<usize, f64>,
+    values: &[f64],
+    shapes: &Mat<f64>,
+) -> bool {
+    let (ks, ms) = (k * shapes, m * shapes);
+    (0..shapes.ncols()).all(|i| {
+        let (mut residual, mut size) = (0.0f64, 0.0f64);
+        for r in 0..ks.nrows() {
+            let target = values[i] * ms[(r, i)];
+            residual += (ks[(r, i)] - target).powi(2);
+            size += target * target;
+        }
+        residual.sqrt() <= MODE_RESIDUAL_TOLERANCE * size.sqrt()
+    })
+}
+
 /// Rayleigh–Ritz on the span of `y` given `K y` and `M y`: Ritz values (ascending) and
 /// mass-normalised Ritz vectors `y Q`.
 fn rayleigh_ritz(ky: &Mat<f64>, my: &Mat<f64>, y: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>)> {
-    let kr = y.transpose() * ky;
-    let mr = y.transpose() * my;
+    rayleigh_ritz_projected(
+        &(y.transpose() * ky),
+        &(y.transpose() * my),
+        y.as_ref(),
+        y.ncols(),
+    )
+}
+
+/// Rayleigh–Ritz on the span of `y` given `yᵀ K y` and `yᵀ M y`: every Ritz value and the
+/// `keep` lowest Ritz vectors.
+fn rayleigh_ritz_projected(
+    kr: &Mat<f64>,
+    mr: &Mat<f64>,
+    y: faer::MatRef<'_, f64>,
+    keep: usize,
+) -> Result<(Vec<f64>, Mat<f64>)> {
     let sym = |a: &Mat<f64>| (a + a.transpose()) * 0.5;
-    let llt = sym(&mr).llt(Side::Lower).map_err(|_| {
+    let llt = sym(mr).llt(Side::Lower).map_err(|_| {
         Error::Numerical(
             "subspace iteration: the block lost rank (M not positive definite?)".into(),
         )
     })?;
     let l = llt.L();
-    let mut a = sym(&kr);
+    let mut a = sym(kr);
     solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
     let mut a = a.transpose().to_owned();
     solve_lower_triangular_in_place(l, a.as_mut(), Par::Seq);
@@ -295,7 +468,7 @@ fn rayleigh_ritz(ky: &Mat<f64>, my: &Mat<f64>, y: &Mat<f64>) -> Result<(Vec<f64>
         q.as_mut(),
         Par::Seq,
     );
-    Ok((values, y * q))
+    Ok((values, y * q.subcols(0, keep)))
 }
 
 /// Eigenvalues (ascending) and orthonormal eigenvectors of a symmetric matrix by the

@@ -272,7 +272,11 @@ pub(crate) mod tests {
         }
         fn apply(&self, x: &[f64], out: &mut [f64]) {
             for (i, o) in out.iter_mut().enumerate() {
-                *o = x.iter().enumerate().map(|(j, v)| self.matrix[(i, j)] * v).sum();
+                *o = x
+                    .iter()
+                    .enumerate()
+                    .map(|(j, v)| self.matrix[(i, j)] * v)
+                    .sum();
             }
         }
         fn precondition(&self, r: &[f64], out: &mut [f64]) {

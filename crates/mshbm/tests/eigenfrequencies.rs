@@ -223,3 +223,55 @@ fn eigenfrequencies_over_the_memory_budget_are_refused() {
     assert!(matches!(err, mshbm::Error::ResourceLimit { .. }), "{err}");
     assert!(err.to_string().contains("20000 DOFs"), "{err}");
 }
+
+/// The block Krylov path of `lowest_modes` on a 3D plate (clustered bending and in-plane
+/// modes, massless contact nodes after redistribution) against the dense path: the
+/// eigenfrequencies, and the shapes' residuals and mass orthonormality.
+#[test]
+fn the_block_krylov_modes_of_a_plate_match_the_dense_ones() {
+    let model = load_model(
+        &examples().join("block_3d/model.toml"),
+        &["solid.divisions=[8,8,4]".to_string()],
+    )
+    .unwrap();
+    for kind in [MassKind::Consistent, MassKind::Redistributed] {
+        let s = model.system(kind).unwrap();
+        let count = 60;
+        let dense = eigenfrequencies_hz(&s.mass, &s.stiffness, count).unwrap();
+        let modes = mshbm::modes::lowest_modes(&s.mass, &s.stiffness, count).unwrap();
+        assert_eq!(
+            modes.solver,
+            mshbm::modes::ModeSolver::BlockKrylov,
+            "{kind:?}"
+        );
+        for (k, (&d, &lam)) in dense.iter().zip(&modes.eigenvalues).enumerate() {
+            let f = lam.sqrt() / (2.0 * std::f64::consts::PI);
+            assert!(
+                (f / d - 1.0).abs() < 1e-9,
+                "{kind:?} mode {}: {f} vs {d}",
+                k + 1
+            );
+        }
+        let (k, m) = (s.stiffness.to_faer(), s.mass.to_faer());
+        let (kp, mp) = (&k * &modes.shapes, &m * &modes.shapes);
+        let gram = modes.shapes.transpose() * &mp;
+        for i in 0..count {
+            for j in 0..count {
+                let expected = if i == j { 1.0 } else { 0.0 };
+                assert!(
+                    (gram[(i, j)] - expected).abs() < 1e-9,
+                    "{kind:?} ΦᵀMΦ[{i},{j}]"
+                );
+            }
+            let lam = modes.eigenvalues[i];
+            let residual: f64 = (0..kp.nrows())
+                .map(|r| (kp[(r, i)] - lam * mp[(r, i)]).powi(2))
+                .sum();
+            let size: f64 = (0..kp.nrows()).map(|r| (lam * mp[(r, i)]).powi(2)).sum();
+            assert!(
+                residual.sqrt() <= 1e-7 * size.sqrt(),
+                "{kind:?} mode {i}: residual"
+            );
+        }
+    }
+}

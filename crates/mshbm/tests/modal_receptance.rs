@@ -124,6 +124,7 @@ fn the_truncated_modal_receptance_converges_in_the_number_of_modes() {
             let truncated = mshbm::modes::LowestModes {
                 eigenvalues: computed.eigenvalues[..m].to_vec(),
                 shapes: computed.shapes.subcols(0, m).to_owned(),
+                solver: computed.solver,
             };
             let modal = ModalReceptance::with_modes(&system, truncated).unwrap();
             let a = modal.at(omega, HARMONICS).unwrap();
