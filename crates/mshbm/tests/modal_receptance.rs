@@ -314,3 +314,44 @@ fn the_set_up_reports_its_phases() {
         assert_eq!(seen[3], None, "the set-up ends with None");
     }
 }
+
+/// `ReceptanceChoice::Auto` weighs the cost of the exact receptance by the fill of the
+/// stiffness factor, not by the DOFs alone: a bar of 30 000 elements (more DOFs than
+/// `MODAL_RECEPTANCE_DOFS`, two factor values per DOF) keeps the exact receptance, which
+/// costs a fraction of a second per frequency there, where 200 modes took minutes.
+#[test]
+fn auto_keeps_the_exact_receptance_of_a_slender_model() {
+    use mshbm::method::redistributed::{MODAL_RECEPTANCE_DOFS, MODAL_RECEPTANCE_FILL};
+    use mshbm::method::SetupObserver;
+    use std::sync::{Arc, Mutex};
+    let model = example_model(
+        "clamped_bar.toml",
+        &["bar.elements=30000", "damping.first_mode_ratio=0.01"],
+    );
+    let system = model.system(mshbm::MassKind::Redistributed).unwrap();
+    assert!(system.n_dofs() > MODAL_RECEPTANCE_DOFS);
+    let fill = mshbm::sparse::cholesky_fill(&system.stiffness).unwrap();
+    assert!(
+        fill <= MODAL_RECEPTANCE_FILL * system.n_dofs(),
+        "fill {fill}"
+    );
+    let seen: Arc<Mutex<Vec<String>>> = Arc::default();
+    let record = Arc::clone(&seen);
+    let observer = SetupObserver::new(move |phase| {
+        if let Some(p) = phase {
+            record.lock().unwrap().push(p.to_string());
+        }
+    });
+    RedistributedMsHbm::within_observed(
+        &model,
+        &RedistributedOptions::new(3),
+        &mshbm::limits::Limits::default(),
+        Some(&observer),
+    )
+    .unwrap();
+    let seen = seen.lock().unwrap().clone();
+    assert!(
+        seen.iter().any(|p| p.starts_with("the exact receptance")),
+        "{seen:?}"
+    );
+}

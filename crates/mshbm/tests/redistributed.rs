@@ -339,3 +339,42 @@ fn the_contact_free_jacobian_scales_like_the_element_size() {
         );
     }
 }
+
+/// The refined-mesh stall of docs/theory.md (T122) is a matter of the starting point: the
+/// unknowns are the contact displacement's harmonics, which mean the same on every mesh, so
+/// the solution on a coarser mesh starts Newton inside the (shrinking) region of quadratic
+/// convergence on the finer one (nested iteration). From the linear response Newton stalls
+/// near 7e-7 on 10⁴ elements (50 iterations, BENCHMARKS.md §4); from the 10³-element
+/// solution it converges to 1e-10 in a few iterations, and from that one the bar of 10⁵
+/// elements too.
+#[test]
+fn refined_bars_converge_from_the_coarser_solution() {
+    let omega = hz(30e3);
+    let mut start: Option<Vec<f64>> = None;
+    for elements in [1_000usize, 10_000, 100_000] {
+        let count = format!("bar.elements={elements}");
+        let model = bar(&[count.as_str(), "damping.first_mode_ratio=0.01"]);
+        let mut p = common::ms_hbm(&model, 5);
+        let x0 = match &start {
+            Some(x) => x.clone(),
+            None => p.initial_guess(omega).unwrap(),
+        };
+        let out = solve(&mut p, &x0, omega, &NewtonOptions::default()).unwrap();
+        println!(
+            "{elements} elements: {} iterations, residual {:.1e}",
+            out.iterations, out.residual_norm
+        );
+        assert!(
+            out.converged && out.residual_norm <= 1e-10,
+            "{elements}: {out:?}"
+        );
+        if start.is_some() {
+            assert!(
+                out.iterations <= 8,
+                "{elements}: {} iterations",
+                out.iterations
+            );
+        }
+        start = Some(out.x);
+    }
+}

@@ -88,7 +88,8 @@ pub enum QuadratureArg {
 /// How the receptance at the contacts is computed (redistributed MS-HBM).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ReceptanceArg {
-    /// Exact up to 20000 DOFs, modal (200 modes, at most half the DOFs with mass) above.
+    /// Modal (200 modes, at most half the DOFs with mass) above 20000 DOFs with a stiffness
+    /// factor of more than 40 values per DOF (3D solids), exact otherwise.
     Auto,
     /// A sparse LU of the whole dynamic stiffness per harmonic and frequency.
     Exact,

@@ -66,7 +66,8 @@ def solve(
     period (default max(256, 16(2H+1))); ``quadrature``: ``"exact"`` or ``"sampled"``;
     ``tolerance``: Newton's max-norm residual relative to the model's length scale;
     ``dof``: the response DOF (default: the first contact's). ``receptance``:
-    ``"auto"`` (exact up to 20 000 DOFs, modal above), ``"exact"`` or ``"modal"`` (the
+    ``"auto"`` (modal above 20 000 DOFs with a stiffness factor of more than 40 values per
+    DOF, exact otherwise), ``"exact"`` or ``"modal"`` (the
     lowest ``receptance_modes`` modes, default 200, plus the exact static compliance;
     docs/theory.md §17). ``jacobian``: Newton's linear systems, ``"auto"`` (dense below
     3000 unknowns, the operator above), ``"dense"`` (LU) or ``"operator"`` (GMRES on the

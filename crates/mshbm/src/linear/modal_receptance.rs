@@ -26,7 +26,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::Llt;
 use std::sync::Arc;
 
-use faer::{c64, Mat, Side};
+use faer::{c64, Mat};
 
 use super::partitioned::PartLoad;
 use super::receptance::{ContactCoordinates, Receptance, ReceptanceAtFrequency};
@@ -63,12 +63,28 @@ impl ModalReceptance {
     /// The modal receptance of `system` with its `modes` lowest modes (computed here by
     /// [`crate::modes::lowest_modes`]).
     pub fn new(system: &System, modes: usize) -> Result<Self> {
-        let computed = crate::modes::lowest_modes(&system.mass, &system.stiffness, modes)?;
-        Self::with_modes(system, computed)
+        let factor = crate::modes::stiffness_factor(&system.stiffness)?;
+        let computed = crate::modes::lowest_modes_factored(
+            &system.mass,
+            &system.stiffness,
+            Some(&factor),
+            modes,
+        )?;
+        Self::with_modes_factored(system, computed, factor)
     }
 
     /// The modal receptance of `system` with given mass-normalised modes.
     pub fn with_modes(system: &System, modes: LowestModes) -> Result<Self> {
+        let factor = crate::modes::stiffness_factor(&system.stiffness)?;
+        Self::with_modes_factored(system, modes, factor)
+    }
+
+    /// [`ModalReceptance::with_modes`] with the factor of `K` already formed.
+    fn with_modes_factored(
+        system: &System,
+        modes: LowestModes,
+        stiffness: crate::modes::StiffnessFactor,
+    ) -> Result<Self> {
         let n = system.n_dofs();
         let m = modes.eigenvalues.len();
         if modes.shapes.nrows() != n || modes.shapes.ncols() != m || m == 0 {
@@ -94,26 +110,30 @@ impl ModalReceptance {
                 ),
             ));
         }
-        let stiffness = system
-            .stiffness
-            .to_faer()
-            .sp_cholesky(Side::Lower)
-            .map_err(|_| Error::Singular("the stiffness matrix is not positive definite".into()))?;
         let contacts = ContactCoordinates::of(system);
         let nc = contacts.len();
-        // K⁻¹ W, then Wᵀ K⁻¹ W
-        let mut kw = Mat::<f64>::zeros(n, nc);
-        for (c, w) in contacts.w.iter().enumerate() {
-            w.iter().for_each(|&(i, v)| kw[(i, c)] += v);
+        // Wᵀ K⁻¹ W, from K⁻¹ W formed 64 contacts at a time (the whole n × n_c block is a
+        // gigabyte on a 10⁵-DOF solid with 10³ contacts)
+        let mut static_receptance = Mat::<c64>::zeros(nc, nc);
+        let mut start = 0;
+        while start < nc {
+            let width = 64.min(nc - start);
+            let mut kw = Mat::<f64>::zeros(n, width);
+            for (c, w) in contacts.w[start..start + width].iter().enumerate() {
+                w.iter().for_each(|&(i, v)| kw[(i, c)] += v);
+            }
+            stiffness.solve_in_place(kw.as_mut());
+            for i in 0..nc {
+                for c in 0..width {
+                    let g = contacts.w[i]
+                        .iter()
+                        .map(|&(d, v)| v * kw[(d, c)])
+                        .sum::<f64>();
+                    static_receptance[(i, start + c)] = c64::new(g, 0.0);
+                }
+            }
+            start += width;
         }
-        stiffness.solve_in_place(kw.as_mut());
-        let static_receptance = Mat::<c64>::from_fn(nc, nc, |i, j| {
-            let g = contacts.w[i]
-                .iter()
-                .map(|&(d, v)| v * kw[(d, j)])
-                .sum::<f64>();
-            c64::new(g, 0.0)
-        });
         let phi = &modes.shapes;
         let damping_phi = system.damping.to_faer() * phi;
         let modal_damping = phi.transpose() * &damping_phi;

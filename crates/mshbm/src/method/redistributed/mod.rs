@@ -118,8 +118,15 @@ impl RedistributedOptions {
     }
 }
 
-/// Models with more DOFs than this use the modal receptance under [`ReceptanceChoice::Auto`].
+/// Models with more DOFs than this use the modal receptance under [`ReceptanceChoice::Auto`]
+/// when their stiffness factor also has more than [`MODAL_RECEPTANCE_FILL`] values per DOF.
 pub const MODAL_RECEPTANCE_DOFS: usize = 20_000;
+
+/// Values per DOF of the sparse Cholesky factor of `K` above which the exact receptance's
+/// per-frequency factorizations are costly (3D solids: hundreds; a bar, a beam or a thin
+/// lattice: a few, where the exact receptance of 10⁵ DOFs takes a fraction of a second per
+/// frequency and 200 modes would take minutes).
+pub const MODAL_RECEPTANCE_FILL: usize = 40;
 
 /// Modes of the modal receptance under [`ReceptanceChoice::Auto`] (at most half the DOFs
 /// with mass).
@@ -129,7 +136,8 @@ pub const DEFAULT_RECEPTANCE_MODES: usize = 200;
 /// (T125), (T130)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ReceptanceChoice {
-    /// [`ReceptanceChoice::Exact`] up to [`MODAL_RECEPTANCE_DOFS`] DOFs, above it
+    /// [`ReceptanceChoice::Exact`] up to [`MODAL_RECEPTANCE_DOFS`] DOFs or
+    /// [`MODAL_RECEPTANCE_FILL`] factor values per DOF, above both
     /// [`ReceptanceChoice::Modal`] with [`DEFAULT_RECEPTANCE_MODES`] modes.
     #[default]
     Auto,
@@ -149,12 +157,15 @@ impl ReceptanceChoice {
         observer: Option<&SetupObserver>,
     ) -> Result<Box<dyn Receptance>> {
         let massive = system.n_dofs() - crate::modes::massless_dofs(&system.mass).len();
+        let costly = || -> Result<bool> {
+            Ok(system.n_dofs() > MODAL_RECEPTANCE_DOFS
+                && crate::sparse::cholesky_fill(&system.stiffness)?
+                    > MODAL_RECEPTANCE_FILL * system.n_dofs())
+        };
         let choice = match self {
-            ReceptanceChoice::Auto if system.n_dofs() > MODAL_RECEPTANCE_DOFS => {
-                ReceptanceChoice::Modal {
-                    modes: DEFAULT_RECEPTANCE_MODES.min(massive / 2).max(1),
-                }
-            }
+            ReceptanceChoice::Auto if costly()? => ReceptanceChoice::Modal {
+                modes: DEFAULT_RECEPTANCE_MODES.min(massive / 2).max(1),
+            },
             ReceptanceChoice::Auto => ReceptanceChoice::Exact,
             other => other,
         };
