@@ -23,6 +23,8 @@
 //! * `block`: the plate of `examples/block_3d` meshed n × n × 4 (n = 4, 8, 16: n(n + 1)
 //!   contacts, 3n(n + 1) contact-node DOFs), 0.3 µm above the foundation, H = 5, sampled
 //!   quadrature, 500 Hz;
+//! * `block-modal`: the same plates and unit with the modal receptance (100 modes), the
+//!   path `ReceptanceChoice::Auto` takes for large solids;
 //! * `receptance`: the 16 × 16 × 4 plate with the exact and the modal receptance (100
 //!   modes), H = 5: what the per-frequency work of each costs in a corrector iteration;
 //! * `newton-system`: a continuation step (Newton from the solution at 500 Hz to the one at
@@ -323,6 +325,42 @@ fn bench_block(c: &mut Criterion) {
     );
 }
 
+/// The `block` group with the modal receptance (100 modes) and `Auto` Newton systems: what a
+/// corrector iteration costs on the path `Auto` takes for large models, without the exact
+/// receptance's factorizations per frequency.
+fn bench_block_modal(c: &mut Criterion) {
+    let mut group = c.benchmark_group("block-modal");
+    configure(&mut group);
+    let ids: Vec<(f64, String)> = BLOCK_DIVISIONS
+        .iter()
+        .map(|&n| {
+            let n_n = 3 * n * (n + 1);
+            let id = bench_case(&mut group, "block-modal", n_n, || {
+                case_with(
+                    &block(n),
+                    &RedistributedOptions {
+                        quadrature: Quadrature::Sampled,
+                        receptance: ReceptanceChoice::Modal { modes: 100 },
+                        ..RedistributedOptions::new(BLOCK_HARMONICS)
+                    },
+                    500.0,
+                    &format!(
+                        "plate {n} x {n} x 4, modal receptance (100 modes): {} contacts, {n_n} contact-node DOFs, H = {BLOCK_HARMONICS}",
+                        n * (n + 1)
+                    ),
+                )
+            });
+            (n_n as f64, id)
+        })
+        .collect();
+    group.finish();
+    report_growth(
+        "time per corrector iteration vs contact-node DOFs (plate, modal receptance, H = 5, 500 Hz)",
+        "n_N",
+        &ids,
+    );
+}
+
 fn bench_receptance(c: &mut Criterion) {
     let mut group = c.benchmark_group("receptance");
     configure(&mut group);
@@ -500,6 +538,7 @@ fn main() {
     bench_contacts(&mut c);
     bench_elements(&mut c);
     bench_block(&mut c);
+    bench_block_modal(&mut c);
     bench_receptance(&mut c);
     bench_newton_system(&mut c);
     // memory only when the elements group ran (it holds the largest case)

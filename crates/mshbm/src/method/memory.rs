@@ -17,7 +17,9 @@ use crate::limits::Limits;
 use crate::model::{System, MODEL_BYTES_PER_DOF};
 
 /// Copies of the dense Jacobian alive at once: the Jacobian, the LU factor of Newton's
-/// solve and the continuation's bordered matrix.
+/// solve and the continuation's bordered matrix; with the operator Jacobian (docs/theory.md
+/// §18), the factors kept as its preconditioner, the dense Jacobian of a refresh and its
+/// new factors.
 const JACOBIAN_COPIES: u64 = 3;
 
 /// Fill factor assumed for the sparse LU of the linear part per harmonic (a banded or

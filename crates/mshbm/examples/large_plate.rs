@@ -1,0 +1,106 @@
+//! The set-up and the first Newton solves of the redistributed MS-HBM on a refinement of
+//! `examples/block_3d`, timed phase by phase with the peak resident memory (Linux `VmHWM`):
+//! the measurement of BENCHMARKS.md §9 ("A 10⁵-DOF solid with 10³ contacts").
+//!
+//! ```text
+//! cargo run --release -p mshbm --example large_plate -- NX NZ H FREQUENCY_HZ [ITERATIONS]
+//! cargo run --release -p mshbm --example large_plate -- 32 30 1 1500
+//! ```
+//!
+//! The plate is meshed `NX × NX × NZ`; Newton starts from the linear response at the
+//! frequency and, when it converges, makes three continuation-sized steps (+0.2 % each).
+
+use std::time::Instant;
+
+use mshbm::harmonic::Quadrature;
+use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use mshbm::method::SetupObserver;
+use mshbm::model::file::load_model;
+use mshbm::newton::{solve, NewtonOptions};
+use mshbm::problem::PeriodicProblem;
+
+/// Peak and current resident memory of this process.
+fn memory() -> String {
+    std::fs::read_to_string("/proc/self/status")
+        .map(|s| {
+            s.lines()
+                .filter(|l| l.starts_with("VmHWM") || l.starts_with("VmRSS"))
+                .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .unwrap_or_default()
+}
+
+fn main() {
+    faer::set_global_parallelism(faer::Par::Seq);
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |i: usize| -> &str {
+        args.get(i)
+            .map(String::as_str)
+            .expect("arguments: NX NZ H FREQUENCY_HZ [ITERATIONS]")
+    };
+    let (nx, nz, h): (usize, usize, usize) = (
+        arg(1).parse().unwrap(),
+        arg(2).parse().unwrap(),
+        arg(3).parse().unwrap(),
+    );
+    let f: f64 = arg(4).parse().unwrap();
+    let iterations: usize = args.get(5).map_or(50, |s| s.parse().unwrap());
+    let model_file =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/block_3d/model.toml");
+    let start = Instant::now();
+    let model =
+        load_model(&model_file, &[format!("solid.divisions=[{nx},{nx},{nz}]")]).expect("model");
+    println!("model: {:.1?} ({})", start.elapsed(), memory());
+    let start = Instant::now();
+    let observer = SetupObserver::new(move |phase| {
+        println!(
+            "  {:>6.1?}  {}  ({})",
+            start.elapsed(),
+            phase.unwrap_or("done"),
+            memory()
+        )
+    });
+    let mut problem = RedistributedMsHbm::within_observed(
+        &model,
+        &RedistributedOptions {
+            quadrature: Quadrature::Sampled,
+            ..RedistributedOptions::new(h)
+        },
+        &mshbm::limits::Limits::default(),
+        Some(&observer),
+    )
+    .expect("set-up");
+    let omega = 2.0 * std::f64::consts::PI * f;
+    let options = NewtonOptions {
+        max_iterations: iterations,
+        ..NewtonOptions::default()
+    };
+    let start = Instant::now();
+    let x0 = problem.initial_guess(omega).expect("linear response");
+    let out = solve(&mut problem, &x0, omega, &options).expect("Newton");
+    println!(
+        "Newton from the linear response ({} unknowns): {:.1?}, {} iterations, residual {:.1e}{} ({})",
+        x0.len(),
+        start.elapsed(),
+        out.iterations,
+        out.residual_norm,
+        if out.converged { "" } else { ", not converged" },
+        memory()
+    );
+    if out.converged {
+        for step in [1.002, 1.004, 1.006] {
+            let start = Instant::now();
+            let next = solve(&mut problem, &out.x, omega * step, &options).expect("Newton");
+            println!(
+                "step to {:.1} Hz: {:.2?}, {} iterations, residual {:.1e} ({})",
+                f * step,
+                start.elapsed(),
+                next.iterations,
+                next.residual_norm,
+                memory()
+            );
+        }
+    }
+}
