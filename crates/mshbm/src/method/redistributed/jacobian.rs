@@ -12,7 +12,6 @@
 use std::cell::{Cell, RefCell};
 use std::rc::Rc;
 
-use faer::linalg::solvers::{PartialPivLu, Solve};
 use faer::{c64, Mat};
 
 use super::quadrature::Integration;
@@ -206,7 +205,64 @@ pub(super) fn dense_jacobian(
 
 /// The LU factors of a dense Jacobian, kept by the method between linearizations as the
 /// preconditioner of the next ones (docs/theory.md §18).
-pub(super) type PreconditionerSlot = Rc<RefCell<Option<Rc<PartialPivLu<f64>>>>>;
+pub(super) type PreconditionerSlot = Rc<RefCell<Option<Rc<InPlaceLu>>>>;
+
+/// LU factors with partial pivoting computed in the matrix's own storage (LAPACK's layout:
+/// the unit lower `L` and `U` in one matrix), so that factoring a Jacobian of 10⁴ unknowns
+/// needs no second gigabyte.
+pub(super) struct InPlaceLu {
+    factors: Mat<f64>,
+    forward: Vec<usize>,
+    inverse: Vec<usize>,
+}
+
+impl InPlaceLu {
+    fn new(mut matrix: Mat<f64>) -> Self {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
+        let n = matrix.nrows();
+        let par = faer::get_global_parallelism();
+        let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
+        let mut mem = MemBuffer::new(lu_in_place_scratch::<usize, f64>(
+            n,
+            n,
+            par,
+            Default::default(),
+        ));
+        lu_in_place(
+            matrix.as_mut(),
+            &mut forward,
+            &mut inverse,
+            par,
+            MemStack::new(&mut mem),
+            Default::default(),
+        );
+        InPlaceLu {
+            factors: matrix,
+            forward,
+            inverse,
+        }
+    }
+
+    /// `out = A⁻¹ r`.
+    fn solve(&self, r: &[f64], out: &mut [f64]) {
+        use faer::dyn_stack::{MemBuffer, MemStack};
+        use faer::linalg::lu::partial_pivoting::solve::{solve_in_place, solve_in_place_scratch};
+        let n = r.len();
+        out.copy_from_slice(r);
+        let par = faer::Par::Seq;
+        let mut mem = MemBuffer::new(solve_in_place_scratch::<usize, f64>(n, 1, par));
+        let permutation = faer::perm::PermRef::new_checked(&self.forward, &self.inverse, n);
+        solve_in_place(
+            self.factors.as_ref(),
+            self.factors.as_ref(),
+            permutation,
+            faer::MatMut::from_column_major_slice_mut(out, n, 1),
+            par,
+            MemStack::new(&mut mem),
+        );
+    }
+}
 
 /// The Jacobian (T129) as an operator, preconditioned by the LU factors of the dense
 /// Jacobian at an earlier linearization (docs/theory.md §18): along a continuation the
@@ -224,7 +280,7 @@ pub(super) struct ContactJacobian {
     /// The method's factors, shared with later linearizations.
     slot: PreconditionerSlot,
     /// The factors this operator preconditions with, and whether they are its own.
-    current: RefCell<Option<Rc<PartialPivLu<f64>>>>,
+    current: RefCell<Option<Rc<InPlaceLu>>>,
     exact: Cell<bool>,
 }
 
@@ -250,9 +306,12 @@ impl ContactJacobian {
         }
     }
 
-    /// Factor this operator's own dense matrix and share the factors.
-    fn factor(&self) -> Rc<PartialPivLu<f64>> {
-        let lu = Rc::new(self.dense().partial_piv_lu());
+    /// Factor this operator's own dense matrix and share the factors. The earlier factors
+    /// are released first, so that a refresh holds one dense matrix, not three.
+    fn factor(&self) -> Rc<InPlaceLu> {
+        *self.current.borrow_mut() = None;
+        *self.slot.borrow_mut() = None;
+        let lu = Rc::new(InPlaceLu::new(self.dense()));
         *self.current.borrow_mut() = Some(Rc::clone(&lu));
         *self.slot.borrow_mut() = Some(Rc::clone(&lu));
         self.exact.set(true);
@@ -280,9 +339,7 @@ impl JacobianOperator for ContactJacobian {
     fn precondition(&self, r: &[f64], out: &mut [f64]) {
         let current = self.current.borrow().clone();
         let lu = current.unwrap_or_else(|| self.factor());
-        let rhs = faer::MatRef::from_column_major_slice(r, r.len(), 1);
-        let y = lu.solve(rhs);
-        out.iter_mut().enumerate().for_each(|(i, o)| *o = y[(i, 0)]);
+        lu.solve(r, out);
     }
 
     fn dense(&self) -> Mat<f64> {
