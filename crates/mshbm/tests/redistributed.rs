@@ -378,3 +378,33 @@ fn refined_bars_converge_from_the_coarser_solution() {
         start = Some(out.x);
     }
 }
+
+/// Nested iteration across harmonics on the refined block (docs/theory.md (T122)): the
+/// 16 × 16 × 4 plate at 500 Hz (272 contacts) with H = 5 does not converge from the linear
+/// response within 50 iterations (BENCHMARKS.md §8), but does from its H = 3 solution, the
+/// added harmonics starting at zero.
+#[test]
+fn the_refined_block_converges_at_h5_from_its_h3_solution() {
+    let model = common::example_model(
+        "block_3d/model.toml",
+        &["solid.divisions=[16,16,4]", "interfaces.0.gap=0.0003"],
+    );
+    let omega = hz(500.0);
+    let mut low = common::ms_hbm_with(&model, 3, Quadrature::Sampled, None);
+    let x0 = low.initial_guess(omega).unwrap();
+    let coarse = solve(&mut low, &x0, omega, &NewtonOptions::default()).unwrap();
+    assert!(coarse.converged, "H = 3: {:?}", coarse.reason);
+    let mut high = common::ms_hbm_with(&model, 5, Quadrature::Sampled, None);
+    let mut start = coarse.x.clone();
+    start.resize(high.dimension(), 0.0);
+    let out = solve(&mut high, &start, omega, &NewtonOptions::default()).unwrap();
+    println!(
+        "H = 5 from H = 3: {} iterations, residual {:.1e}",
+        out.iterations, out.residual_norm
+    );
+    assert!(
+        out.converged && out.residual_norm <= 1e-10,
+        "{:?}",
+        out.reason
+    );
+}
