@@ -301,21 +301,27 @@ impl SparseMatrix {
     }
 }
 
-/// The number of nonzeros of the sparse Cholesky factor of `a` (fill-reducing ordering as
-/// [`SparseCholesky`]): the symbolic analysis only, which measures what factoring and
-/// solving with `a` cost (a bar's factor has about two values per DOF, a 3D solid's
-/// hundreds).
-pub fn cholesky_fill(a: &SparseMatrix) -> Result<usize> {
-    use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
-    let m = a.to_faer();
-    let symbolic = factorize_symbolic_cholesky(
-        m.symbolic(),
+/// The symbolic analysis (fill-reducing ordering, structure of `L`) of the sparse Cholesky
+/// factor of `m`, shared by [`cholesky_fill`] and [`SparseCholesky`].
+fn symbolic_cholesky(
+    m: faer::sparse::SymbolicSparseColMatRef<'_, usize>,
+    what: &str,
+) -> Result<faer::sparse::linalg::cholesky::SymbolicCholesky<usize>> {
+    faer::sparse::linalg::cholesky::factorize_symbolic_cholesky(
+        m,
         faer::Side::Lower,
         Default::default(),
         Default::default(),
     )
-    .map_err(|e| Error::Numerical(format!("sparse Cholesky analysis: {e:?}")))?;
-    Ok(symbolic.len_val())
+    .map_err(|e| Error::Numerical(format!("sparse Cholesky analysis of {what}: {e:?}")))
+}
+
+/// The number of nonzeros of the sparse Cholesky factor of `a` (the ordering of
+/// [`SparseCholesky`]): the symbolic analysis only, which measures what factoring and
+/// solving with `a` cost (a bar's factor has about two values per DOF, a 3D solid's
+/// hundreds).
+pub fn cholesky_fill(a: &SparseMatrix) -> Result<usize> {
+    Ok(symbolic_cholesky(a.faer_symbolic().as_ref(), "a stiffness matrix")?.len_val())
 }
 
 /// A sparse symmetric positive definite matrix factored once by faer's sparse Cholesky
@@ -334,16 +340,9 @@ impl SparseCholesky {
     /// positive definite.
     pub(crate) fn new(a: &SparseMatrix, what: &str) -> Result<Self> {
         use faer::dyn_stack::{MemBuffer, MemStack};
-        use faer::sparse::linalg::cholesky::factorize_symbolic_cholesky;
         let not_pd = || Error::Singular(format!("{what} is not positive definite"));
         let m = a.to_faer();
-        let symbolic = factorize_symbolic_cholesky(
-            m.symbolic(),
-            faer::Side::Lower,
-            Default::default(),
-            Default::default(),
-        )
-        .map_err(|e| Error::Numerical(format!("sparse Cholesky analysis of {what}: {e:?}")))?;
+        let symbolic = symbolic_cholesky(m.symbolic(), what)?;
         let mut values = vec![0.0; symbolic.len_val()];
         let par = faer::Par::Seq;
         let mut mem =

@@ -292,14 +292,15 @@ impl ReducedSystem {
             }
         };
         let stiffness: &SparseMatrix = &stiffness;
-        let modes = crate::modes::lowest_modes(mass, stiffness, modes)?;
-        let phi = &modes.shapes;
-        // Ψ = K_LL⁻¹ K_LN, then its part M̄-orthogonal to Φ
-        let llt = stiffness.to_faer().sp_cholesky(faer::Side::Lower).map_err(|_| {
+        // one factor of K_LL for the modes and for Ψ
+        let llt = crate::modes::stiffness_factor(stiffness).map_err(|_| {
             Error::Singular(
                 "the stiffness of the linear part with the contact DOFs held (K_LL) is not positive definite".into(),
             )
         })?;
+        let modes = crate::modes::lowest_modes_factored(mass, stiffness, Some(&llt), modes)?;
+        let phi = &modes.shapes;
+        // Ψ = K_LL⁻¹ K_LN, then its part M̄-orthogonal to Φ
         let mut psi = k_nl.to_dense().transpose().to_owned();
         llt.solve_in_place(psi.as_mut());
         // K-norm scale of Ψ (ΨᵀK_LLΨ = K_NL Ψ): what is left after removing the modes'
