@@ -193,11 +193,21 @@ fn the_modal_frequency_derivative_matches_finite_differences() {
 }
 
 fn solve(model: &mshbm::Model, receptance: ReceptanceChoice, f: f64) -> (Vec<f64>, f64) {
+    solve_with(model, receptance, f, 5)
+}
+
+/// [`solve`] with `harmonics`.
+fn solve_with(
+    model: &mshbm::Model,
+    receptance: ReceptanceChoice,
+    f: f64,
+    harmonics: usize,
+) -> (Vec<f64>, f64) {
     let mut p = RedistributedMsHbm::new(
         model,
         &RedistributedOptions {
             receptance,
-            ..RedistributedOptions::new(5)
+            ..RedistributedOptions::new(harmonics)
         },
     )
     .unwrap();
@@ -244,6 +254,32 @@ fn modal_solutions_converge_to_the_exact_ones() {
             previous = e;
         }
         assert!(previous < 1e-8, "{f} Hz, every mode: {previous:e}");
+    }
+}
+
+/// On a face of contacts the modal path solves with the static-plus-low-rank maps
+/// (docs/theory.md (T136): `R_k⁻¹` by the Woodbury identity, no dense inverse), the exact
+/// path with dense inverses of its receptance: with every mode the periodic solutions of the
+/// plate (20 contacts, H = 2) are equal, and the contacts do act (the solution is not the
+/// linear response).
+#[test]
+fn on_a_contact_face_every_mode_gives_the_exact_solution() {
+    let model = example_model(
+        "block_3d/model.toml",
+        &["solid.divisions=[4,4,4]", "interfaces.0.gap=0.0003"],
+    );
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
+    for f in [500.0, 1000.0] {
+        let (exact, scale) = solve_with(&model, ReceptanceChoice::Exact, f, 2);
+        let (modal, _) = solve_with(&model, ReceptanceChoice::Modal { modes: massive }, f, 2);
+        let e = common::max_abs(exact.iter().zip(&modal).map(|(a, b)| a - b)) / scale;
+        let mut linear = RedistributedMsHbm::new(&model, &RedistributedOptions::new(2)).unwrap();
+        let free = linear.initial_guess(hz(f)).unwrap();
+        let contact = common::max_abs(exact.iter().zip(&free).map(|(a, b)| a - b)) / scale;
+        println!("{f} Hz: modal (all {massive} modes) vs exact {e:.1e}; contact changes v by {contact:.2}");
+        assert!(contact > 0.05, "{f} Hz: the contacts barely act ({contact:e})");
+        assert!(e < 3e-8, "{f} Hz: {e:e}");
     }
 }
 

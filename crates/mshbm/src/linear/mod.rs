@@ -29,7 +29,9 @@ pub use condensation::{Condensation, CondensedFrequency, ExactCondensation, Line
 pub use dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
 pub use modal_receptance::ModalReceptance;
 pub use partitioned::{PartLoad, PartitionedSystem};
-pub use receptance::{ContactCoordinates, ExactReceptance, Receptance, ReceptanceAtFrequency};
+pub use receptance::{
+    ContactCoordinates, ExactReceptance, Receptance, ReceptanceAtFrequency, StaticPlusLowRank,
+};
 
 /// The complex zero.
 pub(crate) const ZERO: c64 = c64::new(0.0, 0.0);

@@ -26,10 +26,12 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::Llt;
 use std::sync::Arc;
 
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatRef};
 
 use super::partitioned::PartLoad;
-use super::receptance::{ContactCoordinates, Receptance, ReceptanceAtFrequency};
+use super::receptance::{
+    ContactCoordinates, Receptance, ReceptanceAtFrequency, StaticPlusLowRank,
+};
 use super::ZERO;
 use crate::error::{Error, Result};
 use crate::model::System;
@@ -40,7 +42,8 @@ pub struct ModalReceptance {
     basis: Arc<ModalBasis>,
 }
 
-/// What [`ModalReceptance`] computes once and shares with every frequency.
+/// What [`ModalReceptance`] computes once and shares with every frequency. Everything is
+/// real: the modes, `W` and `K` are.
 struct ModalBasis {
     contacts: ContactCoordinates,
     load: PartLoad,
@@ -50,13 +53,31 @@ struct ModalBasis {
     /// `ω_j²` (rad²/s²), ascending.
     eigenvalues: Vec<f64>,
     /// `Φ` (`n × m`).
-    shapes: Mat<c64>,
+    shapes: Mat<f64>,
     /// `B = Wᵀ Φ` (`n_c × m`).
-    contact_shapes: Mat<c64>,
+    contact_shapes: Mat<f64>,
     /// `Φᵀ C Φ` (`m × m`).
-    modal_damping: Mat<c64>,
+    modal_damping: Mat<f64>,
     /// `Wᵀ K⁻¹ W` (`n_c × n_c`).
-    static_receptance: Mat<c64>,
+    static_receptance: Mat<f64>,
+    /// Per loaded harmonic `k ≤ 1`: `Wᵀ K⁻¹ f_k` and `Φᵀ f_k` (the loads are real and do
+    /// not depend on the frequency).
+    static_load: [Option<StaticLoad>; 2],
+}
+
+/// The frequency-independent parts of the response to one harmonic of the load.
+struct StaticLoad {
+    /// `Wᵀ K⁻¹ f_k` (`n_c`).
+    contacts: Vec<f64>,
+    /// `Φᵀ f_k` (`m`).
+    modal: Mat<f64>,
+}
+
+/// `A M` for a real `A` and a complex `M` (two real products).
+fn real_times_complex(a: MatRef<'_, f64>, m: &Mat<c64>) -> Mat<c64> {
+    let re = a * Mat::<f64>::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].re);
+    let im = a * Mat::<f64>::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].im);
+    Mat::from_fn(re.nrows(), re.ncols(), |i, j| c64::new(re[(i, j)], im[(i, j)]))
 }
 
 impl ModalReceptance {
@@ -114,7 +135,7 @@ impl ModalReceptance {
         let nc = contacts.len();
         // Wᵀ K⁻¹ W, from K⁻¹ W formed 64 contacts at a time (the whole n × n_c block is a
         // gigabyte on a 10⁵-DOF solid with 10³ contacts)
-        let mut static_receptance = Mat::<c64>::zeros(nc, nc);
+        let mut static_receptance = Mat::<f64>::zeros(nc, nc);
         let mut start = 0;
         while start < nc {
             let width = 64.min(nc - start);
@@ -125,40 +146,46 @@ impl ModalReceptance {
             stiffness.solve_in_place(kw.as_mut());
             for i in 0..nc {
                 for c in 0..width {
-                    let g = contacts.w[i]
+                    static_receptance[(i, start + c)] = contacts.w[i]
                         .iter()
                         .map(|&(d, v)| v * kw[(d, c)])
                         .sum::<f64>();
-                    static_receptance[(i, start + c)] = c64::new(g, 0.0);
                 }
             }
             start += width;
         }
-        let phi = &modes.shapes;
-        let damping_phi = system.damping.to_faer() * phi;
-        let modal_damping = phi.transpose() * &damping_phi;
-        let complex = |a: &Mat<f64>| {
-            Mat::<c64>::from_fn(a.nrows(), a.ncols(), |i, j| c64::new(a[(i, j)], 0.0))
-        };
-        let contact_shapes = Mat::<c64>::from_fn(nc, m, |c, j| {
-            let g = contacts.w[c]
+        let phi = modes.shapes;
+        let modal_damping = phi.transpose() * (system.damping.to_faer() * &phi);
+        let contact_shapes = Mat::<f64>::from_fn(nc, m, |c, j| {
+            contacts.w[c]
                 .iter()
                 .map(|&(d, v)| v * phi[(d, j)])
-                .sum::<f64>();
-            c64::new(g, 0.0)
+                .sum::<f64>()
         });
         let all: Vec<usize> = (0..n).collect();
+        let load = PartLoad::restrict(system, &all);
+        let static_load = [0, 1].map(|k| {
+            let f = load.real(k).filter(|f| f.iter().any(|&x| x != 0.0))?;
+            let mut x = Mat::<f64>::from_fn(n, 1, |i, _| f[i]);
+            stiffness.solve_in_place(x.as_mut());
+            let contacts = (0..nc)
+                .map(|c| contacts.w[c].iter().map(|&(d, v)| v * x[(d, 0)]).sum())
+                .collect();
+            let modal = phi.transpose() * faer::ColRef::from_slice(f).as_mat();
+            Some(StaticLoad { contacts, modal })
+        });
         Ok(ModalReceptance {
             basis: Arc::new(ModalBasis {
-                load: PartLoad::restrict(system, &all),
+                load,
                 contacts,
                 stiffness,
                 n_dofs: n,
                 eigenvalues: modes.eigenvalues,
-                shapes: complex(phi),
+                shapes: phi,
                 contact_shapes,
-                modal_damping: complex(&modal_damping),
+                modal_damping,
                 static_receptance,
+                static_load,
             }),
         })
     }
@@ -184,9 +211,10 @@ impl ModalBasis {
             .collect()
     }
 
-    /// `Φᵀ r`.
-    fn project(&self, r: &[c64]) -> Mat<c64> {
-        self.shapes.transpose() * faer::ColRef::from_slice(r).as_mat()
+    /// `Bᵀ λ` for complex contact forces `λ` (`m × 1`).
+    fn project_forces(&self, force: &[c64]) -> Mat<c64> {
+        let f = Mat::<c64>::from_fn(force.len(), 1, |i, _| force[i]);
+        real_times_complex(self.contact_shapes.transpose(), &f)
     }
 }
 
@@ -200,7 +228,7 @@ impl Receptance for ModalReceptance {
     }
 
     fn at(&self, omega: f64, harmonics: usize) -> Result<Box<dyn ReceptanceAtFrequency>> {
-        let (m, nc) = (self.n_modes(), self.n_contacts());
+        let m = self.n_modes();
         let b = &*self.basis;
         let mut harmonic = Vec::with_capacity(harmonics + 1);
         for k in 0..=harmonics {
@@ -212,7 +240,7 @@ impl Receptance for ModalReceptance {
                 } else {
                     0.0
                 };
-                c64::new(diagonal, 0.0) + c64::new(0.0, big_omega) * b.modal_damping[(i, j)]
+                c64::new(diagonal, big_omega * b.modal_damping[(i, j)])
             });
             let y = a.partial_piv_lu().solve(Mat::<c64>::identity(m, m));
             if y.col_iter()
@@ -225,24 +253,24 @@ impl Receptance for ModalReceptance {
             }
             let mut x = y.clone();
             (0..m).for_each(|j| x[(j, j)] -= c64::new(1.0 / b.eigenvalues[j], 0.0));
-            let bx = &b.contact_shapes * &x;
-            let receptance = &b.static_receptance + &bx * b.contact_shapes.transpose();
-            let load = b.load.complex(k);
-            let (load_response, modal_load) = match &load {
-                Some(f) => {
-                    let p = b.project(f);
-                    let s = b.contacts.gather(&b.static_solve(f));
-                    let correction = &bx * &p;
-                    let lr = (0..nc).map(|c| s[c] + correction[(c, 0)]).collect();
-                    (lr, Some(p))
+            // Wᵀ A_k⁻¹ f_k = Wᵀ K⁻¹ f_k + B X_k Φᵀ f_k
+            let load_response = match b.static_load.get(k).and_then(Option::as_ref) {
+                Some(s) => {
+                    let correction = real_times_complex(
+                        b.contact_shapes.as_ref(),
+                        &(&x * Mat::<c64>::from_fn(m, 1, |j, _| c64::new(s.modal[(j, 0)], 0.0))),
+                    );
+                    s.contacts
+                        .iter()
+                        .enumerate()
+                        .map(|(c, &v)| c64::new(v, 0.0) + correction[(c, 0)])
+                        .collect()
                 }
-                None => (vec![ZERO; nc], None),
+                None => vec![ZERO; self.n_contacts()],
             };
             harmonic.push(ModalHarmonic {
-                receptance: (0..nc * nc).map(|e| receptance[(e / nc, e % nc)]).collect(),
+                receptance: std::sync::OnceLock::new(),
                 load_response,
-                modal_load,
-                load,
                 dynamic_compliance: y,
                 correction: x,
             });
@@ -253,16 +281,21 @@ impl Receptance for ModalReceptance {
             basis: Arc::clone(&self.basis),
         }))
     }
+
+    fn static_plus_low_rank(&self) -> Option<StaticPlusLowRank<'_>> {
+        Some(StaticPlusLowRank {
+            static_receptance: self.basis.static_receptance.as_ref(),
+            contact_shapes: self.basis.contact_shapes.as_ref(),
+        })
+    }
 }
 
 /// One harmonic of [`ModalReceptance`] at one frequency.
-#[derive(Clone)]
 struct ModalHarmonic {
-    receptance: Vec<c64>,
+    /// `R_k = Wᵀ K⁻¹ W + B X_k Bᵀ` (row-major), formed on first use: the redistributed
+    /// MS-HBM works with the parts instead (docs/theory.md (T136)).
+    receptance: std::sync::OnceLock<Vec<c64>>,
     load_response: Vec<c64>,
-    /// `Φᵀ f_k` and `f_k` (if harmonic `k` is loaded).
-    modal_load: Option<Mat<c64>>,
-    load: Option<Vec<c64>>,
     /// `Y_k` and `X_k = Y_k − diag(1/ω_j²)`.
     dynamic_compliance: Mat<c64>,
     correction: Mat<c64>,
@@ -276,26 +309,14 @@ struct ModalReceptanceAt {
 }
 
 impl ModalReceptanceAt {
-    /// `r = f_k + W λ̂_k` (`with_load`) or `W λ̂_k`, and its modal projection `Φᵀ r`.
-    fn load_and_projection(
-        &self,
-        k: usize,
-        force: &[c64],
-        with_load: bool,
-    ) -> (Vec<c64>, Mat<c64>) {
+    /// `Φᵀ r` for `r = f_k + W λ̂_k` (`with_load`) or `r = W λ̂_k`: `Bᵀ λ̂_k (+ Φᵀ f_k)`.
+    fn projection(&self, k: usize, force: &[c64], with_load: bool) -> Mat<c64> {
         let b = &*self.basis;
-        let h = &self.harmonic[k];
-        let mut r = match (&h.load, with_load) {
-            (Some(f), true) => f.clone(),
-            _ => vec![ZERO; b.n_dofs],
-        };
-        b.contacts.scatter_add(force, &mut r);
-        // Φᵀ W λ̂ = Bᵀ λ̂
-        let mut z = b.contact_shapes.transpose() * faer::ColRef::from_slice(force).as_mat();
-        if let (Some(p), true) = (&h.modal_load, with_load) {
-            z += p;
+        let mut z = b.project_forces(force);
+        if let (Some(s), true) = (b.static_load.get(k).and_then(Option::as_ref), with_load) {
+            (0..z.nrows()).for_each(|j| z[(j, 0)] += c64::new(s.modal[(j, 0)], 0.0));
         }
-        (r, z)
+        z
     }
 }
 
@@ -309,19 +330,42 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
     }
 
     fn receptance(&self, k: usize) -> &[c64] {
-        &self.harmonic[k].receptance
+        let h = &self.harmonic[k];
+        h.receptance.get_or_init(|| {
+            let b = &*self.basis;
+            let nc = b.contacts.len();
+            let bx = real_times_complex(b.contact_shapes.as_ref(), &h.correction);
+            let (re, im) = (
+                Mat::<f64>::from_fn(nc, bx.ncols(), |i, j| bx[(i, j)].re),
+                Mat::<f64>::from_fn(nc, bx.ncols(), |i, j| bx[(i, j)].im),
+            );
+            let re = &b.static_receptance + &re * b.contact_shapes.transpose();
+            let im = &im * b.contact_shapes.transpose();
+            (0..nc * nc)
+                .map(|e| c64::new(re[(e / nc, e % nc)], im[(e / nc, e % nc)]))
+                .collect()
+        })
     }
 
     fn load_response(&self, k: usize) -> &[c64] {
         &self.harmonic[k].load_response
     }
 
+    fn modal_correction(&self, k: usize) -> Option<&Mat<c64>> {
+        Some(&self.harmonic[k].correction)
+    }
+
     /// `q̂_k ≈ K⁻¹ r + Φ X_k Φᵀ r` with `r = f_k + W λ̂_k` (T130).
     fn response(&self, k: usize, force: &[c64]) -> Result<Vec<c64>> {
         let b = &*self.basis;
-        let (r, z) = self.load_and_projection(k, force, true);
+        let mut r = match b.load.complex(k) {
+            Some(f) => f,
+            None => vec![ZERO; b.n_dofs],
+        };
+        b.contacts.scatter_add(force, &mut r);
+        let z = self.projection(k, force, true);
         let mut q = b.static_solve(&r);
-        let modal = &b.shapes * (&self.harmonic[k].correction * &z);
+        let modal = real_times_complex(b.shapes.as_ref(), &(&self.harmonic[k].correction * &z));
         q.iter_mut()
             .enumerate()
             .for_each(|(i, v)| *v += modal[(i, 0)]);
@@ -329,7 +373,7 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
     }
 
     /// `∂(Wᵀ q̂_k)/∂ω = B ∂Y_k/∂ω Φᵀ r`, `∂Y_k/∂ω = −Y_k (−2k²ω I + i k Φᵀ C Φ) Y_k`: the
-    /// derivative of the modal receptance itself (T131), so that Newton's Jacobian is that
+    /// derivative of the modal receptance itself (T132), so that Newton's Jacobian is that
     /// of the residual it solves.
     fn frequency_derivative(&self, k: usize, force: &[c64], with_load: bool) -> Result<Vec<c64>> {
         let b = &*self.basis;
@@ -337,14 +381,15 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
         if k == 0 {
             return Ok(vec![ZERO; nc]);
         }
-        let (_, z) = self.load_and_projection(k, force, with_load);
+        let z = self.projection(k, force, with_load);
         let y = &self.harmonic[k].dynamic_compliance;
         let kf = k as f64;
         let m = b.modal_damping.nrows();
-        let mut da = Mat::<c64>::from_fn(m, m, |i, j| c64::new(0.0, kf) * b.modal_damping[(i, j)]);
+        let mut da =
+            Mat::<c64>::from_fn(m, m, |i, j| c64::new(0.0, kf * b.modal_damping[(i, j)]));
         (0..m).for_each(|j| da[(j, j)] -= c64::new(2.0 * kf * kf * self.omega, 0.0));
         let dy_z = y * (&da * (y * &z));
-        let out = &b.contact_shapes * &dy_z;
+        let out = real_times_complex(b.contact_shapes.as_ref(), &dy_z);
         Ok((0..nc).map(|c| -out[(c, 0)]).collect())
     }
 }

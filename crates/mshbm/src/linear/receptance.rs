@@ -18,7 +18,7 @@
 //! implements it with a sparse LU of the whole `A_k` per harmonic and `n_c` solves per
 //! harmonic and frequency.
 
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatRef};
 
 use super::dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
 use super::partitioned::PartLoad;
@@ -78,6 +78,20 @@ pub trait Receptance: Send + Sync {
 
     /// The receptance at `ω` (rad/s) for the harmonics `k = 0..=harmonics`.
     fn at(&self, omega: f64, harmonics: usize) -> Result<Box<dyn ReceptanceAtFrequency>>;
+
+    /// The frequency-independent parts of a receptance of the form
+    /// `R_k = R_s + B X_k Bᵀ` (docs/theory.md (T130)), if it has that form; then
+    /// [`ReceptanceAtFrequency::modal_correction`] gives `X_k`.
+    fn static_plus_low_rank(&self) -> Option<StaticPlusLowRank<'_>> {
+        None
+    }
+}
+
+/// `R_s` (`n_c × n_c`, symmetric positive definite) and `B` (`n_c × m`, real) of a
+/// receptance `R_k = R_s + B X_k Bᵀ` (docs/theory.md (T130)).
+pub struct StaticPlusLowRank<'a> {
+    pub static_receptance: MatRef<'a, f64>,
+    pub contact_shapes: MatRef<'a, f64>,
 }
 
 /// The receptance at one frequency `ω` for the harmonics `k = 0..=H` (module docs). Complex
@@ -91,6 +105,12 @@ pub trait ReceptanceAtFrequency: Send + Sync {
 
     /// `R_k = Wᵀ A_k⁻¹ W` (`n_c × n_c`, row-major).
     fn receptance(&self, k: usize) -> &[c64];
+
+    /// `X_k` (`m × m`) of a receptance `R_k = R_s + B X_k Bᵀ`
+    /// ([`Receptance::static_plus_low_rank`]); `None` for other receptances.
+    fn modal_correction(&self, _k: usize) -> Option<&Mat<c64>> {
+        None
+    }
 
     /// `Wᵀ A_k⁻¹ f_k`, the contact coordinates of the response to the load alone (`n_c`).
     fn load_response(&self, k: usize) -> &[c64];

@@ -14,34 +14,10 @@ use std::rc::Rc;
 
 use faer::{c64, Mat};
 
+use super::frequency_maps::{FrequencyMatrices, Map};
 use super::quadrature::Integration;
 use crate::harmonic::n_coefficients;
-use crate::linear::{complex_harmonic, store_harmonic};
 use crate::problem::JacobianOperator;
-
-/// The matrices of the residual (T128) at one frequency, per harmonic `k = 0..=H`
-/// (`n_c × n_c` complex).
-pub(super) struct FrequencyMatrices {
-    /// `R_k⁻¹`.
-    pub inverse: Vec<Mat<c64>>,
-    /// `D R_k⁻¹`.
-    pub scaled_inverse: Vec<Mat<c64>>,
-    /// `Λ R_k⁻¹`.
-    pub residual_inverse: Vec<Mat<c64>>,
-}
-
-/// `out_k = M_k z_k` per harmonic for complex `n_c × n_c` matrices `M_k` and harmonic-major
-/// real coefficients `z` (the real form (T15)).
-pub(super) fn per_harmonic(n: usize, matrices: &[Mat<c64>], z: &[f64]) -> Vec<f64> {
-    let mut out = vec![0.0; z.len()];
-    for (k, m) in matrices.iter().enumerate() {
-        let zk = complex_harmonic(z, n, k);
-        let product = m * faer::ColRef::from_slice(&zk);
-        let v: Vec<c64> = product.iter().copied().collect();
-        store_harmonic(&v, n, k, &mut out);
-    }
-    out
-}
 
 /// `M z` per coefficient for a real `n_c × n_c` matrix `M` (row-major): one product
 /// `M Z` with `Z` the `n_c × (2H+1)` matrix of the coefficients.
@@ -109,16 +85,14 @@ pub(super) fn dense_jacobian(
         )
     };
     // the columns (cos, sin) of each harmonic: (coefficient, (Re, Im) of C_k)
-    let complement: Vec<(Mat<f64>, Mat<f64>)> = f
-        .scaled_inverse
-        .iter()
-        .map(|p| {
-            let (re, im) = real_form(p);
+    let complement: Vec<(Mat<f64>, Mat<f64>)> = (0..=harmonics)
+        .map(|k| {
+            let (re, im) = real_form(&f.matrix(Map::Scaled, k));
             (Mat::<f64>::identity(n, n) - re, -im)
         })
         .collect();
-    for (k, p) in f.residual_inverse.iter().enumerate() {
-        let (re, im) = real_form(p);
+    for k in 0..=harmonics {
+        let (re, im) = real_form(&f.matrix(Map::Residual, k));
         if k == 0 {
             jac.as_mut().submatrix_mut(0, 0, n, n).copy_from(&re);
         } else {
@@ -326,8 +300,8 @@ impl JacobianOperator for ContactJacobian {
 
     fn apply(&self, x: &[f64], out: &mut [f64]) {
         let n = self.n;
-        let direct = per_harmonic(n, &self.matrices.residual_inverse, x);
-        let d_x = per_harmonic(n, &self.matrices.scaled_inverse, x);
+        let direct = self.matrices.apply(Map::Residual, n, x);
+        let d_x = self.matrices.apply(Map::Scaled, n, x);
         let complement: Vec<f64> = x.iter().zip(&d_x).map(|(a, b)| a - b).collect();
         let forces = assemble_forces(n, self.harmonics, &self.integration, &complement);
         let scaled = times_each_coefficient(n, &self.residual_scale, &forces);

@@ -25,13 +25,13 @@
 //! semi-analytical Jacobian (eqs. 32–44 in these coordinates, docs/theory.md (T129)) is
 //! `J = blockdiag(D R_k⁻¹) − (I ⊗ D) Σ_A (Γ_A ⊗ F_A) blockdiag(I − D R_k⁻¹)`.
 
+mod frequency_maps;
 mod jacobian;
 pub mod quadrature;
 
 use std::rc::Rc;
 
-use faer::linalg::solvers::Solve;
-use faer::{c64, Mat};
+use faer::Mat;
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
 use super::{check_dimension, fixed_response, n_dof_coefficients};
@@ -50,9 +50,9 @@ use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
+use frequency_maps::{FrequencyMatrices, Map, StaticMaps};
 use jacobian::{
-    assemble_forces, dense_jacobian, per_harmonic, times_each_coefficient, ContactJacobian,
-    FrequencyMatrices, PreconditionerSlot,
+    assemble_forces, dense_jacobian, times_each_coefficient, ContactJacobian, PreconditionerSlot,
 };
 use quadrature::{integrate, signal_at, Integration};
 
@@ -214,6 +214,9 @@ pub struct RedistributedMsHbm {
     quadrature: Quadrature,
     /// The receptance of the structure at its contacts (docs/theory.md (T125)).
     receptance: Box<dyn Receptance>,
+    /// The frequency-independent parts of `P R_k⁻¹` when the receptance is static plus
+    /// low rank (docs/theory.md (T136)); `None`: the maps are formed densely per frequency.
+    static_maps: Option<Rc<StaticMaps>>,
     /// `L | N` partition and length scale.
     partition: Partition,
     contact: StaticContact,
@@ -322,7 +325,11 @@ impl RedistributedMsHbm {
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         let receptance = options.receptance.build(&system, observer)?;
+        let static_maps = receptance.static_plus_low_rank().and_then(|parts| {
+            StaticMaps::new(&parts, contact.delassus(), &residual_scale).map(Rc::new)
+        });
         Ok(RedistributedMsHbm {
+            static_maps,
             partition,
             harmonics: h,
             sampling: Sampling::within(h, samples, limits)?,
@@ -371,45 +378,24 @@ impl RedistributedMsHbm {
         }
         super::check_frequency(omega)?;
         let receptance = self.receptance.at(omega, self.harmonics)?;
-        let n = self.n();
-        let d = self.delassus_matrix();
-        let identity = Mat::<c64>::identity(n, n);
-        let mut inverse = Vec::with_capacity(self.harmonics + 1);
-        let mut scaled_inverse = Vec::with_capacity(self.harmonics + 1);
-        let mut residual_inverse = Vec::with_capacity(self.harmonics + 1);
-        let scale = Mat::<c64>::from_fn(n, n, |i, j| c64::new(self.residual_scale[i * n + j], 0.0));
-        for k in 0..=self.harmonics {
-            let r = faer::MatRef::from_row_major_slice(receptance.receptance(k), n, n);
-            let r_inv = r.partial_piv_lu().solve(&identity);
-            if r_inv
-                .col_iter()
-                .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
-            {
-                return Err(Error::Singular(format!(
-                    "the receptance of the structure at its contacts is singular at harmonic {k} ({:.6} Hz)",
-                    k as f64 * omega / (2.0 * std::f64::consts::PI)
-                )));
-            }
-            scaled_inverse.push(&d * &r_inv);
-            residual_inverse.push(&scale * &r_inv);
-            inverse.push(r_inv);
-        }
+        let low_rank = match &self.static_maps {
+            Some(parts) => FrequencyMatrices::static_plus_low_rank(receptance.as_ref(), parts)?,
+            None => None,
+        };
+        let matrices = match low_rank {
+            Some(m) => m,
+            None => FrequencyMatrices::dense(
+                receptance.as_ref(),
+                self.contact.delassus(),
+                &self.residual_scale,
+                self.n(),
+            )?,
+        };
         self.frequency = Some(Frequency {
             receptance,
-            matrices: Rc::new(FrequencyMatrices {
-                inverse,
-                scaled_inverse,
-                residual_inverse,
-            }),
+            matrices: Rc::new(matrices),
         });
         Ok(())
-    }
-
-    /// `D` as a complex matrix.
-    fn delassus_matrix(&self) -> Mat<c64> {
-        let n = self.n();
-        let d = self.contact.delassus();
-        Mat::<c64>::from_fn(n, n, |i, j| c64::new(d[i * n + j], 0.0))
     }
 
     /// The receptance at the prepared frequency.
@@ -438,8 +424,8 @@ impl RedistributedMsHbm {
     fn force_and_free_gap(&self, v: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let by_forces = self.displacement_by_forces(v);
         let f = self.prepared();
-        let phi = per_harmonic(self.n(), &f.matrices.inverse, &by_forces);
-        let d_phi = per_harmonic(self.n(), &f.matrices.scaled_inverse, &by_forces);
+        let phi = f.matrices.apply(Map::Inverse, self.n(), &by_forces);
+        let d_phi = f.matrices.apply(Map::Scaled, self.n(), &by_forces);
         let mut u: Vec<f64> = v.iter().zip(&d_phi).map(|(a, b)| a - b).collect();
         u.iter_mut()
             .zip(self.contact.initial_gap())
@@ -477,7 +463,7 @@ impl RedistributedMsHbm {
                 .frequency_derivative(k, &complex_harmonic(&phi, n, k), true)?;
             store_harmonic(&dg, n, k, &mut derivative);
         }
-        let psi = per_harmonic(n, &f.matrices.inverse, &derivative);
+        let psi = f.matrices.apply(Map::Inverse, n, &derivative);
         let d_psi = self.delassus_times(&psi);
         let s_d_psi = assemble_forces(n, self.harmonics, integration, &d_psi);
         let both: Vec<f64> = psi.iter().zip(&s_d_psi).map(|(a, b)| a + b).collect();
