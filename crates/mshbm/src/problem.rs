@@ -5,7 +5,7 @@
 use faer::Mat;
 
 use crate::error::Result;
-use crate::solution::PeriodicSolution;
+use crate::solution::{DiagramPoint, PeriodicSolution};
 use crate::stability::Floquet;
 
 /// Residual, Jacobian and frequency derivative at one point.
@@ -196,6 +196,14 @@ pub trait PeriodicProblem {
     /// and of the model DOF `response_dof`. Newton statistics are left at their defaults.
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution>;
 
+    /// What a frequency response diagram keeps of the solution `x` at `ω`. By default taken
+    /// from [`PeriodicProblem::solution`]; a method whose whole solution costs much more than
+    /// the response of one DOF (the extremes of every contact of a large interface) gives
+    /// it directly, equal to the whole solution's.
+    fn diagram_point(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<DiagramPoint> {
+        Ok(DiagramPoint::of(&self.solution(x, omega, response_dof)?))
+    }
+
     /// What the residual lets the continuation assume ([`ContinuationPolicy`]).
     fn continuation_policy(&self) -> ContinuationPolicy;
 
@@ -230,6 +238,9 @@ impl PeriodicProblem for StartingAt<'_> {
     }
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
         self.problem.solution(x, omega, response_dof)
+    }
+    fn diagram_point(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<DiagramPoint> {
+        self.problem.diagram_point(x, omega, response_dof)
     }
     fn continuation_policy(&self) -> ContinuationPolicy {
         self.problem.continuation_policy()

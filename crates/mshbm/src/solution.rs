@@ -84,6 +84,37 @@ pub struct DofResponse {
     pub min: f64,
 }
 
+/// What a frequency response diagram keeps of a periodic solution
+/// ([`crate::problem::PeriodicProblem::diagram_point`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiagramPoint {
+    pub frequency_hz: f64,
+    /// The response DOF's harmonics and extremes.
+    pub response: DofResponse,
+    /// As [`PeriodicSolution::residual_norm`].
+    pub residual_norm: f64,
+    /// HBM-AFT (penalty contact): the largest penetration `max(−g)` over the contacts and
+    /// the time samples.
+    pub max_penetration: Option<f64>,
+}
+
+impl DiagramPoint {
+    /// The point of a whole solution.
+    pub fn of(s: &PeriodicSolution) -> Self {
+        DiagramPoint {
+            frequency_hz: s.frequency_hz,
+            response: s.response.clone(),
+            residual_norm: s.residual_norm,
+            max_penetration: (s.method == MethodKind::HbmAft).then(|| {
+                s.contacts
+                    .iter()
+                    .flat_map(|c| c.gap.iter())
+                    .fold(f64::NEG_INFINITY, |m, g| m.max(-g))
+            }),
+        }
+    }
+}
+
 /// One periodic solution.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct PeriodicSolution {

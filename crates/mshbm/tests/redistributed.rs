@@ -408,3 +408,31 @@ fn the_refined_block_converges_at_h5_from_its_h3_solution() {
         out.reason
     );
 }
+
+/// A diagram's point (`PeriodicProblem::diagram_point`, which leaves out the contacts'
+/// series and their extremes) is the whole solution's: the same response, extremes and
+/// residual, for a contact-node DOF and for a DOF of the structure, on a plate whose face
+/// has 20 contacts.
+#[test]
+fn a_diagram_point_is_that_of_the_whole_solution() {
+    use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+    use mshbm::solution::DiagramPoint;
+    let model = common::example_model(
+        "block_3d/model.toml",
+        &["solid.divisions=[4,4,4]", "interfaces.0.gap=0.0003"],
+    );
+    let mut p = RedistributedMsHbm::new(&model, &RedistributedOptions::new(2)).unwrap();
+    let omega = common::hz(1000.0);
+    let x0 = p.initial_guess(omega).unwrap();
+    let out = mshbm::newton::solve(&mut p, &x0, omega, &Default::default()).unwrap();
+    assert!(out.converged);
+    let contact_dof = model.contacts[0].dofs[0];
+    let structure_dof = model.stiffness.nrows() - 1;
+    for dof in [contact_dof, structure_dof] {
+        let whole = p.solution(&out.x, omega, dof).unwrap();
+        let point = p.diagram_point(&out.x, omega, dof).unwrap();
+        assert!(!whole.contacts.is_empty());
+        assert_eq!(point, DiagramPoint::of(&whole), "DOF {dof}");
+        assert!(whole.response.max > whole.response.min, "DOF {dof} moves");
+    }
+}

@@ -101,7 +101,8 @@ const CSV_HEADER: &str =
 const CSV_METHOD_COLUMNS: &str = ",method,penalty,max_penetration";
 
 /// What `mshbm frf` does with a diagram as it is found: rows streamed to the CSV, a
-/// progress bar on a terminal, one summary line per branch on stderr.
+/// progress bar on a terminal (elsewhere a line every ten seconds), one summary line per
+/// branch on stderr.
 struct FrfOutput {
     from_hz: f64,
     to_hz: f64,
@@ -115,7 +116,13 @@ struct FrfOutput {
     method_columns: bool,
     /// One summary line per branch on stderr (not with --json).
     summaries: bool,
+    /// When stderr is not a terminal (a log file, a batch job): when the last progress line
+    /// was printed.
+    last_line: Option<std::time::Instant>,
 }
+
+/// How often `mshbm frf` prints a progress line where it cannot draw a bar.
+const PROGRESS_LINE_EVERY: std::time::Duration = std::time::Duration::from_secs(10);
 
 impl FrdObserver for FrfOutput {
     fn point(
@@ -156,6 +163,19 @@ impl FrdObserver for FrfOutput {
             );
             bar.set_prefix(branch.label.clone());
             self.bar = Some(bar);
+        }
+        if self.bar.is_none() && self.summaries {
+            let now = std::time::Instant::now();
+            let last = *self.last_line.get_or_insert(now);
+            if now - last >= PROGRESS_LINE_EVERY {
+                self.last_line = Some(now);
+                crate::note!(
+                    "{}: point {points} at {:.2} Hz (toward {:.2} Hz), step {step:.1e}",
+                    branch.label,
+                    point.frequency_hz,
+                    self.to_hz
+                );
+            }
         }
         if let Some(bar) = &self.bar {
             let done =
@@ -398,6 +418,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         interrupted: None,
         method_columns,
         summaries: !args.json,
+        last_line: None,
     };
     let traced = trace_diagram(&model, &methods, &args.harmonics, &settings, &mut output);
     if let Some(bar) = output.bar.take() {

@@ -10,7 +10,7 @@ use crate::method::settings::MethodSettings;
 use crate::model::Model;
 use crate::newton::NewtonOptions;
 use crate::problem::{PeriodicProblem, StartingAt};
-use crate::solution::{MethodKind, PeriodicSolution};
+use crate::solution::{DiagramPoint, MethodKind};
 use crate::solve::start_by_continuation;
 use crate::stability::{crossings, Floquet};
 
@@ -153,7 +153,7 @@ pub fn trace_frd_branch(
             Event::Fold(f) => (&f.x, f.omega, 0, 0.0, 0.0),
         };
         let fold = matches!(event, Event::Fold(_));
-        let s = p.solution(x, omega, dof)?;
+        let s = p.diagram_point(x, omega, dof)?;
         let floquet = if settings.stability {
             p.floquet(x, omega)?
         } else {
@@ -179,7 +179,7 @@ pub fn trace_frd_branch(
             fold,
             stable: floquet.as_ref().map(|f| f.stable),
             max_multiplier: floquet.as_ref().map(|f| f.max_multiplier),
-            max_penetration: (s.method == MethodKind::HbmAft).then(|| max_penetration(&s)),
+            max_penetration: s.max_penetration,
         };
         observer.point(&info, &point, points.len() + 1, step)?;
         if let Event::Fold(f) = &event {
@@ -227,7 +227,7 @@ fn stability_changes(
     hz_before: f64,
     now: &Floquet,
     hz: f64,
-    solution: &PeriodicSolution,
+    solution: &DiagramPoint,
 ) -> Vec<BifurcationReport> {
     crossings(before, now)
         .into_iter()
@@ -246,10 +246,3 @@ fn stability_changes(
         .collect()
 }
 
-/// The largest penetration `max(−g)` over the contacts and the time samples of `s`.
-fn max_penetration(s: &PeriodicSolution) -> f64 {
-    s.contacts
-        .iter()
-        .flat_map(|c| c.gap.iter())
-        .fold(f64::NEG_INFINITY, |m, g| m.max(-g))
-}

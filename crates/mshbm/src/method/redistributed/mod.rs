@@ -47,7 +47,7 @@ use crate::linear::{ExactReceptance, ModalReceptance, Receptance, ReceptanceAtFr
 use crate::method::{default_samples, SetupObserver};
 use crate::model::{MassKind, Model, System};
 use crate::problem::{Jacobian, Linearization, PeriodicProblem};
-use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::solution::{ContactSeries, DiagramPoint, DofResponse, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
 use frequency_maps::{FrequencyMatrices, Map, StaticMaps};
@@ -575,64 +575,16 @@ impl RedistributedMsHbm {
     }
 }
 
-impl PeriodicProblem for RedistributedMsHbm {
-    /// Exact Jacobian of a residual that is smooth between grazing events (docs/theory.md
-    /// (T41)–(T42), (T129)):
-    /// Newton contracts quadratically; the branch has isolated corners at grazing contacts.
-    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
-        crate::problem::ContinuationPolicy {
-            newton_contraction: crate::problem::NewtonContraction::Quadratic,
-            where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
-        }
-    }
-
-    fn dimension(&self) -> usize {
-        self.n() * n_coefficients(self.harmonics)
-    }
-
-    fn length_scale(&self) -> f64 {
-        self.partition.length_scale()
-    }
-
-    fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
-        self.linear_response(omega)
-    }
-
-    fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
-        Ok(self.evaluate(x, omega)?.0)
-    }
-
-    fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
-        let (residual, integration, _) = self.evaluate(x, omega)?;
-        let d_omega = self.frequency_derivative(x, &integration)?;
-        let n = self.n();
-        let matrices = Rc::clone(&self.prepared().matrices);
-        let jacobian = if self.operator_jacobian {
-            Jacobian::Operator(Box::new(ContactJacobian::new(
-                n,
-                self.harmonics,
-                matrices,
-                Rc::clone(&self.residual_scale),
-                integration,
-                Rc::clone(&self.preconditioner),
-            )))
-        } else {
-            Jacobian::Dense(dense_jacobian(
-                n,
-                self.harmonics,
-                &matrices,
-                &self.residual_scale,
-                &integration,
-            ))
-        };
-        Ok(Linearization {
-            residual,
-            jacobian,
-            d_omega,
-        })
-    }
-
-    fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+impl RedistributedMsHbm {
+    /// [`PeriodicProblem::solution`], with the series and extremes of every contact
+    /// (`every_contact`) or with no contact series (the response DOF alone, for a diagram).
+    fn solution_with(
+        &mut self,
+        x: &[f64],
+        omega: f64,
+        response_dof: usize,
+        every_contact: bool,
+    ) -> Result<PeriodicSolution> {
         let location = self.partition.locate_response(&self.system, response_dof)?;
         let (residual, integration, forces) = self.evaluate(x, omega)?;
         let n = self.n();
@@ -699,7 +651,9 @@ impl PeriodicProblem for RedistributedMsHbm {
                 q.iter_mut().zip(&u).for_each(|(q, u)| *q += u);
                 Ok((q, lambda, set.gap(&gamma)))
             };
-        for &tau in &self.sampling.taus {
+        // the contacts' time signals: for the series, or for a contact-node response DOF
+        let time_signals = every_contact || matches!(location, DofLocation::Nonlinear(_));
+        for &tau in self.sampling.taus.iter().filter(|_| time_signals) {
             let (q, lambda, gap) = state_at(tau, &mut basis_buf)?;
             q_s.push(q);
             f_s.push(lambda);
@@ -709,7 +663,7 @@ impl PeriodicProblem for RedistributedMsHbm {
         // the N displacements at every switching time, once for all DOFs (a switch is an
         // extremum candidate of every DOF, and each costs a static contact solve)
         let mut q_switches = Vec::with_capacity(integration.switches.len());
-        for s in &integration.switches {
+        for s in integration.switches.iter().filter(|_| time_signals) {
             q_switches.push(match state_at(s.tau, &mut basis_buf) {
                 Ok((q, _, _)) => q,
                 Err(_) => vec![f64::NAN; n_n],
@@ -750,7 +704,7 @@ impl PeriodicProblem for RedistributedMsHbm {
             (mx, mn)
         };
         let mut contacts = Vec::with_capacity(self.system.contacts.len());
-        for (c, sc) in self.system.contacts.iter().enumerate() {
+        for (c, sc) in self.system.contacts.iter().enumerate().filter(|_| every_contact) {
             let i = self.partition.contact_n_index(&self.system, c);
             let (max, min) = n_extremes(i);
             contacts.push(ContactSeries {
@@ -805,6 +759,75 @@ impl PeriodicProblem for RedistributedMsHbm {
         );
         solution.contact_node_harmonics = Some(q_n);
         Ok(solution)
+    }
+
+}
+
+impl PeriodicProblem for RedistributedMsHbm {
+    /// Exact Jacobian of a residual that is smooth between grazing events (docs/theory.md
+    /// (T41)–(T42), (T129)):
+    /// Newton contracts quadratically; the branch has isolated corners at grazing contacts.
+    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
+        crate::problem::ContinuationPolicy {
+            newton_contraction: crate::problem::NewtonContraction::Quadratic,
+            where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
+        }
+    }
+
+    fn dimension(&self) -> usize {
+        self.n() * n_coefficients(self.harmonics)
+    }
+
+    fn length_scale(&self) -> f64 {
+        self.partition.length_scale()
+    }
+
+    fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
+        self.linear_response(omega)
+    }
+
+    fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+        Ok(self.evaluate(x, omega)?.0)
+    }
+
+    fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+        let (residual, integration, _) = self.evaluate(x, omega)?;
+        let d_omega = self.frequency_derivative(x, &integration)?;
+        let n = self.n();
+        let matrices = Rc::clone(&self.prepared().matrices);
+        let jacobian = if self.operator_jacobian {
+            Jacobian::Operator(Box::new(ContactJacobian::new(
+                n,
+                self.harmonics,
+                matrices,
+                Rc::clone(&self.residual_scale),
+                integration,
+                Rc::clone(&self.preconditioner),
+            )))
+        } else {
+            Jacobian::Dense(dense_jacobian(
+                n,
+                self.harmonics,
+                &matrices,
+                &self.residual_scale,
+                &integration,
+            ))
+        };
+        Ok(Linearization {
+            residual,
+            jacobian,
+            d_omega,
+        })
+    }
+
+    fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+        self.solution_with(x, omega, response_dof, true)
+    }
+
+    /// The response DOF only: the contacts' series and extremes are left out (on a face of
+    /// 10³ contacts their golden-section searches are most of a point's cost).
+    fn diagram_point(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<DiagramPoint> {
+        Ok(DiagramPoint::of(&self.solution_with(x, omega, response_dof, false)?))
     }
 
     /// Floquet multipliers (docs/theory.md (T80)–(T82), derived): condensing the static contact
