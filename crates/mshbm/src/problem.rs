@@ -200,7 +200,12 @@ pub trait PeriodicProblem {
     /// from [`PeriodicProblem::solution`]; a method whose whole solution costs much more than
     /// the response of one DOF (the extremes of every contact of a large interface) gives
     /// it directly, equal to the whole solution's.
-    fn diagram_point(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<DiagramPoint> {
+    fn diagram_point(
+        &mut self,
+        x: &[f64],
+        omega: f64,
+        response_dof: usize,
+    ) -> Result<DiagramPoint> {
         Ok(DiagramPoint::of(&self.solution(x, omega, response_dof)?))
     }
 
@@ -239,7 +244,12 @@ impl PeriodicProblem for StartingAt<'_> {
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
         self.problem.solution(x, omega, response_dof)
     }
-    fn diagram_point(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<DiagramPoint> {
+    fn diagram_point(
+        &mut self,
+        x: &[f64],
+        omega: f64,
+        response_dof: usize,
+    ) -> Result<DiagramPoint> {
         self.problem.diagram_point(x, omega, response_dof)
     }
     fn continuation_policy(&self) -> ContinuationPolicy {

@@ -278,7 +278,10 @@ fn on_a_contact_face_every_mode_gives_the_exact_solution() {
         let free = linear.initial_guess(hz(f)).unwrap();
         let contact = common::max_abs(exact.iter().zip(&free).map(|(a, b)| a - b)) / scale;
         println!("{f} Hz: modal (all {massive} modes) vs exact {e:.1e}; contact changes v by {contact:.2}");
-        assert!(contact > 0.05, "{f} Hz: the contacts barely act ({contact:e})");
+        assert!(
+            contact > 0.05,
+            "{f} Hz: the contacts barely act ({contact:e})"
+        );
         assert!(e < 3e-8, "{f} Hz: {e:e}");
     }
 }

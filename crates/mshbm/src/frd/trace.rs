@@ -245,4 +245,3 @@ fn stability_changes(
         })
         .collect()
 }
-

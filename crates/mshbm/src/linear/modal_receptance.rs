@@ -29,9 +29,7 @@ use std::sync::Arc;
 use faer::{c64, Mat, MatRef};
 
 use super::partitioned::PartLoad;
-use super::receptance::{
-    ContactCoordinates, Receptance, ReceptanceAtFrequency, StaticPlusLowRank,
-};
+use super::receptance::{ContactCoordinates, Receptance, ReceptanceAtFrequency, StaticPlusLowRank};
 use super::ZERO;
 use crate::error::{Error, Result};
 use crate::model::System;
@@ -77,7 +75,9 @@ struct StaticLoad {
 fn real_times_complex(a: MatRef<'_, f64>, m: &Mat<c64>) -> Mat<c64> {
     let re = a * Mat::<f64>::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].re);
     let im = a * Mat::<f64>::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].im);
-    Mat::from_fn(re.nrows(), re.ncols(), |i, j| c64::new(re[(i, j)], im[(i, j)]))
+    Mat::from_fn(re.nrows(), re.ncols(), |i, j| {
+        c64::new(re[(i, j)], im[(i, j)])
+    })
 }
 
 impl ModalReceptance {
@@ -385,8 +385,7 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
         let y = &self.harmonic[k].dynamic_compliance;
         let kf = k as f64;
         let m = b.modal_damping.nrows();
-        let mut da =
-            Mat::<c64>::from_fn(m, m, |i, j| c64::new(0.0, kf * b.modal_damping[(i, j)]));
+        let mut da = Mat::<c64>::from_fn(m, m, |i, j| c64::new(0.0, kf * b.modal_damping[(i, j)]));
         (0..m).for_each(|j| da[(j, j)] -= c64::new(2.0 * kf * kf * self.omega, 0.0));
         let dy_z = y * (&da * (y * &z));
         let out = real_times_complex(b.contact_shapes.as_ref(), &dy_z);

@@ -53,7 +53,11 @@ impl StaticMaps {
     /// The parts for the receptance `R_s + B X_k Bᵀ`, the Delassus matrix `D` and the scale
     /// `Λ` (both `n_c × n_c`, row-major). `None` when `R_s` is not positive definite (then
     /// the dense form is used).
-    pub(super) fn new(parts: &StaticPlusLowRank<'_>, delassus: &[f64], scale: &[f64]) -> Option<Self> {
+    pub(super) fn new(
+        parts: &StaticPlusLowRank<'_>,
+        delassus: &[f64],
+        scale: &[f64],
+    ) -> Option<Self> {
         let nc = parts.static_receptance.nrows();
         let llt = parts.static_receptance.llt(faer::Side::Lower).ok()?;
         let inverse = llt.solve(Mat::<f64>::identity(nc, nc));
@@ -177,9 +181,7 @@ impl FrequencyMatrices {
                 let im = Mat::<f64>::from_fn(m, m, |i, j| z[(i, j)].im);
                 let re = &parts.static_inverse[map as usize] - (pe * &re) * e.transpose();
                 let im = (pe * &im) * e.transpose();
-                Cow::Owned(Mat::from_fn(n, n, |i, j| {
-                    c64::new(re[(i, j)], -im[(i, j)])
-                }))
+                Cow::Owned(Mat::from_fn(n, n, |i, j| c64::new(re[(i, j)], -im[(i, j)])))
             }
         }
     }
@@ -206,7 +208,9 @@ mod tests {
     /// A real `n × n` matrix (row-major) with entries in `[−1, 1]` plus `n` on the diagonal.
     fn matrix(n: usize, seed: f64) -> Vec<f64> {
         (0..n * n)
-            .map(|e| (seed * (e as f64 + 1.0)).sin() + if e % (n + 1) == 0 { n as f64 } else { 0.0 })
+            .map(|e| {
+                (seed * (e as f64 + 1.0)).sin() + if e % (n + 1) == 0 { n as f64 } else { 0.0 }
+            })
             .collect()
     }
 
@@ -240,16 +244,25 @@ mod tests {
             for map in [Map::Inverse, Map::Scaled, Map::Residual] {
                 let (a, b) = (dense.apply(map, n, &z), low_rank.apply(map, n, &z));
                 let size = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                let e = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                let e = a
+                    .iter()
+                    .zip(&b)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
                 assert!(e <= 1e-10 * size, "{map:?} at {omega}: {e:e} of {size:e}");
                 for k in 0..=harmonics {
                     let (a, b) = (dense.matrix(map, k), low_rank.matrix(map, k));
-                    let size = a.col_iter().flat_map(|c| c.iter().map(|v| v.norm())).fold(0.0, f64::max);
+                    let size = a
+                        .col_iter()
+                        .flat_map(|c| c.iter().map(|v| v.norm()))
+                        .fold(0.0, f64::max);
                     let e = (a.as_ref() - b.as_ref())
                         .col_iter()
                         .flat_map(|c| c.iter().map(|v| v.norm()).collect::<Vec<_>>())
                         .fold(0.0, f64::max);
-                    assert!(e <= 1e-10 * size, "{map:?}, k = {k}, at {omega}: {e:e} of {size:e}");
+                    assert!(
+                        e <= 1e-10 * size,
+                        "{map:?}, k = {k}, at {omega}: {e:e} of {size:e}"
+                    );
                 }
             }
         }

@@ -704,7 +704,13 @@ impl RedistributedMsHbm {
             (mx, mn)
         };
         let mut contacts = Vec::with_capacity(self.system.contacts.len());
-        for (c, sc) in self.system.contacts.iter().enumerate().filter(|_| every_contact) {
+        for (c, sc) in self
+            .system
+            .contacts
+            .iter()
+            .enumerate()
+            .filter(|_| every_contact)
+        {
             let i = self.partition.contact_n_index(&self.system, c);
             let (max, min) = n_extremes(i);
             contacts.push(ContactSeries {
@@ -760,7 +766,6 @@ impl RedistributedMsHbm {
         solution.contact_node_harmonics = Some(q_n);
         Ok(solution)
     }
-
 }
 
 impl PeriodicProblem for RedistributedMsHbm {
@@ -826,8 +831,18 @@ impl PeriodicProblem for RedistributedMsHbm {
 
     /// The response DOF only: the contacts' series and extremes are left out (on a face of
     /// 10³ contacts their golden-section searches are most of a point's cost).
-    fn diagram_point(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<DiagramPoint> {
-        Ok(DiagramPoint::of(&self.solution_with(x, omega, response_dof, false)?))
+    fn diagram_point(
+        &mut self,
+        x: &[f64],
+        omega: f64,
+        response_dof: usize,
+    ) -> Result<DiagramPoint> {
+        Ok(DiagramPoint::of(&self.solution_with(
+            x,
+            omega,
+            response_dof,
+            false,
+        )?))
     }
 
     /// Floquet multipliers (docs/theory.md (T80)–(T82), derived): condensing the static contact
