@@ -70,6 +70,37 @@ impl ActiveSet {
         }
     }
 
+    /// The indicators' coefficients `H Γ` for the free gap with coefficients `gamma`
+    /// (harmonic-major, `n_c` per coefficient, `columns` coefficients): `n_c × columns`,
+    /// row-major, row `c` that of [`ActiveSet::indicator_dot`] per coefficient. One product
+    /// with the closed contacts' columns, plus the open contacts' own entries.
+    pub fn indicator_coefficients(&self, gamma: &[f64], columns: usize) -> Vec<f64> {
+        let (nc, na) = (self.n_contacts(), self.closed_list.len());
+        let mut out = faer::Mat::<f64>::zeros(nc, columns);
+        if na > 0 {
+            let closed = faer::Mat::<f64>::from_fn(na, columns, |r, m| {
+                gamma[m * nc + self.closed_list[r]]
+            });
+            let h = MatRef::from_row_major_slice(&self.restricted, nc, na);
+            faer::linalg::matmul::matmul(
+                out.as_mut(),
+                faer::Accum::Replace,
+                h,
+                &closed,
+                1.0,
+                faer::Par::Seq,
+            );
+        }
+        let mut rows = vec![0.0; nc * columns];
+        for c in 0..nc {
+            for m in 0..columns {
+                let own = if self.closed[c] { 0.0 } else { gamma[m * nc + c] };
+                rows[c * columns + m] = out[(c, m)] + own;
+            }
+        }
+        rows
+    }
+
     /// The force map's row of the closed contact `a` (`∂λ_a/∂γ`): its nonzero columns (the
     /// closed contacts) and their values.
     pub fn force_row(&self, a: usize) -> (&[usize], &[f64]) {

@@ -181,30 +181,34 @@ pub(super) fn dense_jacobian(
 /// preconditioner of the next ones (docs/theory.md §18).
 pub(super) type PreconditionerSlot = Rc<RefCell<Option<Rc<InPlaceLu>>>>;
 
-/// LU factors with partial pivoting computed in the matrix's own storage (LAPACK's layout:
-/// the unit lower `L` and `U` in one matrix), so that factoring a Jacobian of 10⁴ unknowns
-/// needs no second gigabyte.
+/// LU factors with partial pivoting of a dense Jacobian, in single precision and in the
+/// matrix's own storage (LAPACK's layout: the unit lower `L` and `U` in one matrix). As a
+/// preconditioner they need not be exact (GMRES corrects them, docs/theory.md (T134)); in
+/// single precision they hold half the memory and each application, which reads them whole,
+/// takes about half the time.
 pub(super) struct InPlaceLu {
-    factors: Mat<f64>,
+    factors: Mat<f32>,
     forward: Vec<usize>,
     inverse: Vec<usize>,
 }
 
 impl InPlaceLu {
-    fn new(mut matrix: Mat<f64>) -> Self {
+    fn new(matrix: Mat<f64>) -> Self {
         use faer::dyn_stack::{MemBuffer, MemStack};
         use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
         let n = matrix.nrows();
+        let mut factors = Mat::<f32>::from_fn(n, n, |i, j| matrix[(i, j)] as f32);
+        drop(matrix);
         let par = faer::get_global_parallelism();
         let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-        let mut mem = MemBuffer::new(lu_in_place_scratch::<usize, f64>(
+        let mut mem = MemBuffer::new(lu_in_place_scratch::<usize, f32>(
             n,
             n,
             par,
             Default::default(),
         ));
         lu_in_place(
-            matrix.as_mut(),
+            factors.as_mut(),
             &mut forward,
             &mut inverse,
             par,
@@ -212,29 +216,30 @@ impl InPlaceLu {
             Default::default(),
         );
         InPlaceLu {
-            factors: matrix,
+            factors,
             forward,
             inverse,
         }
     }
 
-    /// `out = A⁻¹ r`.
+    /// `out ≈ A⁻¹ r` (single-precision factors).
     fn solve(&self, r: &[f64], out: &mut [f64]) {
         use faer::dyn_stack::{MemBuffer, MemStack};
         use faer::linalg::lu::partial_pivoting::solve::{solve_in_place, solve_in_place_scratch};
         let n = r.len();
-        out.copy_from_slice(r);
+        let mut x: Vec<f32> = r.iter().map(|&v| v as f32).collect();
         let par = faer::Par::Seq;
-        let mut mem = MemBuffer::new(solve_in_place_scratch::<usize, f64>(n, 1, par));
+        let mut mem = MemBuffer::new(solve_in_place_scratch::<usize, f32>(n, 1, par));
         let permutation = faer::perm::PermRef::new_checked(&self.forward, &self.inverse, n);
         solve_in_place(
             self.factors.as_ref(),
             self.factors.as_ref(),
             permutation,
-            faer::MatMut::from_column_major_slice_mut(out, n, 1),
+            faer::MatMut::from_column_major_slice_mut(&mut x, n, 1),
             par,
             MemStack::new(&mut mem),
         );
+        out.iter_mut().zip(&x).for_each(|(o, &v)| *o = f64::from(v));
     }
 }
 

@@ -20,6 +20,8 @@
 use std::collections::HashMap;
 use std::rc::Rc;
 
+use faer::{Mat, MatRef};
+
 use crate::contact::static_contact::{ActiveSet, StaticContact};
 use crate::error::Result;
 use crate::harmonic::{
@@ -91,23 +93,6 @@ impl Groups {
     }
 }
 
-/// Trigonometric coefficients of the validity indicators of `set` under the free gap with
-/// coefficients `gamma` (`n_c` rows of `2H+1`).
-fn indicator_coefficients(
-    set: &ActiveSet,
-    gamma: &[f64],
-    nc: usize,
-    ncoef: usize,
-) -> Vec<Vec<f64>> {
-    (0..nc)
-        .map(|c| {
-            (0..ncoef)
-                .map(|m| set.indicator_dot(c, &gamma[m * nc..(m + 1) * nc]))
-                .collect()
-        })
-        .collect()
-}
-
 /// Derivative coefficients of a trigonometric polynomial.
 fn derivative(coef: &[f64]) -> Vec<f64> {
     let h = (coef.len() - 1) / 2;
@@ -129,39 +114,111 @@ fn first_negative_time(coef: &[f64], left: f64, right: f64, f_right: f64) -> f64
     find_sign_change(|t| evaluate(coef, t), left, right, f_left, f_right).negative
 }
 
-/// First time in `(a, end]` at which the trigonometric polynomial `coef` becomes negative,
-/// if it does: either it is negative at `end`, or it dips below zero at an interior
-/// minimum (a grazing contact or a brief release shorter than the grid cell).
-fn first_negative(coef: &[f64], a: f64, end: f64) -> Option<f64> {
-    const SCAN: usize = 8;
-    let mut left = a;
-    for l in 1..=SCAN {
-        let p = a + (end - a) * l as f64 / SCAN as f64;
-        let value = evaluate(coef, p);
-        if value < 0.0 {
-            return Some(first_negative_time(coef, left, p, value));
-        }
-        left = p;
-    }
-    // positive at the scan points: look for a negative interior minimum
-    let d = derivative(coef);
-    let mut prev = a;
-    let mut dprev = evaluate(&d, a);
-    for l in 1..=SCAN {
-        let p = a + (end - a) * l as f64 / SCAN as f64;
-        let dp = evaluate(&d, p);
-        if dprev < 0.0 && dp > 0.0 {
-            // minimum in (prev, p): the root of the derivative
-            let tmin = find_sign_change(|t| evaluate(&d, t), prev, p, dprev, dp).midpoint();
-            let value = evaluate(coef, tmin);
-            if value < 0.0 {
-                return Some(first_negative_time(coef, prev, tmin, value));
+/// Scan points per cell: `a + (end − a) l / SCAN`, `l = 0..=SCAN`.
+const SCAN: usize = 8;
+
+/// The validity indicators of one active set on a cell's scan points: their values and
+/// slopes (`n_c × (SCAN + 1)`), from the trigonometric basis at the points, which every
+/// contact shares — two matrix products instead of a `sin_cos` per contact and point.
+struct CellScan {
+    points: [f64; SCAN + 1],
+    values: Mat<f64>,
+    slopes: Mat<f64>,
+}
+
+impl CellScan {
+    /// The scan of `(a, end]` for the indicators with coefficients `coefs` (`n_c` rows of
+    /// `2H+1`, row-major).
+    fn new(coefs: &[f64], nc: usize, harmonics: usize, a: f64, end: f64) -> Self {
+        let ncoef = n_coefficients(harmonics);
+        let points: [f64; SCAN + 1] =
+            std::array::from_fn(|l| a + (end - a) * l as f64 / SCAN as f64);
+        let mut basis = Mat::<f64>::zeros(ncoef, SCAN + 1);
+        let mut slope_basis = Mat::<f64>::zeros(ncoef, SCAN + 1);
+        let mut b = vec![0.0; ncoef];
+        for (l, &p) in points.iter().enumerate() {
+            basis_into(harmonics, p, &mut b);
+            for (m, &v) in b.iter().enumerate() {
+                basis[(m, l)] = v;
+            }
+            // d/dτ (a cos kτ + b sin kτ) = −k a sin kτ + k b cos kτ
+            for k in 1..=harmonics {
+                let kf = k as f64;
+                slope_basis[(2 * k - 1, l)] = -kf * b[2 * k];
+                slope_basis[(2 * k, l)] = kf * b[2 * k - 1];
             }
         }
-        prev = p;
-        dprev = dp;
+        let c = MatRef::from_row_major_slice(coefs, nc, ncoef);
+        CellScan {
+            points,
+            values: c * &basis,
+            slopes: c * &slope_basis,
+        }
     }
-    None
+
+    /// The first scan sub-interval `(p[l − 1], p[l]]`, `l ≥ from`, where indicator `c` may
+    /// become negative: it is negative at `p[l]`, or its slope turns from negative to
+    /// positive there (an interior minimum that may dip below zero: a grazing contact or a
+    /// release shorter than the grid cell). `true` for a minimum.
+    fn candidate(&self, c: usize, from: usize) -> Option<(usize, bool)> {
+        (from..=SCAN).find_map(|l| {
+            if self.values[(c, l)] < 0.0 {
+                Some((l, false))
+            } else if self.slopes[(c, l - 1)] < 0.0 && self.slopes[(c, l)] > 0.0 {
+                Some((l, true))
+            } else {
+                None
+            }
+        })
+    }
+
+    /// The first time in `(a, end]` at which an indicator (rows of `coefs`) becomes
+    /// negative, and which. Sub-interval by sub-interval: only the indicators whose first
+    /// candidate lies in the earliest sub-interval are located to round-off (when many
+    /// contacts switch within one cell, locating each of them at every switch would cost
+    /// their number squared).
+    fn earliest_root(&self, coefs: &[f64], ncoef: usize) -> Option<(f64, usize)> {
+        let p = &self.points;
+        let mut buckets: Vec<Vec<(usize, bool)>> = vec![Vec::new(); SCAN + 1];
+        for c in 0..coefs.len() / ncoef {
+            if let Some((l, dip)) = self.candidate(c, 1) {
+                buckets[l].push((c, dip));
+            }
+        }
+        for l in 1..=SCAN {
+            let mut earliest: Option<(f64, usize)> = None;
+            let mut later = Vec::new();
+            for &(c, dip) in &buckets[l] {
+                let coef = &coefs[c * ncoef..(c + 1) * ncoef];
+                let root = if dip {
+                    // the minimum in (p[l − 1], p[l]): the root of the derivative
+                    let d = derivative(coef);
+                    let (dprev, dp) = (self.slopes[(c, l - 1)], self.slopes[(c, l)]);
+                    let tmin =
+                        find_sign_change(|t| evaluate(&d, t), p[l - 1], p[l], dprev, dp).midpoint();
+                    let value = evaluate(coef, tmin);
+                    (value < 0.0).then(|| first_negative_time(coef, p[l - 1], tmin, value))
+                } else {
+                    Some(first_negative_time(coef, p[l - 1], p[l], self.values[(c, l)]))
+                };
+                match root {
+                    Some(r) => {
+                        if earliest.is_none_or(|(t, _)| r < t) {
+                            earliest = Some((r, c));
+                        }
+                    }
+                    None => later.extend(self.candidate(c, l + 1).map(|(m, d)| (m, c, d))),
+                }
+            }
+            if earliest.is_some() {
+                return earliest;
+            }
+            for (m, c, dip) in later {
+                buckets[m].push((c, dip));
+            }
+        }
+        None
+    }
 }
 
 /// Decompose one period into active-set groups for the free gap with coefficients `gamma`
@@ -209,6 +266,10 @@ pub fn integrate(
             let ns = sampling.len();
             let two_pi = 2.0 * std::f64::consts::PI;
             let mut set = sets[0].clone();
+            // the indicators' coefficients of the current set (`n_c × (2H+1)`), formed
+            // when the set changes
+            let mut coefs = set.indicator_coefficients(gamma, ncoef);
+            let mut coefs_of = Rc::clone(&set);
             let mut run_start = 0.0;
             for j in 0..ns {
                 let mut a = sampling.taus[j];
@@ -219,7 +280,7 @@ pub fn integrate(
                 };
                 // a set carried over from the previous cell that the LCP disagrees with at
                 // this grid point is replaced by the LCP's (a double switch was missed)
-                if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&set, gamma, nc, ncoef, a) {
+                if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&coefs, ncoef, a) {
                     let g = groups.of(&set);
                     add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
                     intervals.push((run_start, a, g));
@@ -228,16 +289,12 @@ pub fn integrate(
                 }
                 let mut guard = 0;
                 loop {
-                    let coefs = indicator_coefficients(&set, gamma, nc, ncoef);
-                    let mut earliest: Option<(f64, usize)> = None;
-                    for (c, coef) in coefs.iter().enumerate() {
-                        if let Some(r) = first_negative(coef, a, end) {
-                            if earliest.is_none_or(|(t, _)| r < t) {
-                                earliest = Some((r, c));
-                            }
-                        }
+                    if !Rc::ptr_eq(&coefs_of, &set) {
+                        coefs = set.indicator_coefficients(gamma, ncoef);
+                        coefs_of = Rc::clone(&set);
                     }
-                    let Some((root, component)) = earliest else {
+                    let scan = CellScan::new(&coefs, nc, h, a, end);
+                    let Some((root, component)) = scan.earliest_root(&coefs, ncoef) else {
                         break;
                     };
                     let g = groups.of(&set);
@@ -277,8 +334,13 @@ pub fn integrate(
     })
 }
 
-fn indicator_holds(set: &ActiveSet, gamma: &[f64], nc: usize, ncoef: usize, tau: f64) -> bool {
-    indicator_coefficients(set, gamma, nc, ncoef)
-        .iter()
-        .all(|c| evaluate(c, tau) >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs()))))
+/// Whether every indicator (coefficients `coefs`, rows of `ncoef`) is non-negative at `τ`,
+/// to round-off.
+fn indicator_holds(coefs: &[f64], ncoef: usize, tau: f64) -> bool {
+    let mut basis = vec![0.0; ncoef];
+    basis_into((ncoef - 1) / 2, tau, &mut basis);
+    coefs.chunks_exact(ncoef).all(|c| {
+        let value: f64 = c.iter().zip(&basis).map(|(a, b)| a * b).sum();
+        value >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs())))
+    })
 }
