@@ -15,7 +15,11 @@
 //!
 //! Switching times are located cell by cell on a grid of `N_s` points: a gap or force that is
 //! negative at the end of a cell, or dips below zero at an interior minimum (grazing, or a
-//! release shorter than a cell), starts a new interval at its first root.
+//! release shorter than a cell), starts a new interval at its first root. Each cell is
+//! scanned at a few points: the indicators' values and slopes there are two matrix products
+//! of their coefficients (formed once per active set) with the trigonometric basis at the
+//! points, and only the indicators that may change sign in the earliest scanned
+//! sub-interval are located to round-off.
 
 use std::collections::HashMap;
 use std::rc::Rc;
