@@ -78,7 +78,7 @@ pub struct RedistributedOptions {
 
 /// Newton systems with at least this many unknowns `n_c (2H + 1)` use the operator Jacobian
 /// under [`JacobianForm::Auto`] (below it the dense LU is faster; docs/theory.md §18).
-pub const OPERATOR_JACOBIAN_UNKNOWNS: usize = 3000;
+pub const OPERATOR_JACOBIAN_UNKNOWNS: usize = 1000;
 
 /// How the Jacobian (T129) reaches Newton and the continuation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
