@@ -78,9 +78,8 @@ impl ActiveSet {
         let (nc, na) = (self.n_contacts(), self.closed_list.len());
         let mut out = faer::Mat::<f64>::zeros(nc, columns);
         if na > 0 {
-            let closed = faer::Mat::<f64>::from_fn(na, columns, |r, m| {
-                gamma[m * nc + self.closed_list[r]]
-            });
+            let closed =
+                faer::Mat::<f64>::from_fn(na, columns, |r, m| gamma[m * nc + self.closed_list[r]]);
             let h = MatRef::from_row_major_slice(&self.restricted, nc, na);
             faer::linalg::matmul::matmul(
                 out.as_mut(),
@@ -94,7 +93,11 @@ impl ActiveSet {
         let mut rows = vec![0.0; nc * columns];
         for c in 0..nc {
             for m in 0..columns {
-                let own = if self.closed[c] { 0.0 } else { gamma[m * nc + c] };
+                let own = if self.closed[c] {
+                    0.0
+                } else {
+                    gamma[m * nc + c]
+                };
                 rows[c * columns + m] = out[(c, m)] + own;
             }
         }

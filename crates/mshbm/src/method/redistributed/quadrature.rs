@@ -203,7 +203,12 @@ impl CellScan {
                     let value = evaluate(coef, tmin);
                     (value < 0.0).then(|| first_negative_time(coef, p[l - 1], tmin, value))
                 } else {
-                    Some(first_negative_time(coef, p[l - 1], p[l], self.values[(c, l)]))
+                    Some(first_negative_time(
+                        coef,
+                        p[l - 1],
+                        p[l],
+                        self.values[(c, l)],
+                    ))
                 };
                 match root {
                     Some(r) => {
@@ -284,6 +289,10 @@ pub fn integrate(
                 };
                 // a set carried over from the previous cell that the LCP disagrees with at
                 // this grid point is replaced by the LCP's (a double switch was missed)
+                if !Rc::ptr_eq(&coefs_of, &set) {
+                    coefs = set.indicator_coefficients(gamma, ncoef);
+                    coefs_of = Rc::clone(&set);
+                }
                 if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&coefs, ncoef, a) {
                     let g = groups.of(&set);
                     add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
