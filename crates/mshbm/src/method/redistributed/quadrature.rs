@@ -24,8 +24,6 @@
 use std::collections::HashMap;
 use std::rc::Rc;
 
-use faer::{Mat, MatRef};
-
 use crate::contact::static_contact::{ActiveSet, StaticContact};
 use crate::error::Result;
 use crate::harmonic::{
@@ -122,42 +120,72 @@ fn first_negative_time(coef: &[f64], left: f64, right: f64, f_right: f64) -> f64
 const SCAN: usize = 8;
 
 /// The validity indicators of one active set on a cell's scan points: their values and
-/// slopes (`n_c × (SCAN + 1)`), from the trigonometric basis at the points, which every
-/// contact shares — two matrix products instead of a `sin_cos` per contact and point.
+/// slopes (`n_c × (SCAN + 1)`, row-major), from the trigonometric basis at the points, which
+/// every contact shares — products with the basis instead of a `sin_cos` per contact and
+/// point. The buffers are reused from cell to cell.
 struct CellScan {
+    harmonics: usize,
     points: [f64; SCAN + 1],
-    values: Mat<f64>,
-    slopes: Mat<f64>,
+    /// The basis and its derivative at the points (`(SCAN + 1) × (2H+1)`, row-major).
+    basis: Vec<f64>,
+    slope_basis: Vec<f64>,
+    values: Vec<f64>,
+    slopes: Vec<f64>,
+    /// `(sub-interval, contact, is a minimum)` of the indicators still to be located.
+    candidates: Vec<(usize, usize, bool)>,
 }
 
 impl CellScan {
-    /// The scan of `(a, end]` for the indicators with coefficients `coefs` (`n_c` rows of
-    /// `2H+1`, row-major).
-    fn new(coefs: &[f64], nc: usize, harmonics: usize, a: f64, end: f64) -> Self {
+    fn new(harmonics: usize) -> Self {
         let ncoef = n_coefficients(harmonics);
-        let points: [f64; SCAN + 1] =
-            std::array::from_fn(|l| a + (end - a) * l as f64 / SCAN as f64);
-        let mut basis = Mat::<f64>::zeros(ncoef, SCAN + 1);
-        let mut slope_basis = Mat::<f64>::zeros(ncoef, SCAN + 1);
-        let mut b = vec![0.0; ncoef];
-        for (l, &p) in points.iter().enumerate() {
-            basis_into(harmonics, p, &mut b);
-            for (m, &v) in b.iter().enumerate() {
-                basis[(m, l)] = v;
-            }
-            // d/dτ (a cos kτ + b sin kτ) = −k a sin kτ + k b cos kτ
-            for k in 1..=harmonics {
-                let kf = k as f64;
-                slope_basis[(2 * k - 1, l)] = -kf * b[2 * k];
-                slope_basis[(2 * k, l)] = kf * b[2 * k - 1];
-            }
-        }
-        let c = MatRef::from_row_major_slice(coefs, nc, ncoef);
         CellScan {
-            points,
-            values: c * &basis,
-            slopes: c * &slope_basis,
+            harmonics,
+            points: [0.0; SCAN + 1],
+            basis: vec![0.0; (SCAN + 1) * ncoef],
+            slope_basis: vec![0.0; (SCAN + 1) * ncoef],
+            values: Vec::new(),
+            slopes: Vec::new(),
+            candidates: Vec::new(),
         }
+    }
+
+    /// Scan `(a, end]` for the indicators with coefficients `coefs` (rows of `2H+1`).
+    fn fill(&mut self, coefs: &[f64], a: f64, end: f64) {
+        let h = self.harmonics;
+        let ncoef = n_coefficients(h);
+        for l in 0..=SCAN {
+            let p = a + (end - a) * l as f64 / SCAN as f64;
+            self.points[l] = p;
+            let b = &mut self.basis[l * ncoef..(l + 1) * ncoef];
+            basis_into(h, p, b);
+            // d/dτ (a cos kτ + b sin kτ) = −k a sin kτ + k b cos kτ
+            let d = &mut self.slope_basis[l * ncoef..(l + 1) * ncoef];
+            d[0] = 0.0;
+            for k in 1..=h {
+                let kf = k as f64;
+                d[2 * k - 1] = -kf * b[2 * k];
+                d[2 * k] = kf * b[2 * k - 1];
+            }
+        }
+        let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(a, b)| a * b).sum::<f64>();
+        self.values.clear();
+        self.slopes.clear();
+        for coef in coefs.chunks_exact(ncoef) {
+            for l in 0..=SCAN {
+                self.values
+                    .push(dot(coef, &self.basis[l * ncoef..(l + 1) * ncoef]));
+                self.slopes
+                    .push(dot(coef, &self.slope_basis[l * ncoef..(l + 1) * ncoef]));
+            }
+        }
+    }
+
+    fn value(&self, c: usize, l: usize) -> f64 {
+        self.values[c * (SCAN + 1) + l]
+    }
+
+    fn slope(&self, c: usize, l: usize) -> f64 {
+        self.slopes[c * (SCAN + 1) + l]
     }
 
     /// The first scan sub-interval `(p[l − 1], p[l]]`, `l ≥ from`, where indicator `c` may
@@ -166,9 +194,9 @@ impl CellScan {
     /// release shorter than the grid cell). `true` for a minimum.
     fn candidate(&self, c: usize, from: usize) -> Option<(usize, bool)> {
         (from..=SCAN).find_map(|l| {
-            if self.values[(c, l)] < 0.0 {
+            if self.value(c, l) < 0.0 {
                 Some((l, false))
-            } else if self.slopes[(c, l - 1)] < 0.0 && self.slopes[(c, l)] > 0.0 {
+            } else if self.slope(c, l - 1) < 0.0 && self.slope(c, l) > 0.0 {
                 Some((l, true))
             } else {
                 None
@@ -181,52 +209,62 @@ impl CellScan {
     /// candidate lies in the earliest sub-interval are located to round-off (when many
     /// contacts switch within one cell, locating each of them at every switch would cost
     /// their number squared).
-    fn earliest_root(&self, coefs: &[f64], ncoef: usize) -> Option<(f64, usize)> {
-        let p = &self.points;
-        let mut buckets: Vec<Vec<(usize, bool)>> = vec![Vec::new(); SCAN + 1];
+    fn earliest_root(&mut self, coefs: &[f64], ncoef: usize) -> Option<(f64, usize)> {
+        let mut candidates = std::mem::take(&mut self.candidates);
+        candidates.clear();
         for c in 0..coefs.len() / ncoef {
             if let Some((l, dip)) = self.candidate(c, 1) {
-                buckets[l].push((c, dip));
+                candidates.push((l, c, dip));
             }
         }
-        for l in 1..=SCAN {
-            let mut earliest: Option<(f64, usize)> = None;
-            let mut later = Vec::new();
-            for &(c, dip) in &buckets[l] {
+        let p = self.points;
+        let mut earliest: Option<(f64, usize)> = None;
+        while let Some(l) = candidates.iter().map(|&(l, _, _)| l).min() {
+            // locate the indicators of sub-interval l; a minimum that stays non-negative
+            // moves on to its next candidate
+            let mut q = 0;
+            while q < candidates.len() {
+                let (m, c, dip) = candidates[q];
+                if m != l {
+                    q += 1;
+                    continue;
+                }
                 let coef = &coefs[c * ncoef..(c + 1) * ncoef];
                 let root = if dip {
                     // the minimum in (p[l − 1], p[l]): the root of the derivative
                     let d = derivative(coef);
-                    let (dprev, dp) = (self.slopes[(c, l - 1)], self.slopes[(c, l)]);
+                    let (dprev, dp) = (self.slope(c, l - 1), self.slope(c, l));
                     let tmin =
                         find_sign_change(|t| evaluate(&d, t), p[l - 1], p[l], dprev, dp).midpoint();
                     let value = evaluate(coef, tmin);
                     (value < 0.0).then(|| first_negative_time(coef, p[l - 1], tmin, value))
                 } else {
-                    Some(first_negative_time(
-                        coef,
-                        p[l - 1],
-                        p[l],
-                        self.values[(c, l)],
-                    ))
+                    Some(first_negative_time(coef, p[l - 1], p[l], self.value(c, l)))
                 };
                 match root {
                     Some(r) => {
                         if earliest.is_none_or(|(t, _)| r < t) {
                             earliest = Some((r, c));
                         }
+                        candidates.swap_remove(q);
                     }
-                    None => later.extend(self.candidate(c, l + 1).map(|(m, d)| (m, c, d))),
+                    None => match self.candidate(c, l + 1) {
+                        Some((m, d)) => {
+                            candidates[q] = (m, c, d);
+                            q += 1;
+                        }
+                        None => {
+                            candidates.swap_remove(q);
+                        }
+                    },
                 }
             }
             if earliest.is_some() {
-                return earliest;
-            }
-            for (m, c, dip) in later {
-                buckets[m].push((c, dip));
+                break;
             }
         }
-        None
+        self.candidates = candidates;
+        earliest
     }
 }
 
@@ -279,6 +317,7 @@ pub fn integrate(
             // when the set changes
             let mut coefs = set.indicator_coefficients(gamma, ncoef);
             let mut coefs_of = Rc::clone(&set);
+            let mut scan = CellScan::new(h);
             let mut run_start = 0.0;
             for j in 0..ns {
                 let mut a = sampling.taus[j];
@@ -306,7 +345,7 @@ pub fn integrate(
                         coefs = set.indicator_coefficients(gamma, ncoef);
                         coefs_of = Rc::clone(&set);
                     }
-                    let scan = CellScan::new(&coefs, nc, h, a, end);
+                    scan.fill(&coefs, a, end);
                     let Some((root, component)) = scan.earliest_root(&coefs, ncoef) else {
                         break;
                     };
