@@ -19,7 +19,9 @@
 //! scanned at a few points: the indicators' values and slopes there are two matrix products
 //! of their coefficients (formed once per active set) with the trigonometric basis at the
 //! points, and only the indicators that may change sign in the earliest scanned
-//! sub-interval are located to round-off.
+//! sub-interval are located to round-off. Contacts that switch at one instant are flipped
+//! one after the other; the LCP decides only where flips undo each other (docs/theory.md
+//! §6, "Switches at one instant").
 
 use std::collections::HashMap;
 use std::rc::Rc;
@@ -340,6 +342,8 @@ pub fn integrate(
                     set = sets[j].clone();
                 }
                 let mut guard = 0;
+                // the contact flipped at the last switch, to see flips undo each other
+                let mut last_flip: Option<usize> = None;
                 loop {
                     if !Rc::ptr_eq(&coefs_of, &set) {
                         coefs = set.indicator_coefficients(gamma, ncoef);
@@ -355,22 +359,27 @@ pub fn integrate(
                     switches.push(Switch { tau: root });
                     run_start = root;
                     guard += 1;
-                    let next = if root - a <= 1e-13 * two_pi || guard > 2 * nc + 4 {
-                        // no progress: ask the LCP just after the root
+                    // contacts that switch at one instant (to round-off) are flipped one
+                    // after the other, like pivots; only when a flip undoes the previous
+                    // one at the same instant do the signs there depend on round-off, and
+                    // the set is then the LCP's a little later, which holds from the root
+                    let same_instant = root - a <= 1e-13 * two_pi;
+                    if (same_instant && last_flip == Some(component)) || guard > 2 * nc + 4 {
                         let t = root + 1e-9 * (end - root);
                         let g = signal_at(gamma, nc, h, t, &mut basis);
-                        contact.solve(&g)?
+                        set = contact.solve(&g)?;
+                        a = t;
+                        last_flip = None;
                     } else {
                         let mut closed = set.closed.clone();
                         closed[component] = !closed[component];
-                        contact.active_set(&closed)?
-                    };
-                    a = root;
+                        set = contact.active_set(&closed)?;
+                        a = root;
+                        last_flip = Some(component);
+                    }
                     if guard > 4 * nc + 8 {
-                        set = next;
                         break;
                     }
-                    set = next;
                 }
             }
             let g = groups.of(&set);
@@ -395,4 +404,79 @@ fn indicator_holds(coefs: &[f64], ncoef: usize, tau: f64) -> bool {
         let value: f64 = c.iter().zip(&basis).map(|(a, b)| a * b).sum();
         value >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs())))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sparse::SparseMatrix;
+    use std::f64::consts::PI;
+
+    /// Coefficients `[a_0, a_1, b_1]` of `max(0, −γ)` for `γ(τ) = α (cos(τ − φ) − cos ψ)`:
+    /// the force of an uncoupled contact of unit compliance with free gap `γ`, closed on
+    /// `(φ + ψ, φ + 2π − ψ)`; in closed form, from the integrals over that interval.
+    fn closed_form_force(alpha: f64, phi: f64, psi: f64) -> [f64; 3] {
+        let mean = (2.0 * PI - 2.0 * psi) * psi.cos() + 2.0 * psi.sin();
+        let first = -(PI - psi) - (2.0 * psi).sin() / 2.0;
+        let c1 = alpha * first / PI;
+        [alpha * mean / (2.0 * PI), c1 * phi.cos(), c1 * phi.sin()]
+    }
+
+    /// The coefficients `[1, cos τ, sin τ]` of that `γ`.
+    fn free_gap(alpha: f64, phi: f64, psi: f64) -> [f64; 3] {
+        [-alpha * psi.cos(), alpha * phi.cos(), alpha * phi.sin()]
+    }
+
+    /// Two contacts that close 3e-13 apart — the first with a gap ten thousand times
+    /// flatter — and a third far open. Just after the second switch the first contact's gap
+    /// is below the LCP's tolerance (relative to the open gap), and an LCP warm-started
+    /// from the last grid sample's set (the second contact closed, the first open) keeps
+    /// the first one open there. The set just after must come from the located switches;
+    /// the forces' coefficients must equal the closed form.
+    #[test]
+    fn switches_at_one_instant_keep_every_closed_contact() {
+        let nc = 3;
+        let k = SparseMatrix::from_triplets(nc, nc, &[(0, 0, 1.0), (1, 1, 1.0), (2, 2, 1.0)]);
+        let w: Vec<f64> = (0..nc * nc)
+            .map(|e| if e / nc == e % nc { 1.0 } else { 0.0 })
+            .collect();
+        let mut contact = StaticContact::new(&k, w, vec![0.0; nc]).unwrap();
+        let theta = 2.0 * PI * 3.3 / 16.0;
+        // (α, φ, ψ): the flat contact closes at θ − 3e-13 and opens at 2π − θ; the steep
+        // one closes at θ and stays closed over the last grid sample and τ = 0
+        let flat = (1e-4, 0.0, theta - 3e-13);
+        let steep = (1.0, theta - 0.5, 0.5);
+        let gaps = [
+            free_gap(flat.0, flat.1, flat.2),
+            free_gap(steep.0, steep.1, steep.2),
+            [1.0, 0.0, 0.0],
+        ];
+        // harmonic-major: coefficient m of contact c at m·n_c + c
+        let gamma: Vec<f64> = (0..3 * nc).map(|e| gaps[e % nc][e / nc]).collect();
+        let sampling = Sampling::new(1, 16);
+        let integration = integrate(&mut contact, &gamma, &sampling, Quadrature::Exact).unwrap();
+        let mut lambda = [[0.0; 3]; 3];
+        for group in &integration.groups {
+            for n in 0..3 {
+                let force = group.set.force(&gamma[n * nc..(n + 1) * nc]);
+                for (c, l) in lambda.iter_mut().enumerate() {
+                    for (m, lm) in l.iter_mut().enumerate() {
+                        *lm += group.gram[m * 3 + n] * force[c];
+                    }
+                }
+            }
+        }
+        assert_eq!(lambda[2], [0.0; 3], "the third contact stays open");
+        for (c, (alpha, phi, psi)) in [flat, steep].into_iter().enumerate() {
+            let exact = closed_form_force(alpha, phi, psi);
+            for m in 0..3 {
+                assert!(
+                    (lambda[c][m] - exact[m]).abs() <= 1e-12 * alpha,
+                    "contact {c}, coefficient {m}: {} instead of {}",
+                    lambda[c][m],
+                    exact[m]
+                );
+            }
+        }
+    }
 }
