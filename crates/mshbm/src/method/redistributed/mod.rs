@@ -224,7 +224,8 @@ pub struct RedistributedMsHbm {
     residual_scale: Rc<Vec<f64>>,
     /// The factors preconditioning the operator Jacobian (docs/theory.md §18).
     preconditioner: PreconditionerSlot,
-    /// Whether Newton's systems are dense or operators (resolved from [`JacobianForm`]).
+    /// How Newton's systems are formed, and whether they are operators at this `H`.
+    jacobian_form: JacobianForm,
     operator_jacobian: bool,
     /// `K_NN` and `W` (`n_N × n_c`, row-major) of the contact nodes.
     stiffness_nn: SparseMatrix,
@@ -338,6 +339,7 @@ impl RedistributedMsHbm {
             contact,
             residual_scale: Rc::new(residual_scale),
             preconditioner: Default::default(),
+            jacobian_form: options.jacobian,
             operator_jacobian: options.jacobian.is_operator(n_contacts * n_coefficients(h)),
             stiffness_nn,
             directions,
@@ -361,6 +363,36 @@ impl RedistributedMsHbm {
 
     pub fn samples(&self) -> usize {
         self.sampling.len()
+    }
+
+    /// Work with `harmonics` harmonics and `samples` samples per period from now on
+    /// (`None`: [`default_samples`]), keeping what does not depend on them: the system, the
+    /// receptance (its modes) and the static contact problem. The unknowns change size; a
+    /// solution at another `H` is carried over by [`crate::harmonic::with_harmonics`]. This is
+    /// the nested start across harmonics of docs/theory.md (T122) without a second set-up:
+    /// on a 10⁵-DOF solid the set-up (the factor of `K` and the modes) is minutes, a Newton
+    /// solve at a low `H` seconds.
+    ///
+    /// Refused, with nothing changed, when the new sizes are invalid or their memory
+    /// estimate exceeds the limits the method was set up within.
+    pub fn set_harmonics(&mut self, harmonics: usize, samples: Option<usize>) -> Result<()> {
+        let samples = samples.unwrap_or_else(|| default_samples(harmonics));
+        super::check_resolution(harmonics, samples, "samples")?;
+        super::memory::redistributed(&self.system, harmonics, samples).check(
+            &format!("the redistributed MS-HBM with {harmonics} harmonics and {samples} samples"),
+            &self.limits,
+        )?;
+        self.sampling = Sampling::within(harmonics, samples, &self.limits)?;
+        self.harmonics = harmonics;
+        self.operator_jacobian = self
+            .jacobian_form
+            .is_operator(self.n() * n_coefficients(harmonics));
+        // everything sized by H: the prepared frequency, the preconditioner's factors, the
+        // Floquet analysis' per-set data
+        self.frequency = None;
+        self.preconditioner = Default::default();
+        self.stability_cache.clear();
+        Ok(())
     }
 
     /// Number of contacts `n_c`.
