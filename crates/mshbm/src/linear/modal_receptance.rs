@@ -21,10 +21,15 @@
 //!
 //! Per frequency and harmonic the cost is one complex `m × m` inverse and the products
 //! `B X_k Bᵀ` (`n_c m² + n_c² m`); nothing is factored per frequency.
+//!
+//! The factor of `K` is needed at set-up (the modes, `Wᵀ K⁻¹ W`, `Wᵀ K⁻¹ f_k`) and then only
+//! for the whole structure's response (`K⁻¹ r` in [`ReceptanceAtFrequency::response`]). On a
+//! 10⁵-DOF solid it is the largest thing the method would hold (1.5 GB against the rest's
+//! 1 GB), so it is released after the set-up and formed again on the first whole-structure
+//! response, from a copy of `K` (a tenth of its size).
 
 use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::solvers::Llt;
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use faer::{c64, Mat, MatRef};
 
@@ -34,6 +39,7 @@ use super::ZERO;
 use crate::error::{Error, Result};
 use crate::model::System;
 use crate::modes::LowestModes;
+use crate::sparse::SparseMatrix;
 
 /// The modal receptance of a structure at its contacts (module docs).
 pub struct ModalReceptance {
@@ -45,8 +51,10 @@ pub struct ModalReceptance {
 struct ModalBasis {
     contacts: ContactCoordinates,
     load: PartLoad,
-    /// Sparse Cholesky factor of the whole stiffness `K`.
-    stiffness: Llt<usize, f64>,
+    /// The whole stiffness `K`, and its sparse Cholesky factor once a whole-structure
+    /// response needs it again (module docs).
+    stiffness: SparseMatrix,
+    factor: OnceLock<crate::modes::StiffnessFactor>,
     n_dofs: usize,
     /// `ω_j²` (rad²/s²), ascending.
     eigenvalues: Vec<f64>,
@@ -174,11 +182,13 @@ impl ModalReceptance {
             let modal = phi.transpose() * faer::ColRef::from_slice(f).as_mat();
             Some(StaticLoad { contacts, modal })
         });
+        drop(stiffness);
         Ok(ModalReceptance {
             basis: Arc::new(ModalBasis {
                 load,
                 contacts,
-                stiffness,
+                stiffness: system.stiffness.clone(),
+                factor: OnceLock::new(),
                 n_dofs: n,
                 eigenvalues: modes.eigenvalues,
                 shapes: phi,
@@ -202,13 +212,21 @@ impl ModalReceptance {
 }
 
 impl ModalBasis {
-    /// `K⁻¹ r` for a complex `r` (real and imaginary parts solved together).
-    fn static_solve(&self, r: &[c64]) -> Vec<c64> {
+    /// `K⁻¹ r` for a complex `r` (real and imaginary parts solved together), factoring `K`
+    /// again on the first call.
+    fn static_solve(&self, r: &[c64]) -> Result<Vec<c64>> {
+        let factor = match self.factor.get() {
+            Some(f) => f,
+            None => {
+                let f = crate::modes::stiffness_factor(&self.stiffness)?;
+                self.factor.get_or_init(|| f)
+            }
+        };
         let mut x = Mat::<f64>::from_fn(r.len(), 2, |i, j| if j == 0 { r[i].re } else { r[i].im });
-        self.stiffness.solve_in_place(x.as_mut());
-        (0..r.len())
+        factor.solve_in_place(x.as_mut());
+        Ok((0..r.len())
             .map(|i| c64::new(x[(i, 0)], x[(i, 1)]))
-            .collect()
+            .collect())
     }
 
     /// `Bᵀ λ` for complex contact forces `λ` (`m × 1`).
@@ -364,7 +382,7 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
         };
         b.contacts.scatter_add(force, &mut r);
         let z = self.projection(k, force, true);
-        let mut q = b.static_solve(&r);
+        let mut q = b.static_solve(&r)?;
         let modal = real_times_complex(b.shapes.as_ref(), &(&self.harmonic[k].correction * &z));
         q.iter_mut()
             .enumerate()
