@@ -364,6 +364,7 @@ mod tests {
             ContinuationPolicy {
                 newton_contraction: NewtonContraction::Quadratic,
                 where_arclength_fails: ArclengthFallback::EscapeCorner,
+                signals: 1,
             }
         }
     }

@@ -140,6 +140,11 @@ pub struct ContinuationPolicy {
     /// What the continuation does where the arclength step fails (the step falls below its
     /// smallest value).
     pub where_arclength_fails: ArclengthFallback,
+    /// How many signals the unknowns hold (the contacts' displacements, each with its
+    /// `2H + 1` coefficients; at least 1). The arclength measures the unknowns' change per
+    /// signal, `‖Δx‖ / (ℓ √signals)`, so that a step means the same change of the response on
+    /// one contact and on a thousand (docs/theory.md (T72)).
+    pub signals: usize,
 }
 
 /// How Newton contracts on a method's residual (paper eq. 13).

@@ -306,3 +306,119 @@ fn bad_settings_are_refused_before_any_work() {
     assert!(refused(&mut p, &|o| o.max_turn_deg = 180.0).contains("tangent turn"));
     assert!(refused(&mut p, &|o| o.newton.tolerance = -1.0).contains("Newton tolerance"));
 }
+
+/// `k` uncoupled copies of a problem: the unknowns and residuals of the copies one after
+/// the other, with `k` times the signals (docs/theory.md (T72)).
+struct Copies<'a> {
+    inner: &'a mut RedistributedMsHbm,
+    copies: usize,
+}
+
+impl Copies<'_> {
+    fn each(&mut self, x: &[f64], mut f: impl FnMut(&mut RedistributedMsHbm, &[f64])) {
+        let n = self.inner.dimension();
+        for c in 0..self.copies {
+            f(self.inner, &x[c * n..(c + 1) * n]);
+        }
+    }
+}
+
+impl PeriodicProblem for Copies<'_> {
+    fn dimension(&self) -> usize {
+        self.copies * self.inner.dimension()
+    }
+    fn length_scale(&self) -> f64 {
+        self.inner.length_scale()
+    }
+    fn initial_guess(&mut self, omega: f64) -> mshbm::Result<Vec<f64>> {
+        Ok(self.inner.initial_guess(omega)?.repeat(self.copies))
+    }
+    fn residual(&mut self, x: &[f64], omega: f64) -> mshbm::Result<Vec<f64>> {
+        let mut out = Vec::new();
+        let mut error = None;
+        self.each(x, |p, xc| match p.residual(xc, omega) {
+            Ok(r) => out.extend(r),
+            Err(e) => error = Some(e),
+        });
+        error.map_or(Ok(out), Err)
+    }
+    fn linearize(&mut self, x: &[f64], omega: f64) -> mshbm::Result<mshbm::problem::Linearization> {
+        let n = self.inner.dimension();
+        let total = self.dimension();
+        let (mut residual, mut d_omega) = (Vec::new(), Vec::new());
+        let mut jacobian = Mat::<f64>::zeros(total, total);
+        let mut c = 0;
+        let mut error = None;
+        self.each(x, |p, xc| match p.linearize(xc, omega) {
+            Ok(lin) => {
+                let j = lin.jacobian.to_dense();
+                for r in 0..n {
+                    for s in 0..n {
+                        jacobian[(c * n + r, c * n + s)] = j[(r, s)];
+                    }
+                }
+                residual.extend(lin.residual);
+                d_omega.extend(lin.d_omega);
+                c += 1;
+            }
+            Err(e) => error = Some(e),
+        });
+        if let Some(e) = error {
+            return Err(e);
+        }
+        Ok(mshbm::problem::Linearization {
+            residual,
+            jacobian: mshbm::problem::Jacobian::Dense(jacobian),
+            d_omega,
+        })
+    }
+    fn solution(
+        &mut self,
+        x: &[f64],
+        omega: f64,
+        response_dof: usize,
+    ) -> mshbm::Result<mshbm::solution::PeriodicSolution> {
+        let n = self.inner.dimension();
+        self.inner.solution(&x[..n], omega, response_dof)
+    }
+    fn continuation_policy(&self) -> mshbm::problem::ContinuationPolicy {
+        let one = self.inner.continuation_policy();
+        mshbm::problem::ContinuationPolicy {
+            signals: self.copies * one.signals,
+            ..one
+        }
+    }
+}
+
+/// The arclength is measured per signal (docs/theory.md (T72)): four uncoupled copies of the
+/// bilinear oscillator are traced through the same points as one, across its grazing and
+/// with the step limited by the arclength alone (no frequency limit). Measured over all
+/// unknowns, the copies' steps would be twice as long in the response, and half as many.
+#[test]
+fn copies_of_a_contact_are_traced_through_the_same_points_as_one() {
+    let model = oscillator();
+    let mut options = ContinuationOptions::new(0.5, 0.97);
+    options.max_frequency_step = 0.0;
+    options.max_step = 0.02;
+    let mut one = method(&model, 3);
+    let single = trace_branch(&mut one, &options, |_, _| Ok(())).unwrap();
+    assert_eq!(single.stop, StopReason::ReachedEnd);
+    assert!(single.folds.is_empty());
+    assert!(single.points.len() > 20, "{}", single.points.len());
+    let mut inner = method(&model, 3);
+    let mut copies = Copies {
+        inner: &mut inner,
+        copies: 4,
+    };
+    let four = trace_branch(&mut copies, &options, |_, _| Ok(())).unwrap();
+    assert_eq!(four.stop, StopReason::ReachedEnd);
+    assert_eq!(four.points.len(), single.points.len());
+    for (a, b) in single.points.iter().zip(&four.points) {
+        assert!(
+            (a.omega - b.omega).abs() <= 1e-9 * a.omega,
+            "{} against {}",
+            a.omega,
+            b.omega
+        );
+    }
+}

@@ -1,10 +1,12 @@
 //! Pseudo-arclength continuation of periodic solutions in `(x, ω)` (docs/theory.md §10,
 //! (T72)–(T77)), written once over [`PeriodicProblem`].
 //!
-//! Unknowns are scaled to O(1) (docs/theory.md (T72)): `X = [x / ℓ; ln(ω / ω_ref)]` with
-//! `ℓ` the problem's length scale and `ω_ref` the start frequency (ω ~ 1e5 rad/s against
-//! displacements ~ 0.1 mm otherwise dominate every norm; the logarithm weighs a relative
-//! change of frequency the same over the whole sweep). Each step:
+//! Unknowns are scaled to O(1) (docs/theory.md (T72)): `X = [x / (ℓ √s); ln(ω / ω_ref)]`
+//! with `ℓ` the problem's length scale, `s` the signals its unknowns hold (the contacts;
+//! [`crate::problem::ContinuationPolicy::signals`]: a step is the same change of the
+//! response on one contact and on a thousand) and `ω_ref` the start frequency (ω ~ 1e5
+//! rad/s against displacements ~ 0.1 mm otherwise dominate every norm; the logarithm weighs
+//! a relative change of frequency the same over the whole sweep). Each step:
 //!
 //! * predictor `X_p = X_0 + Δs t` along the unit tangent `t` (solved from
 //!   `[R_X; t_prevᵀ] t = [0; 1]` and oriented along the secant of the last step, so that a
@@ -71,10 +73,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     options.validate()?;
     let policy = problem.continuation_policy();
     let range = Range::new(options);
-    let sc = Scaling {
-        length: problem.length_scale(),
-        omega: range.start,
-    };
+    let sc = Scaling::new(problem.length_scale(), policy.signals, range.start);
     let corrector = Corrector {
         newton: &options.newton,
         contraction: policy.newton_contraction,
@@ -264,7 +263,7 @@ fn land_on_end<P: PeriodicProblem + ?Sized>(
         .x
         .iter()
         .zip(&last.tangent)
-        .map(|(x, t)| x + frac * ds * t * sc.length)
+        .map(|(x, t)| x + frac * ds * t * sc.unknowns)
         .collect();
     let end = newton::solve(problem, &guess, range.end, &options.newton)?;
     if !end.converged {

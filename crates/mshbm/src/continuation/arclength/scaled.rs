@@ -27,20 +27,34 @@ pub(super) fn difference(a: &[f64], b: &[f64]) -> Vec<f64> {
     a.iter().zip(b).map(|(x, y)| x - y).collect()
 }
 
-/// Scaled unknowns `X = [x / ℓ; ln(ω / ω_ref)]` (docs/theory.md (T72)): displacements
-/// relative to the problem's length scale, frequency as a relative (logarithmic) change, so
-/// that the weight of the frequency in the arclength is the same at 1 kHz and at 100 kHz
-/// and does not depend on where the sweep started.
+/// Scaled unknowns `X = [x / (ℓ √s); ln(ω / ω_ref)]` (docs/theory.md (T72)): displacements
+/// relative to the problem's length scale per signal (`s` signals, so that the arclength
+/// of a change of every contact by `δ` is that of one contact by `δ`), frequency as a
+/// relative (logarithmic) change, so that the weight of the frequency in the arclength is
+/// the same at 1 kHz and at 100 kHz and does not depend on where the sweep started.
 pub(super) struct Scaling {
-    /// `ℓ`, the problem's length scale.
+    /// `ℓ`, the problem's length scale: Newton's tolerance and the comparison of solutions
+    /// are relative to it.
     pub length: f64,
+    /// `ℓ √s`, the unit of the scaled unknowns.
+    pub unknowns: f64,
     /// `ω_ref`, the start frequency (rad/s).
     pub omega: f64,
 }
 
 impl Scaling {
+    /// The scaling for a problem of length scale `length` whose unknowns hold `signals`
+    /// signals, for a sweep from `omega` (rad/s).
+    pub fn new(length: f64, signals: usize, omega: f64) -> Self {
+        Scaling {
+            length,
+            unknowns: length * (signals.max(1) as f64).sqrt(),
+            omega,
+        }
+    }
+
     pub fn to_scaled(&self, x: &[f64], omega: f64) -> Vec<f64> {
-        let mut s: Vec<f64> = x.iter().map(|v| v / self.length).collect();
+        let mut s: Vec<f64> = x.iter().map(|v| v / self.unknowns).collect();
         s.push((omega / self.omega).ln());
         s
     }
@@ -48,7 +62,7 @@ impl Scaling {
     pub fn unscale(&self, s: &[f64]) -> (Vec<f64>, f64) {
         let n = s.len() - 1;
         (
-            s[..n].iter().map(|v| v * self.length).collect(),
+            s[..n].iter().map(|v| v * self.unknowns).collect(),
             self.omega * s[n].exp(),
         )
     }
@@ -67,10 +81,10 @@ pub(super) fn bordered<P: PeriodicProblem + ?Sized>(
     // dR / d ln ω
     let column: Vec<f64> = lin.d_omega.iter().map(|v| v * omega).collect();
     let jacobian = match lin.jacobian {
-        Jacobian::Dense(j) => Jacobian::Dense(bordered_matrix(&j, sc.length, &column, border)),
+        Jacobian::Dense(j) => Jacobian::Dense(bordered_matrix(&j, sc.unknowns, &column, border)),
         Jacobian::Operator(inner) => Jacobian::Operator(Box::new(BorderedOperator::new(
             inner,
-            sc.length,
+            sc.unknowns,
             column,
             border.to_vec(),
         ))),

@@ -380,6 +380,7 @@ impl PeriodicProblem for GeneralMsHbm {
             where_arclength_fails: crate::problem::ArclengthFallback::StepInFrequency {
                 min_arclength_step: 1e-4,
             },
+            signals: self.n(),
         }
     }
 

@@ -489,6 +489,7 @@ impl PeriodicProblem for HbmAft {
         crate::problem::ContinuationPolicy {
             newton_contraction: crate::problem::NewtonContraction::Unchecked,
             where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
+            signals: self.n(),
         }
     }
 

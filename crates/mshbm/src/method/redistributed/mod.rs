@@ -808,6 +808,7 @@ impl PeriodicProblem for RedistributedMsHbm {
         crate::problem::ContinuationPolicy {
             newton_contraction: crate::problem::NewtonContraction::Quadratic,
             where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
+            signals: self.n(),
         }
     }
 
