@@ -40,6 +40,8 @@ pub(super) fn assemble_forces(
 ) -> Vec<f64> {
     let nc = n_coefficients(harmonics);
     let mut forces = vec![0.0; n * nc];
+    // F_AA gathered row by row (row-major), reused from set to set
+    let mut force_map = Vec::new();
     for group in &integration.groups {
         let closed = group.set.closed_contacts();
         let na = closed.len();
@@ -49,8 +51,11 @@ pub(super) fn assemble_forces(
         let u_closed = Mat::<f64>::from_fn(na, nc, |r, c| u[c * n + closed[r]]);
         let gram = faer::MatRef::from_row_major_slice(&group.gram, nc, nc);
         let filtered = &u_closed * gram.transpose();
-        let force_map = Mat::<f64>::from_fn(na, na, |r, s| group.set.force_row(closed[r]).1[s]);
-        let block = &force_map * &filtered;
+        force_map.clear();
+        for &a in closed {
+            force_map.extend_from_slice(group.set.force_row(a).1);
+        }
+        let block = faer::MatRef::from_row_major_slice(&force_map, na, na) * &filtered;
         for m in 0..nc {
             for (r, &a) in closed.iter().enumerate() {
                 forces[m * n + a] += block[(r, m)];
@@ -60,11 +65,8 @@ pub(super) fn assemble_forces(
     forces
 }
 
-/// The dense `J` of (T129) in the real form (T15): a complex `M` acting on the `(cos, sin)`
-/// coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`. `S_mc = Σ_A Γ_A[m, c] F_A`
-/// has rows only for the `r` contacts closed in some active set that row block `m` sees, so
-/// the row block costs `2(2H + 1)` products `(r × n_c)(n_c × n_c)` for `U = Σ ± S C` and
-/// `2H + 1` products `Λ[:, r] U`, whatever the number of active sets.
+/// The dense `J` of (T129) in the real form (T15), row block by row block
+/// ([`DenseRows`]).
 pub(super) fn dense_jacobian(
     n: usize,
     harmonics: usize,
@@ -72,41 +74,94 @@ pub(super) fn dense_jacobian(
     residual_scale: &[f64],
     integration: &Integration,
 ) -> Mat<f64> {
-    use faer::linalg::matmul::matmul;
-    use faer::reborrow::ReborrowMut;
-    use faer::{Accum, Par};
-    let nc = n_coefficients(harmonics);
-    let dim = n * nc;
+    let rows = DenseRows::new(n, harmonics, f, residual_scale, integration);
+    let dim = n * n_coefficients(harmonics);
     let mut jac = Mat::<f64>::zeros(dim, dim);
-    let real_form = |m: &Mat<c64>| -> (Mat<f64>, Mat<f64>) {
-        (
-            Mat::from_fn(n, n, |i, j| m[(i, j)].re),
-            Mat::from_fn(n, n, |i, j| m[(i, j)].im),
-        )
-    };
-    // the columns (cos, sin) of each harmonic: (coefficient, (Re, Im) of C_k)
-    let complement: Vec<(Mat<f64>, Mat<f64>)> = (0..=harmonics)
-        .map(|k| {
-            let (re, im) = real_form(&f.matrix(Map::Scaled, k));
-            (Mat::<f64>::identity(n, n) - re, -im)
-        })
-        .collect();
-    for k in 0..=harmonics {
-        let (re, im) = real_form(&f.matrix(Map::Residual, k));
-        if k == 0 {
-            jac.as_mut().submatrix_mut(0, 0, n, n).copy_from(&re);
-        } else {
-            let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
-            jac.as_mut().submatrix_mut(ci, ci, n, n).copy_from(&re);
-            jac.as_mut().submatrix_mut(ci, si, n, n).copy_from(&im);
-            jac.as_mut().submatrix_mut(si, ci, n, n).copy_from(-&im);
-            jac.as_mut().submatrix_mut(si, si, n, n).copy_from(&re);
+    for m in 0..n_coefficients(harmonics) {
+        jac.as_mut().subrows_mut(m * n, n).copy_from(rows.block(m));
+    }
+    jac
+}
+
+/// The rows of the dense `J` of (T129) in the real form (T15), one coefficient's block
+/// (`n_c × n_c(2H+1)`) at a time, so that the preconditioner's single-precision factors can
+/// be filled without the whole double-precision matrix. A complex `M` acting on the
+/// `(cos, sin)` coefficients of a harmonic is `[[Re M, Im M], [−Im M, Re M]]`.
+/// `S_mc = Σ_A Γ_A[m, c] F_A` has rows only for the `r` contacts closed in some active set
+/// that row block `m` sees, so the block costs `2(2H + 1)` products `(r × n_c)(n_c × n_c)`
+/// for `U = Σ ± S C` and `2H + 1` products `Λ[:, r] U`, whatever the number of active sets.
+pub(super) struct DenseRows<'a> {
+    n: usize,
+    harmonics: usize,
+    /// Per harmonic, `(Re, Im)` of `C_k = I − D R_k⁻¹` (the real form's parts).
+    complement: Vec<(Mat<f64>, Mat<f64>)>,
+    /// Per harmonic, `(Re, Im)` of `Λ R_k⁻¹`.
+    direct: Vec<(Mat<f64>, Mat<f64>)>,
+    residual_scale: &'a [f64],
+    integration: &'a Integration,
+}
+
+impl<'a> DenseRows<'a> {
+    pub(super) fn new(
+        n: usize,
+        harmonics: usize,
+        f: &FrequencyMatrices,
+        residual_scale: &'a [f64],
+        integration: &'a Integration,
+    ) -> Self {
+        let real_form = |m: &Mat<c64>| -> (Mat<f64>, Mat<f64>) {
+            (
+                Mat::from_fn(n, n, |i, j| m[(i, j)].re),
+                Mat::from_fn(n, n, |i, j| m[(i, j)].im),
+            )
+        };
+        let complement = (0..=harmonics)
+            .map(|k| {
+                let (re, im) = real_form(&f.matrix(Map::Scaled, k));
+                (Mat::<f64>::identity(n, n) - re, -im)
+            })
+            .collect();
+        let direct = (0..=harmonics)
+            .map(|k| real_form(&f.matrix(Map::Residual, k)))
+            .collect();
+        DenseRows {
+            n,
+            harmonics,
+            complement,
+            direct,
+            residual_scale,
+            integration,
         }
     }
-    let scale = faer::MatRef::from_row_major_slice(residual_scale, n, n);
-    for m in 0..nc {
-        // the contacts closed in some group that row block m sees: only their rows of
-        // S_mc (the force maps) are nonzero
+
+    /// The rows of coefficient `m` (`n_c × n_c(2H+1)`).
+    pub(super) fn block(&self, m: usize) -> Mat<f64> {
+        use faer::linalg::matmul::matmul;
+        use faer::{Accum, Par};
+        let (n, harmonics) = (self.n, self.harmonics);
+        let nc = n_coefficients(harmonics);
+        let mut rows = Mat::<f64>::zeros(n, n * nc);
+        // the diagonal block(s) of Λ R_k⁻¹ of this coefficient's harmonic
+        let k = m.div_ceil(2);
+        let (re, im) = &self.direct[k];
+        if k == 0 {
+            rows.as_mut().submatrix_mut(0, 0, n, n).copy_from(re);
+        } else if m == 2 * k - 1 {
+            // cos row: [Re, Im] in the (cos, sin) columns
+            rows.as_mut().submatrix_mut(0, m * n, n, n).copy_from(re);
+            rows.as_mut()
+                .submatrix_mut(0, (m + 1) * n, n, n)
+                .copy_from(im);
+        } else {
+            // sin row: [−Im, Re]
+            rows.as_mut()
+                .submatrix_mut(0, (m - 1) * n, n, n)
+                .copy_from(-im);
+            rows.as_mut().submatrix_mut(0, m * n, n, n).copy_from(re);
+        }
+        let integration = self.integration;
+        // the contacts closed in some group that row block m sees: only their rows of S_mc
+        // (the force maps) are nonzero
         let mut position = vec![usize::MAX; n];
         let mut closed_rows: Vec<usize> = Vec::new();
         for group in &integration.groups {
@@ -122,38 +177,48 @@ pub(super) fn dense_jacobian(
         }
         let r = closed_rows.len();
         if r == 0 {
-            continue;
+            return rows;
         }
-        // S_mc restricted to those rows (r × n_c)
+        // S_mc restricted to those rows (r × n_c), summed row-major (each force row is
+        // scattered into one contiguous row) and then made a matrix
         let mut forces: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
+        let mut sum: Vec<f64> = Vec::new();
         for (c, s_c) in forces.iter_mut().enumerate() {
+            let mut any = false;
             for group in &integration.groups {
                 let g = group.gram[m * nc + c];
                 if g == 0.0 {
                     continue;
                 }
-                let s = s_c.get_or_insert_with(|| Mat::<f64>::zeros(r, n));
+                if !any {
+                    sum.clear();
+                    sum.resize(r * n, 0.0);
+                    any = true;
+                }
                 for &a in group.set.closed_contacts() {
                     let (columns, values) = group.set.force_row(a);
-                    let row = position[a];
+                    let row = &mut sum[position[a] * n..(position[a] + 1) * n];
                     columns
                         .iter()
                         .zip(values)
-                        .for_each(|(&j, v)| s[(row, j)] += g * v);
+                        .for_each(|(&j, v)| row[j] += g * v);
                 }
+            }
+            if any {
+                *s_c = Some(faer::MatRef::from_row_major_slice(&sum, r, n).to_owned());
             }
         }
         // U_col = Σ_c ± S_mc · realform(C_k) (r × n_c per output column block), then
-        // the row block gets −Λ[:, rows] U_col
+        // the rows get −Λ[:, rows] U_col
         let mut products: Vec<Option<Mat<f64>>> = (0..nc).map(|_| None).collect();
         let mut add = |col: usize, s: &Mat<f64>, c: &Mat<f64>, sign: f64| {
             let u = products[col].get_or_insert_with(|| Mat::<f64>::zeros(r, n));
             matmul(u.as_mut(), Accum::Add, s, c, sign, Par::Seq);
         };
         if let Some(s0) = &forces[0] {
-            add(0, s0, &complement[0].0, -1.0);
+            add(0, s0, &self.complement[0].0, -1.0);
         }
-        for (k, (c_re, c_im)) in complement.iter().enumerate().skip(1) {
+        for (k, (c_re, c_im)) in self.complement.iter().enumerate().skip(1) {
             let (cc, ss) = (2 * k - 1, 2 * k);
             // output column cos: S_cos Re C − S_sin Im C; column sin: S_cos Im C + S_sin Re C
             if let Some(sc) = &forces[cc] {
@@ -165,16 +230,16 @@ pub(super) fn dense_jacobian(
                 add(ss, s_s, c_re, -1.0);
             }
         }
+        let scale = faer::MatRef::from_row_major_slice(self.residual_scale, n, n);
         let scale_rows = Mat::<f64>::from_fn(n, r, |i, q| scale[(i, closed_rows[q])]);
-        let mut rows = jac.as_mut().subrows_mut(m * n, n);
         for (col, u) in products.iter().enumerate() {
             if let Some(u) = u {
-                let block = rows.rb_mut().subcols_mut(col * n, n);
+                let block = rows.as_mut().subcols_mut(col * n, n);
                 matmul(block, Accum::Add, &scale_rows, u, 1.0, Par::Seq);
             }
         }
+        rows
     }
-    jac
 }
 
 /// The LU factors of a dense Jacobian, kept by the method between linearizations as the
@@ -193,12 +258,21 @@ pub(super) struct InPlaceLu {
 }
 
 impl InPlaceLu {
-    fn new(matrix: Mat<f64>) -> Self {
+    /// The factors of the matrix whose rows `rows` gives in `blocks` blocks of equal height,
+    /// each rounded to single precision as it comes (the double-precision matrix is never
+    /// whole).
+    fn new(n: usize, blocks: usize, rows: impl Fn(usize) -> Mat<f64>) -> Self {
         use faer::dyn_stack::{MemBuffer, MemStack};
         use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
-        let n = matrix.nrows();
-        let mut factors = Mat::<f32>::from_fn(n, n, |i, j| matrix[(i, j)] as f32);
-        drop(matrix);
+        let mut factors = Mat::<f32>::zeros(n, n);
+        let height = n / blocks;
+        for b in 0..blocks {
+            let block = rows(b);
+            factors
+                .as_mut()
+                .subrows_mut(b * height, height)
+                .copy_from(block.as_ref().map(|v| *v as f32));
+        }
         let par = faer::get_global_parallelism();
         let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
         let mut mem = MemBuffer::new(lu_in_place_scratch::<usize, f32>(
@@ -286,11 +360,24 @@ impl ContactJacobian {
     }
 
     /// Factor this operator's own dense matrix and share the factors. The earlier factors
-    /// are released first, so that a refresh holds one dense matrix, not three.
+    /// are released first, and the matrix is rounded to single precision block by block, so
+    /// that a refresh holds the single-precision matrix and one row block, not three dense
+    /// matrices.
     fn factor(&self) -> Rc<InPlaceLu> {
         *self.current.borrow_mut() = None;
         *self.slot.borrow_mut() = None;
-        let lu = Rc::new(InPlaceLu::new(self.dense()));
+        let rows = DenseRows::new(
+            self.n,
+            self.harmonics,
+            &self.matrices,
+            &self.residual_scale,
+            &self.integration,
+        );
+        let lu = Rc::new(InPlaceLu::new(
+            self.dimension(),
+            n_coefficients(self.harmonics),
+            |m| rows.block(m),
+        ));
         *self.current.borrow_mut() = Some(Rc::clone(&lu));
         *self.slot.borrow_mut() = Some(Rc::clone(&lu));
         self.exact.set(true);
