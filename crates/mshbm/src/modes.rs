@@ -274,17 +274,22 @@ pub fn lowest_modes_factored(
         ));
     }
     let p = massive.min((2 * count).max(count + 8));
-    let mut x = if p == n {
-        Mat::<f64>::identity(n, n)
-    } else {
-        // deterministic start vectors with components along every DOF
-        Mat::<f64>::from_fn(n, p, |i, j| {
-            if j == 0 {
-                1.0
-            } else {
-                ((i + 1) as f64 * (j as f64 * 0.618_033_988_7 + 0.1)).sin()
-            }
-        })
+    // deterministic start vectors with components along every DOF (columns `from..to`);
+    // the block Krylov space needs only its first block, the whole start block (a third of
+    // a gigabyte for 200 modes of 10⁵ DOFs) is formed only for the subspace iteration
+    let start_block = |from: usize, to: usize| {
+        if p == n {
+            Mat::<f64>::from_fn(n, to - from, |i, j| if i == from + j { 1.0 } else { 0.0 })
+        } else {
+            Mat::<f64>::from_fn(n, to - from, |i, j| {
+                let j = from + j;
+                if j == 0 {
+                    1.0
+                } else {
+                    ((i + 1) as f64 * (j as f64 * 0.618_033_988_7 + 0.1)).sin()
+                }
+            })
+        }
     };
     let owned = match factor {
         None if p < n => Some(stiffness_factor(stiffness)?),
@@ -297,15 +302,25 @@ pub fn lowest_modes_factored(
     };
     let k = stiffness.to_faer();
     let m = mass.to_faer();
+    let mut polished = None;
     if let Some(llt) = llt {
-        match block_krylov(llt, &k, &m, &x, count, massive) {
+        match block_krylov(
+            llt,
+            &k,
+            &m,
+            &start_block(0, p.min(BLOCK)),
+            p,
+            count,
+            massive,
+        ) {
             Ok(Krylov::Converged(modes)) => return Ok(modes),
-            Ok(Krylov::Unconverged(shapes)) if shapes.ncols() == x.ncols() => x = shapes,
+            Ok(Krylov::Unconverged(shapes)) if shapes.ncols() == p => polished = Some(shapes),
             // a Krylov space that lost rank (an invariant subspace met early) or stopped
             // short of p vectors: the subspace iteration from the start block
             _ => {}
         }
     }
+    let mut x = polished.unwrap_or_else(|| start_block(0, p));
     let mut previous: Option<Vec<f64>> = None;
     for _ in 0..500 {
         let y = match llt {
@@ -352,8 +367,8 @@ enum Krylov {
     Unconverged(Mat<f64>),
 }
 
-/// Step 1 of [`lowest_modes`]: the block Krylov space of `K⁻¹ M` from the first [`BLOCK`]
-/// columns of the start block `x` (`p` columns). The projections `Qᵀ K Q`, `Qᵀ M Q` grow
+/// Step 1 of [`lowest_modes`]: the block Krylov space of `K⁻¹ M` from `first`, the first
+/// [`BLOCK`] columns of the start block (`p` columns, the size of the subspace iteration). The projections `Qᵀ K Q`, `Qᵀ M Q` grow
 /// with the basis (each vector meets `K` and `M` once); Rayleigh–Ritz is tried every
 /// `count/4` vectors from `2·count` on, and the residuals are formed once the `count`
 /// lowest Ritz values have settled (relative change below `1e-9` since the last try).
@@ -361,12 +376,12 @@ fn block_krylov(
     llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
     k: &faer::sparse::SparseColMat<usize, f64>,
     m: &faer::sparse::SparseColMat<usize, f64>,
-    x: &Mat<f64>,
+    first: &Mat<f64>,
+    p: usize,
     count: usize,
     massive: usize,
 ) -> Result<Krylov> {
-    let p = x.ncols();
-    let block = p.min(BLOCK);
+    let block = first.ncols();
     let cap = massive.min(6 * count + block);
     let check_every = (count / 4).max(block);
     let mut next_check = (2 * count).min(cap);
@@ -377,11 +392,11 @@ fn block_krylov(
     };
     // the basis is filled block by block into storage allocated for the usual size (the
     // Krylov space typically converges within 4·count vectors), enlarged once if needed
-    let mut storage = Mat::<f64>::zeros(x.nrows(), cap.min(4 * count + block));
+    let mut storage = Mat::<f64>::zeros(first.nrows(), cap.min(4 * count + block));
     let mut len = 0;
     let mut kr = Mat::<f64>::zeros(0, 0);
     let mut mr = Mat::<f64>::zeros(0, 0);
-    let mut next = apply(&x.subcols(0, block).to_owned());
+    let mut next = apply(first);
     let mut previous: Option<Vec<f64>> = None;
     loop {
         let basis = storage.subcols(0, len);
