@@ -300,14 +300,12 @@ pub fn lowest_modes_factored(
     } else {
         None
     };
-    let k = stiffness.to_faer();
-    let m = mass.to_faer();
     let mut polished = None;
     if let Some(llt) = llt {
         match block_krylov(
             llt,
-            &k,
-            &m,
+            stiffness,
+            mass,
             &start_block(0, p.min(BLOCK)),
             p,
             count,
@@ -321,6 +319,8 @@ pub fn lowest_modes_factored(
         }
     }
     let mut x = polished.unwrap_or_else(|| start_block(0, p));
+    let k = stiffness.to_faer();
+    let m = mass.to_faer();
     let mut previous: Option<Vec<f64>> = None;
     for _ in 0..500 {
         let y = match llt {
@@ -374,8 +374,8 @@ enum Krylov {
 /// lowest Ritz values have settled (relative change below `1e-9` since the last try).
 fn block_krylov(
     llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
-    k: &faer::sparse::SparseColMat<usize, f64>,
-    m: &faer::sparse::SparseColMat<usize, f64>,
+    k: &SparseMatrix,
+    m: &SparseMatrix,
     first: &Mat<f64>,
     p: usize,
     count: usize,
@@ -386,7 +386,7 @@ fn block_krylov(
     let check_every = (count / 4).max(block);
     let mut next_check = (2 * count).min(cap);
     let apply = |v: &Mat<f64>| -> Mat<f64> {
-        let mut y = m * v;
+        let mut y = m.mul_block(v.as_ref());
         llt.solve_in_place(y.as_mut());
         y
     };
@@ -408,7 +408,7 @@ fn block_krylov(
         let q = next.qr().compute_thin_Q();
         let width = q.ncols().min(cap - len);
         let q = q.subcols(0, width);
-        let (kq, mq) = (k * q, m * q);
+        let (kq, mq) = (k.mul_block(q), m.mul_block(q));
         kr = grow(&kr, &(basis.transpose() * &kq), &(q.transpose() * &kq));
         mr = grow(&mr, &(basis.transpose() * &mq), &(q.transpose() * &mq));
         if len + width > storage.ncols() {
@@ -464,17 +464,12 @@ fn grow(a: &Mat<f64>, c: &Mat<f64>, d: &Mat<f64>) -> Mat<f64> {
 }
 
 /// Whether every Ritz pair has `‖K φ − ω² M φ‖ ≤ MODE_RESIDUAL_TOLERANCE ‖ω² M φ‖`.
-fn residuals_below(
-    k: &faer::sparse::SparseColMat<usize, f64>,
-    m: &faer::sparse::SparseColMat<usize, f64>,
-    values: &[f64],
-    shapes: &Mat<f64>,
-) -> bool {
+fn residuals_below(k: &SparseMatrix, m: &SparseMatrix, values: &[f64], shapes: &Mat<f64>) -> bool {
     // 16 columns at a time: `K Φ` and `M Φ` whole would double the modes' memory
     (0..shapes.ncols()).step_by(16).all(|start| {
         let width = 16.min(shapes.ncols() - start);
         let columns = shapes.subcols(start, width);
-        let (ks, ms) = (k * columns, m * columns);
+        let (ks, ms) = (k.mul_block(columns), m.mul_block(columns));
         (0..width).all(|c| {
             let (mut residual, mut size) = (0.0f64, 0.0f64);
             for r in 0..ks.nrows() {
