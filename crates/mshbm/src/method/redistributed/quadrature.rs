@@ -50,8 +50,6 @@ pub struct Switch {
 /// The active-set decomposition of one period.
 pub struct Integration {
     pub groups: Vec<Group>,
-    /// Group of each grid sample.
-    pub sample_group: Vec<usize>,
     /// Located switching times (exact quadrature only).
     pub switches: Vec<Switch>,
     /// The period cut into intervals of constant active set, `(τ_start, τ_end, group)`,
@@ -272,138 +270,273 @@ impl CellScan {
 
 /// Decompose one period into active-set groups for the free gap with coefficients `gamma`
 /// (harmonic-major, `n_c` per coefficient).
-#[allow(clippy::needless_range_loop)] // cells j use the grid points j and j + 1
 pub fn integrate(
     contact: &mut StaticContact,
     gamma: &[f64],
     sampling: &Sampling,
     quadrature: Quadrature,
 ) -> Result<Integration> {
-    let h = sampling.harmonics;
-    let ncoef = n_coefficients(h);
-    let nc = contact.n_contacts();
-    let mut basis = vec![0.0; ncoef];
+    let ncoef = n_coefficients(sampling.harmonics);
     let mut groups = Groups {
         index: HashMap::new(),
         groups: Vec::new(),
         size: ncoef,
     };
-    let mut sets = Vec::with_capacity(sampling.len());
-    let mut sample_group = Vec::with_capacity(sampling.len());
-    for &tau in &sampling.taus {
-        let g = signal_at(gamma, nc, h, tau, &mut basis);
-        let set = contact.solve(&g)?;
-        sample_group.push(groups.of(&set));
-        sets.push(set);
-    }
     let mut switches = Vec::new();
     let mut intervals: Vec<(f64, f64, usize)> = Vec::new();
     match quadrature {
         Quadrature::Sampled => {
-            let two_pi = 2.0 * std::f64::consts::PI;
-            for (j, &g) in sample_group.iter().enumerate() {
-                sampling.add_sample_gram(j, &mut groups.groups[g].gram);
-                // the sample's set holds on its cell [τ_j, τ_j+1)
-                let end = sampling.taus.get(j + 1).copied().unwrap_or(two_pi);
-                match intervals.last_mut() {
-                    Some(last) if last.2 == g => last.1 = end,
-                    _ => intervals.push((sampling.taus[j], end, g)),
-                }
-            }
+            sampled(contact, gamma, sampling, &mut groups, &mut intervals)?;
         }
         Quadrature::Exact => {
-            let ns = sampling.len();
-            let two_pi = 2.0 * std::f64::consts::PI;
-            let mut set = sets[0].clone();
-            // the indicators' coefficients of the current set (`n_c × (2H+1)`), formed
-            // when the set changes
-            let mut coefs = set.indicator_coefficients(gamma, ncoef);
-            let mut coefs_of = Rc::clone(&set);
-            let mut scan = CellScan::new(h);
-            let mut run_start = 0.0;
-            for j in 0..ns {
-                let mut a = sampling.taus[j];
-                let end = if j + 1 < ns {
-                    sampling.taus[j + 1]
-                } else {
-                    two_pi
-                };
-                // a set carried over from the previous cell that the LCP disagrees with at
-                // this grid point is replaced by the LCP's (a double switch was missed)
-                if !Rc::ptr_eq(&coefs_of, &set) {
-                    coefs = set.indicator_coefficients(gamma, ncoef);
-                    coefs_of = Rc::clone(&set);
-                }
-                if !Rc::ptr_eq(&set, &sets[j]) && !indicator_holds(&coefs, ncoef, a) {
-                    let g = groups.of(&set);
-                    add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
-                    intervals.push((run_start, a, g));
-                    run_start = a;
-                    set = sets[j].clone();
-                }
-                let mut guard = 0;
-                // the contact flipped at the last switch, to see flips undo each other
-                let mut last_flip: Option<usize> = None;
-                loop {
-                    if !Rc::ptr_eq(&coefs_of, &set) {
-                        coefs = set.indicator_coefficients(gamma, ncoef);
-                        coefs_of = Rc::clone(&set);
-                    }
-                    scan.fill(&coefs, a, end);
-                    let Some((root, component)) = scan.earliest_root(&coefs, ncoef) else {
-                        break;
-                    };
-                    let g = groups.of(&set);
-                    add_interval_gram(h, run_start, root, &mut groups.groups[g].gram);
-                    intervals.push((run_start, root, g));
-                    switches.push(Switch { tau: root });
-                    run_start = root;
-                    guard += 1;
-                    // contacts that switch at one instant (to round-off) are flipped one
-                    // after the other, like pivots; only when a flip undoes the previous
-                    // one at the same instant do the signs there depend on round-off, and
-                    // the set is then the LCP's a little later, which holds from the root
-                    let same_instant = root - a <= 1e-13 * two_pi;
-                    if (same_instant && last_flip == Some(component)) || guard > 2 * nc + 4 {
-                        let t = root + 1e-9 * (end - root);
-                        let g = signal_at(gamma, nc, h, t, &mut basis);
-                        set = contact.solve(&g)?;
-                        a = t;
-                        last_flip = None;
-                    } else {
-                        let mut closed = set.closed.clone();
-                        closed[component] = !closed[component];
-                        set = contact.active_set(&closed)?;
-                        a = root;
-                        last_flip = Some(component);
-                    }
-                    if guard > 4 * nc + 8 {
-                        break;
-                    }
-                }
-            }
-            let g = groups.of(&set);
-            add_interval_gram(h, run_start, two_pi, &mut groups.groups[g].gram);
-            intervals.push((run_start, two_pi, g));
+            exact(
+                contact,
+                gamma,
+                sampling,
+                &mut groups,
+                &mut intervals,
+                &mut switches,
+            )?;
         }
     }
     Ok(Integration {
         groups: groups.groups,
-        sample_group,
         switches,
         intervals,
     })
 }
 
-/// Whether every indicator (coefficients `coefs`, rows of `ncoef`) is non-negative at `τ`,
-/// to round-off.
-fn indicator_holds(coefs: &[f64], ncoef: usize, tau: f64) -> bool {
+/// The sampled quadrature: the LCP at every grid sample, whose set holds on its cell.
+fn sampled(
+    contact: &mut StaticContact,
+    gamma: &[f64],
+    sampling: &Sampling,
+    groups: &mut Groups,
+    intervals: &mut Vec<(f64, f64, usize)>,
+) -> Result<()> {
+    let nc = contact.n_contacts();
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut free_gap = vec![0.0; nc];
+    for (j, &tau) in sampling.taus.iter().enumerate() {
+        sampling.synthesize_into(j, gamma, nc, &mut free_gap);
+        let g = groups.of(&contact.solve(&free_gap)?);
+        sampling.add_sample_gram(j, &mut groups.groups[g].gram);
+        // the sample's set holds on its cell [τ_j, τ_j+1)
+        let end = sampling.taus.get(j + 1).copied().unwrap_or(two_pi);
+        match intervals.last_mut() {
+            Some(last) if last.2 == g => last.1 = end,
+            _ => intervals.push((tau, end, g)),
+        }
+    }
+    Ok(())
+}
+
+/// The indicators of the current active set on the sample grid: their coefficients, their
+/// values at the grid points from the sampling's basis table (no trigonometry), and what a
+/// cell needs to be passed without a scan.
+struct GridIndicators {
+    ncoef: usize,
+    /// The set the data is of.
+    of: Option<Rc<ActiveSet>>,
+    /// `n_c × (2H+1)`, row-major.
+    coefs: Vec<f64>,
+    /// Per indicator, `Σ_k k² (|a_k| + |b_k|)`, a bound of its second derivative.
+    curvature: Vec<f64>,
+    /// Per indicator, the round-off of its value: `10⁻¹⁴ Σ_m |c_m|`.
+    rounding: Vec<f64>,
+    /// Per indicator, the tolerance to which the set holds at a grid point:
+    /// `h_c ≥ −10⁻¹² (1 + max_m |c_m|)`.
+    holds_tolerance: Vec<f64>,
+    /// Values at the start and the end of the current cell.
+    start: Vec<f64>,
+    end: Vec<f64>,
+}
+
+impl GridIndicators {
+    fn new(ncoef: usize) -> Self {
+        GridIndicators {
+            ncoef,
+            of: None,
+            coefs: Vec::new(),
+            curvature: Vec::new(),
+            rounding: Vec::new(),
+            holds_tolerance: Vec::new(),
+            start: Vec::new(),
+            end: Vec::new(),
+        }
+    }
+
+    /// Make the data that of `set`; `true` when it changed.
+    fn track(&mut self, set: &Rc<ActiveSet>, gamma: &[f64]) -> bool {
+        if self.of.as_ref().is_some_and(|s| Rc::ptr_eq(s, set)) {
+            return false;
+        }
+        self.coefs = set.indicator_coefficients(gamma, self.ncoef);
+        self.curvature.clear();
+        self.rounding.clear();
+        self.holds_tolerance.clear();
+        for c in self.coefs.chunks_exact(self.ncoef) {
+            let curvature = c
+                .iter()
+                .enumerate()
+                .skip(1)
+                .map(|(m, v)| {
+                    let k = m.div_ceil(2) as f64;
+                    k * k * v.abs()
+                })
+                .sum();
+            self.curvature.push(curvature);
+            self.rounding
+                .push(1e-14 * c.iter().map(|v| v.abs()).sum::<f64>());
+            self.holds_tolerance
+                .push(1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs()))));
+        }
+        self.of = Some(Rc::clone(set));
+        true
+    }
+
+    /// The indicators' values at grid point `j` (`j = N_s`: the end of the period).
+    fn values_at(&self, sampling: &Sampling, j: usize, out: &mut Vec<f64>) {
+        let basis = &sampling.basis[j % sampling.len()];
+        out.clear();
+        out.extend(
+            self.coefs
+                .chunks_exact(self.ncoef)
+                .map(|c| c.iter().zip(basis).map(|(a, b)| a * b).sum::<f64>()),
+        );
+    }
+
+    /// Whether every indicator is non-negative at the start of the cell, to round-off.
+    fn hold_at_start(&self) -> bool {
+        self.start
+            .iter()
+            .zip(&self.holds_tolerance)
+            .all(|(v, t)| *v >= -t)
+    }
+
+    /// Whether every indicator stays positive on the cell of width `width` between the
+    /// values `start` and `end`: with `|h''| ≤ M`, `h ≥ min(h(a), h(b)) − M (b − a)²/8` on
+    /// `[a, b]` (the chord minus the largest deviation of a function of bounded curvature
+    /// that meets it at both ends).
+    fn positive_on_cell(&self, width: f64) -> bool {
+        let w2 = width * width / 8.0;
+        (0..self.start.len())
+            .all(|c| self.start[c].min(self.end[c]) > self.curvature[c] * w2 + self.rounding[c])
+    }
+}
+
+/// The exact quadrature (module docs): cell by cell, the switching times of the current set.
+/// A cell on which every indicator provably stays positive ([`GridIndicators::positive_on_cell`])
+/// is passed without a scan; the LCP is asked at a grid point only where the set carried into
+/// the cell does not hold there.
+fn exact(
+    contact: &mut StaticContact,
+    gamma: &[f64],
+    sampling: &Sampling,
+    groups: &mut Groups,
+    intervals: &mut Vec<(f64, f64, usize)>,
+    switches: &mut Vec<Switch>,
+) -> Result<()> {
+    let h = sampling.harmonics;
+    let ncoef = n_coefficients(h);
+    let nc = contact.n_contacts();
+    let ns = sampling.len();
+    let two_pi = 2.0 * std::f64::consts::PI;
+    let mut free_gap = vec![0.0; nc];
+    sampling.synthesize_into(0, gamma, nc, &mut free_gap);
+    let mut set = contact.solve(&free_gap)?;
+    let mut grid = GridIndicators::new(ncoef);
+    let mut start_known = false;
+    let mut scan = CellScan::new(h);
     let mut basis = vec![0.0; ncoef];
-    basis_into((ncoef - 1) / 2, tau, &mut basis);
-    coefs.chunks_exact(ncoef).all(|c| {
-        let value: f64 = c.iter().zip(&basis).map(|(a, b)| a * b).sum();
-        value >= -1e-12 * (1.0 + c.iter().fold(0.0f64, |m, v| m.max(v.abs())))
-    })
+    let mut run_start = 0.0;
+    for j in 0..ns {
+        let mut a = sampling.taus[j];
+        let end = if j + 1 < ns {
+            sampling.taus[j + 1]
+        } else {
+            two_pi
+        };
+        if grid.track(&set, gamma) || !start_known {
+            let mut start = std::mem::take(&mut grid.start);
+            grid.values_at(sampling, j, &mut start);
+            grid.start = start;
+        }
+        // a set carried over from the previous cell that does not hold at this grid point
+        // is replaced by the LCP's there (a double switch was missed)
+        if !grid.hold_at_start() {
+            sampling.synthesize_into(j, gamma, nc, &mut free_gap);
+            let solved = contact.solve(&free_gap)?;
+            if !Rc::ptr_eq(&solved, &set) {
+                let g = groups.of(&set);
+                add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
+                intervals.push((run_start, a, g));
+                run_start = a;
+                set = solved;
+                grid.track(&set, gamma);
+                let mut start = std::mem::take(&mut grid.start);
+                grid.values_at(sampling, j, &mut start);
+                grid.start = start;
+            }
+        }
+        let mut end_values = std::mem::take(&mut grid.end);
+        grid.values_at(sampling, j + 1, &mut end_values);
+        grid.end = end_values;
+        if grid.positive_on_cell(end - a) {
+            std::mem::swap(&mut grid.start, &mut grid.end);
+            start_known = true;
+            continue;
+        }
+        let cell_set = Rc::clone(&set);
+        let mut guard = 0;
+        // the contact flipped at the last switch, to see flips undo each other
+        let mut last_flip: Option<usize> = None;
+        loop {
+            grid.track(&set, gamma);
+            scan.fill(&grid.coefs, a, end);
+            let Some((root, component)) = scan.earliest_root(&grid.coefs, ncoef) else {
+                break;
+            };
+            let g = groups.of(&set);
+            add_interval_gram(h, run_start, root, &mut groups.groups[g].gram);
+            intervals.push((run_start, root, g));
+            switches.push(Switch { tau: root });
+            run_start = root;
+            guard += 1;
+            // contacts that switch at one instant (to round-off) are flipped one after
+            // the other, like pivots; only when a flip undoes the previous one at the same
+            // instant do the signs there depend on round-off, and the set is then the
+            // LCP's a little later, which holds from the root
+            let same_instant = root - a <= 1e-13 * two_pi;
+            if (same_instant && last_flip == Some(component)) || guard > 2 * nc + 4 {
+                let t = root + 1e-9 * (end - root);
+                let g = signal_at(gamma, nc, h, t, &mut basis);
+                set = contact.solve(&g)?;
+                a = t;
+                last_flip = None;
+            } else {
+                let mut closed = set.closed.clone();
+                closed[component] = !closed[component];
+                set = contact.active_set(&closed)?;
+                a = root;
+                last_flip = Some(component);
+            }
+            if guard > 4 * nc + 8 {
+                break;
+            }
+        }
+        // the end values are those of the set the cell ends with
+        if Rc::ptr_eq(&cell_set, &set) {
+            std::mem::swap(&mut grid.start, &mut grid.end);
+            start_known = true;
+        } else {
+            start_known = false;
+        }
+    }
+    let g = groups.of(&set);
+    add_interval_gram(h, run_start, two_pi, &mut groups.groups[g].gram);
+    intervals.push((run_start, two_pi, g));
+    Ok(())
 }
 
 #[cfg(test)]
