@@ -13,14 +13,23 @@
 //! [`StructuralBlock`] applies both to complex vectors for one block (`K`, `M`, `C` of the
 //! same rows and columns) of a partitioned system; [`LinearPart`] factors `A_k(ω)` of the
 //! square `LL` block: the sparsity pattern is analysed once ([`LinearPart::new`]), each
-//! frequency refactors numerically ([`LinearPart::factor`]).
+//! frequency refactors numerically ([`LinearPart::factor`]). A block whose DOFs are numbered
+//! along a slender structure (a bar, a beam: at most [`BANDED_BANDWIDTH`] diagonals off the
+//! main one) is factored as a band matrix ([`super::banded`]), with no symbolic phase; any
+//! other by faer's sparse LU.
 
 use faer::linalg::solvers::Solve;
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::{c64, Mat};
 
+use super::banded::{bandwidths, BandedLu};
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
+
+/// Largest `kl + ku` (diagonals off the main one) for which `A_k(ω)` is factored as a band
+/// matrix: its factorization costs `O(n kl (kl + ku))`, less than the sparse LU's analysis
+/// and allocations for the chains and beams that have such a band.
+pub const BANDED_BANDWIDTH: usize = 16;
 
 /// Stiffness `K`, mass `M` and damping `C` of one block (the same rows and columns of each)
 /// of a structural system, with the dynamic stiffness `A_k(ω) = K − (kω)² M + i kω C` of
@@ -120,16 +129,35 @@ pub struct LinearPart {
     /// `K`, `M`, `C` of the linear part.
     pub matrices: StructuralBlock,
     pattern: SparseMatrix,
-    symbolic: SymbolicLu<usize>,
+    analysis: Analysis,
     mass_values: Vec<f64>,
     damping_values: Vec<f64>,
     stiffness_values: Vec<f64>,
 }
 
+/// How `A_k(ω)` is factored.
+enum Analysis {
+    /// faer's sparse LU with this symbolic analysis.
+    Sparse(SymbolicLu<usize>),
+    /// A band LU with `kl` sub- and `ku` superdiagonals; the pattern's `(row, column)` in its
+    /// storage order.
+    Banded {
+        kl: usize,
+        ku: usize,
+        entries: Vec<(usize, usize)>,
+    },
+}
+
+/// One factored `A_k(ω)`.
+enum Factor {
+    Sparse(Box<Lu<usize, c64>>),
+    Banded(BandedLu),
+}
+
 /// The factored `A_k(ω)` for `k = 0..=H`.
 pub struct HarmonicFactors {
     pub omega: f64,
-    factors: Vec<Lu<usize, c64>>,
+    factors: Vec<Factor>,
 }
 
 impl LinearPart {
@@ -141,16 +169,27 @@ impl LinearPart {
             n,
             &[&matrices.mass, &matrices.damping, &matrices.stiffness],
         );
-        let symbolic = SymbolicLu::try_new(pattern.faer_symbolic().as_ref()).map_err(|e| {
-            Error::Numerical(format!("sparse LU analysis of the linear part: {e:?}"))
-        })?;
+        let (kl, ku) = bandwidths(pattern.iter().map(|(i, j, _)| (i, j)));
+        let analysis = if kl + ku <= BANDED_BANDWIDTH {
+            Analysis::Banded {
+                kl,
+                ku,
+                entries: pattern.iter().map(|(i, j, _)| (i, j)).collect(),
+            }
+        } else {
+            Analysis::Sparse(
+                SymbolicLu::try_new(pattern.faer_symbolic().as_ref()).map_err(|e| {
+                    Error::Numerical(format!("sparse LU analysis of the linear part: {e:?}"))
+                })?,
+            )
+        };
         Ok(LinearPart {
             mass_values: matrices.mass.values_on_pattern(&pattern),
             damping_values: matrices.damping.values_on_pattern(&pattern),
             stiffness_values: matrices.stiffness.values_on_pattern(&pattern),
             matrices,
             pattern,
-            symbolic,
+            analysis,
         })
     }
 
@@ -160,26 +199,73 @@ impl LinearPart {
 
     /// Factor `A_k(ω)` for `k = 0..=harmonics`.
     pub fn factor(&self, omega: f64, harmonics: usize) -> Result<HarmonicFactors> {
-        let factors = (0..=harmonics)
-            .map(|k| {
-                let kw = k as f64 * omega;
-                let values: Vec<c64> = (0..self.stiffness_values.len())
-                    .map(|e| {
-                        c64::new(
-                            self.stiffness_values[e] - kw * kw * self.mass_values[e],
-                            kw * self.damping_values[e],
-                        )
-                    })
-                    .collect();
-                let a = faer::sparse::SparseColMat::new(self.pattern.faer_symbolic(), values);
-                Lu::try_new_with_symbolic(self.symbolic.clone(), a.as_ref()).map_err(|e| {
-                    Error::Numerical(format!(
-                        "sparse LU of the dynamic stiffness (harmonic {k}): {e:?}"
-                    ))
-                })
-            })
-            .collect::<Result<Vec<_>>>()?;
-        Ok(HarmonicFactors { omega, factors })
+        let mut factors = HarmonicFactors {
+            omega,
+            factors: Vec::with_capacity(harmonics + 1),
+        };
+        self.factor_into(omega, harmonics, &mut factors)?;
+        Ok(factors)
+    }
+
+    /// [`LinearPart::factor`] into the storage of earlier factors (band factors of the same
+    /// sizes are refactored in place, with no allocation).
+    pub fn factor_into(
+        &self,
+        omega: f64,
+        harmonics: usize,
+        factors: &mut HarmonicFactors,
+    ) -> Result<()> {
+        factors.omega = omega;
+        factors.factors.truncate(harmonics + 1);
+        let value = |e: usize, kw: f64| {
+            c64::new(
+                self.stiffness_values[e] - kw * kw * self.mass_values[e],
+                kw * self.damping_values[e],
+            )
+        };
+        for k in 0..=harmonics {
+            let kw = k as f64 * omega;
+            match &self.analysis {
+                Analysis::Banded { kl, ku, entries } => {
+                    let n = self.n_dofs();
+                    if !matches!(factors.factors.get(k), Some(Factor::Banded(_))) {
+                        let fresh = Factor::Banded(BandedLu::new(n, *kl, *ku));
+                        if k < factors.factors.len() {
+                            factors.factors[k] = fresh;
+                        } else {
+                            factors.factors.push(fresh);
+                        }
+                    }
+                    let Factor::Banded(lu) = &mut factors.factors[k] else {
+                        unreachable!("made banded above")
+                    };
+                    // a zero pivot leaves non-finite solutions, which the solves report
+                    lu.factor(|store| {
+                        for (e, &(i, j)) in entries.iter().enumerate() {
+                            store(i, j, value(e, kw));
+                        }
+                    });
+                }
+                Analysis::Sparse(symbolic) => {
+                    let values: Vec<c64> = (0..self.stiffness_values.len())
+                        .map(|e| value(e, kw))
+                        .collect();
+                    let a = faer::sparse::SparseColMat::new(self.pattern.faer_symbolic(), values);
+                    let lu =
+                        Lu::try_new_with_symbolic(symbolic.clone(), a.as_ref()).map_err(|e| {
+                            Error::Numerical(format!(
+                                "sparse LU of the dynamic stiffness (harmonic {k}): {e:?}"
+                            ))
+                        })?;
+                    if k < factors.factors.len() {
+                        factors.factors[k] = Factor::Sparse(Box::new(lu));
+                    } else {
+                        factors.factors.push(Factor::Sparse(Box::new(lu)));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -187,11 +273,40 @@ impl HarmonicFactors {
     /// Solve `A_k X = RHS` in place. Fails when the result is not finite (the frequency
     /// `kω` hits an undamped eigenfrequency of the linear part).
     pub fn solve_in_place(&self, k: usize, rhs: &mut Mat<c64>) -> Result<()> {
-        self.factors[k].solve_in_place(rhs.as_mut());
-        if rhs
-            .col_iter()
-            .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
-        {
+        match &self.factors[k] {
+            Factor::Sparse(lu) => lu.solve_in_place(rhs.as_mut()),
+            Factor::Banded(lu) => {
+                for j in 0..rhs.ncols() {
+                    let column = rhs
+                        .as_mut()
+                        .col_mut(j)
+                        .try_as_col_major_mut()
+                        .expect("contiguous columns");
+                    lu.solve_in_place(column.as_slice_mut());
+                }
+            }
+        }
+        let rhs = &*rhs;
+        self.check_finite(
+            k,
+            (0..rhs.ncols()).flat_map(|j| (0..rhs.nrows()).map(move |i| rhs[(i, j)])),
+        )
+    }
+
+    /// Solve `A_k x = b` in place for one right-hand side.
+    pub fn solve_slice_in_place(&self, k: usize, b: &mut [c64]) -> Result<()> {
+        match &self.factors[k] {
+            Factor::Sparse(lu) => {
+                lu.solve_in_place(faer::MatMut::from_column_major_slice_mut(b, b.len(), 1))
+            }
+            Factor::Banded(lu) => lu.solve_in_place(b),
+        }
+        self.check_finite(k, b.iter().copied())
+    }
+
+    /// An error when a solution of `A_k x = b` is not finite.
+    fn check_finite(&self, k: usize, mut values: impl Iterator<Item = c64>) -> Result<()> {
+        if values.any(|v| !(v.re.is_finite() && v.im.is_finite())) {
             return Err(Error::Singular(format!(
                 "the dynamic stiffness of the linear part is singular at harmonic {k} (k·f = {:.6} Hz is an eigenfrequency of the structure with the contact DOFs held; add damping or move the frequency)",
                 k as f64 * self.omega / (2.0 * std::f64::consts::PI)
@@ -202,9 +317,9 @@ impl HarmonicFactors {
 
     /// Solve `A_k x = rhs` for one right-hand side.
     pub fn solve(&self, k: usize, rhs: &[c64]) -> Result<Vec<c64>> {
-        let mut x = Mat::<c64>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
-        self.solve_in_place(k, &mut x)?;
-        Ok((0..rhs.len()).map(|i| x[(i, 0)]).collect())
+        let mut x = rhs.to_vec();
+        self.solve_slice_in_place(k, &mut x)?;
+        Ok(x)
     }
 
     pub fn harmonics(&self) -> usize {

@@ -17,6 +17,7 @@
 //! docs/theory.md (T11)); real Fourier coefficients are stored harmonic-major, coefficient
 //! `c` of `[a0, a1, b1, …]` of DOF `i` of `n` at `c·n + i` (docs/theory.md (T8)).
 
+pub mod banded;
 pub mod condensation;
 pub mod dynamic_stiffness;
 pub mod modal_receptance;

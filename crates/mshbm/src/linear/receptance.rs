@@ -18,6 +18,8 @@
 //! implements it with a sparse LU of the whole `A_k` per harmonic and `n_c` solves per
 //! harmonic and frequency.
 
+use std::sync::Arc;
+
 use faer::{c64, Mat, MatRef};
 
 use super::dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
@@ -55,6 +57,13 @@ impl ContactCoordinates {
             .iter()
             .map(|w| w.iter().fold(ZERO, |s, &(i, v)| s + q[i] * v))
             .collect()
+    }
+
+    /// `Wᵀ q` (without `g0`) into `out` (`n_c`).
+    pub fn gather_into(&self, q: &[c64], out: &mut [c64]) {
+        for (o, w) in out.iter_mut().zip(&self.w) {
+            *o = w.iter().fold(ZERO, |s, &(i, v)| s + q[i] * v);
+        }
     }
 
     /// `out += W λ`.
@@ -126,11 +135,27 @@ pub trait ReceptanceAtFrequency: Send + Sync {
 
 /// The exact receptance: the whole dynamic stiffness `A_k` factored by a sparse LU per
 /// harmonic and frequency, `R_k` from `n_c` solves.
+///
+/// When `K`, `M` and `C` are symmetric, `A_k` is complex symmetric and `Wᵀ A_k⁻¹ = Yᵀ` with
+/// `Y = A_k⁻¹ W`; the solved columns `[Y | A_k⁻¹ f_k]` are then kept (up to
+/// [`KEPT_COLUMN_VALUES`] numbers), and the whole response `q̂_k = A_k⁻¹ f_k + Y λ̂_k` and
+/// the frequency derivative `−Yᵀ ∂A_k/∂ω q̂_k` cost products instead of solves.
 pub struct ExactReceptance {
+    shared: Arc<ExactParts>,
+}
+
+/// What every frequency of an [`ExactReceptance`] shares.
+struct ExactParts {
     structure: LinearPart,
     contacts: ContactCoordinates,
     load: PartLoad,
+    /// Whether `K`, `M` and `C` are symmetric (so `A_k` is complex symmetric).
+    symmetric: bool,
 }
+
+/// Largest number of complex values `n (n_c + 1)(H + 1)` of the solved columns an
+/// [`ExactReceptance`] keeps per frequency (64 MiB).
+pub const KEPT_COLUMN_VALUES: usize = 1 << 22;
 
 impl ExactReceptance {
     /// Analyse the sparsity pattern of `A_k` of the whole `system` (once).
@@ -138,58 +163,71 @@ impl ExactReceptance {
         let all: Vec<usize> = (0..system.n_dofs()).collect();
         let block =
             StructuralBlock::of(&system.stiffness, &system.mass, &system.damping, &all, &all);
+        let symmetric = [&block.stiffness, &block.mass, &block.damping]
+            .iter()
+            .all(|m| m.iter().all(|(i, j, v)| m.get(j, i) == v));
         Ok(ExactReceptance {
-            structure: LinearPart::new(block)?,
-            contacts: ContactCoordinates::of(system),
-            load: PartLoad::restrict(system, &all),
+            shared: Arc::new(ExactParts {
+                structure: LinearPart::new(block)?,
+                contacts: ContactCoordinates::of(system),
+                load: PartLoad::restrict(system, &all),
+                symmetric,
+            }),
         })
     }
 }
 
 impl Receptance for ExactReceptance {
     fn n_contacts(&self) -> usize {
-        self.contacts.len()
+        self.shared.contacts.len()
     }
 
     fn n_dofs(&self) -> usize {
-        self.structure.n_dofs()
+        self.shared.structure.n_dofs()
     }
 
     fn at(&self, omega: f64, harmonics: usize) -> Result<Box<dyn ReceptanceAtFrequency>> {
         let (n, nc) = (self.n_dofs(), self.n_contacts());
-        let factors = self.structure.factor(omega, harmonics)?;
+        let parts = &self.shared;
+        let factors = parts.structure.factor(omega, harmonics)?;
+        let keep = parts.symmetric
+            && n.saturating_mul(nc + 1).saturating_mul(harmonics + 1) <= KEPT_COLUMN_VALUES;
         let mut receptance = Vec::with_capacity(harmonics + 1);
         let mut load_response = Vec::with_capacity(harmonics + 1);
+        let mut columns = Vec::with_capacity(if keep { harmonics + 1 } else { 0 });
+        let mut gathered = vec![ZERO; nc];
         for k in 0..=harmonics {
             // A_k⁻¹ [W | f_k]
             let mut rhs = Mat::<c64>::zeros(n, nc + 1);
-            for (c, w) in self.contacts.w.iter().enumerate() {
+            for (c, w) in parts.contacts.w.iter().enumerate() {
                 w.iter().for_each(|&(i, v)| rhs[(i, c)] += c64::new(v, 0.0));
             }
-            if let Some(f) = self.load.complex(k) {
+            if let Some(f) = parts.load.complex(k) {
                 (0..n).for_each(|i| rhs[(i, nc)] = f[i]);
             }
             factors.solve_in_place(k, &mut rhs)?;
             let mut r = vec![ZERO; nc * nc];
             for j in 0..=nc {
-                let column: Vec<c64> = (0..n).map(|i| rhs[(i, j)]).collect();
-                let g = self.contacts.gather(&column);
+                let column = rhs.col(j).try_as_col_major().expect("contiguous columns");
+                parts.contacts.gather_into(column.as_slice(), &mut gathered);
                 if j < nc {
-                    (0..nc).for_each(|i| r[i * nc + j] = g[i]);
+                    (0..nc).for_each(|i| r[i * nc + j] = gathered[i]);
                 } else {
-                    load_response.push(g);
+                    load_response.push(gathered.clone());
                 }
             }
             receptance.push(r);
+            if keep {
+                columns.push(rhs);
+            }
         }
         Ok(Box::new(ExactReceptanceAt {
             omega,
             factors,
             receptance,
             load_response,
-            structure: self.structure.matrices.clone(),
-            contacts: self.contacts.clone(),
-            load: self.load.clone(),
+            columns: keep.then_some(columns),
+            parts: Arc::clone(&self.shared),
         }))
     }
 }
@@ -200,9 +238,30 @@ struct ExactReceptanceAt {
     factors: HarmonicFactors,
     receptance: Vec<Vec<c64>>,
     load_response: Vec<Vec<c64>>,
-    structure: StructuralBlock,
-    contacts: ContactCoordinates,
-    load: PartLoad,
+    /// Per harmonic, `[Y | A_k⁻¹ f_k]` (`n × (n_c + 1)`) when `A_k` is complex symmetric.
+    columns: Option<Vec<Mat<c64>>>,
+    parts: Arc<ExactParts>,
+}
+
+impl ExactReceptanceAt {
+    /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)` (or `A_k⁻¹ W λ̂_k` without the load) from the kept
+    /// columns.
+    fn combine(columns: &Mat<c64>, force: &[c64], with_load: bool) -> Vec<c64> {
+        let nc = force.len();
+        let mut q: Vec<c64> = if with_load {
+            columns.col(nc).iter().copied().collect()
+        } else {
+            vec![ZERO; columns.nrows()]
+        };
+        for (c, &l) in force.iter().enumerate() {
+            if l != ZERO {
+                q.iter_mut()
+                    .zip(columns.col(c).iter())
+                    .for_each(|(q, y)| *q += y * l);
+            }
+        }
+        q
+    }
 }
 
 impl ReceptanceAtFrequency for ExactReceptanceAt {
@@ -223,24 +282,49 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
     }
 
     fn response(&self, k: usize, force: &[c64]) -> Result<Vec<c64>> {
-        let n = self.structure.nrows();
-        let mut rhs = self.load.complex(k).unwrap_or_else(|| vec![ZERO; n]);
-        self.contacts.scatter_add(force, &mut rhs);
+        if let Some(columns) = &self.columns {
+            return Ok(Self::combine(&columns[k], force, true));
+        }
+        let n = self.parts.structure.n_dofs();
+        let mut rhs = self.parts.load.complex(k).unwrap_or_else(|| vec![ZERO; n]);
+        self.parts.contacts.scatter_add(force, &mut rhs);
         self.factors.solve(k, &rhs)
     }
 
     fn frequency_derivative(&self, k: usize, force: &[c64], with_load: bool) -> Result<Vec<c64>> {
+        let structure = &self.parts.structure.matrices;
+        if let Some(columns) = &self.columns {
+            // Wᵀ A_k⁻¹ v = Yᵀ v (A_k complex symmetric)
+            let columns = &columns[k];
+            let q = Self::combine(columns, force, with_load);
+            let mut v = vec![ZERO; q.len()];
+            structure.add_derivative_times(k, self.omega, &q, &mut v);
+            return Ok((0..force.len())
+                .map(|c| {
+                    -columns
+                        .col(c)
+                        .iter()
+                        .zip(&v)
+                        .fold(ZERO, |s, (y, v)| s + y * v)
+                })
+                .collect());
+        }
         let q = if with_load {
             self.response(k, force)?
         } else {
-            let mut rhs = vec![ZERO; self.structure.nrows()];
-            self.contacts.scatter_add(force, &mut rhs);
+            let mut rhs = vec![ZERO; structure.nrows()];
+            self.parts.contacts.scatter_add(force, &mut rhs);
             self.factors.solve(k, &rhs)?
         };
         let mut v = vec![ZERO; q.len()];
-        self.structure
-            .add_derivative_times(k, self.omega, &q, &mut v);
+        structure.add_derivative_times(k, self.omega, &q, &mut v);
         let dq = self.factors.solve(k, &v)?;
-        Ok(self.contacts.gather(&dq).into_iter().map(|g| -g).collect())
+        Ok(self
+            .parts
+            .contacts
+            .gather(&dq)
+            .into_iter()
+            .map(|g| -g)
+            .collect())
     }
 }
