@@ -463,3 +463,26 @@ fn a_diagram_point_is_that_of_the_whole_solution() {
         assert!(whole.response.max > whole.response.min, "DOF {dof} moves");
     }
 }
+
+/// The method keeps its last evaluation for the next caller at the same point (the
+/// tangent and the diagram point of a converged continuation point): asked again at a point
+/// after another frequency was prepared in between, it gives what a fresh method gives.
+#[test]
+fn a_linearization_asked_again_after_another_frequency_is_a_fresh_one() {
+    let model = damped_bar();
+    let (f1, f2) = (hz(60e3), hz(31e3));
+    let mut fresh = ms_hbm_with(&model, 5, Quadrature::Exact, None);
+    let x = fresh.initial_guess(f1).unwrap();
+    let x: Vec<f64> = x.iter().map(|v| 1.3 * v).collect();
+    let reference = fresh.linearize(&x, f1).unwrap();
+    let mut p = ms_hbm_with(&model, 5, Quadrature::Exact, None);
+    p.linearize(&x, f1).unwrap();
+    p.initial_guess(f2).unwrap();
+    let other = p.residual(&x, f2).unwrap();
+    let again = p.linearize(&x, f1).unwrap();
+    assert_ne!(other, again.residual, "the two frequencies differ");
+    assert_eq!(reference.residual, again.residual);
+    assert_eq!(reference.d_omega, again.d_omega);
+    let (a, b) = (reference.jacobian.to_dense(), again.jacobian.to_dense());
+    assert_eq!(a, b);
+}

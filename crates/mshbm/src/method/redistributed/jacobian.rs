@@ -329,7 +329,7 @@ pub(super) struct ContactJacobian {
     matrices: Rc<FrequencyMatrices>,
     /// `Λ` (`n_c × n_c`, row-major).
     residual_scale: Rc<Vec<f64>>,
-    integration: Integration,
+    integration: Rc<Integration>,
     /// The method's factors, shared with later linearizations.
     slot: PreconditionerSlot,
     /// The factors this operator preconditions with, and whether they are its own.
@@ -343,7 +343,7 @@ impl ContactJacobian {
         harmonics: usize,
         matrices: Rc<FrequencyMatrices>,
         residual_scale: Rc<Vec<f64>>,
-        integration: Integration,
+        integration: Rc<Integration>,
         slot: PreconditionerSlot,
     ) -> Self {
         let current = RefCell::new(slot.borrow().clone());

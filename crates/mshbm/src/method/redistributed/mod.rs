@@ -28,6 +28,7 @@
 mod frequency_maps;
 mod jacobian;
 pub mod quadrature;
+mod small_jacobian;
 
 use std::rc::Rc;
 
@@ -55,6 +56,7 @@ use jacobian::{
     assemble_forces, dense_jacobian, times_each_coefficient, ContactJacobian, PreconditionerSlot,
 };
 use quadrature::{integrate, signal_at, Integration};
+use small_jacobian::{SmallJacobianWork, SMALL_INTERFACE_CONTACTS};
 
 /// Instants whose contact forces a solution's extremum search keeps (each `n_c` numbers).
 pub(crate) const MAX_CACHED_INSTANTS: usize = 16_384;
@@ -200,6 +202,20 @@ impl ReceptanceChoice {
     }
 }
 
+/// One evaluation of the residual (T128) at `(v, ω)`, with what linearizations added.
+struct Evaluation {
+    v: Vec<f64>,
+    omega: f64,
+    residual: Vec<f64>,
+    integration: Rc<Integration>,
+    /// `λ̂`.
+    forces: Vec<f64>,
+    /// `∂R/∂ω`, once a linearization asked for it.
+    d_omega: Option<Vec<f64>>,
+    /// The dense Jacobian, once a linearization formed it.
+    dense_jacobian: Option<Mat<f64>>,
+}
+
 /// The receptance at one frequency with the matrices of the residual (T128).
 struct Frequency {
     receptance: Box<dyn ReceptanceAtFrequency>,
@@ -239,6 +255,10 @@ pub struct RedistributedMsHbm {
     stability_cache: std::collections::HashMap<Vec<bool>, Rc<StabilityData>>,
     /// The memory budget, also of the Floquet analysis.
     limits: Limits,
+    /// Scratch space of the dense Jacobian of few contacts.
+    small_jacobian: SmallJacobianWork,
+    /// The last evaluation of the residual.
+    last_evaluation: Option<Evaluation>,
 }
 
 type StabilityData = (Mat<f64>, Option<crate::stability::ModalExponential>);
@@ -349,6 +369,8 @@ impl RedistributedMsHbm {
             stability_cache: std::collections::HashMap::new(),
             limits: *limits,
             system,
+            small_jacobian: SmallJacobianWork::default(),
+            last_evaluation: None,
         })
     }
 
@@ -390,6 +412,7 @@ impl RedistributedMsHbm {
         // everything sized by H: the prepared frequency, the preconditioner's factors, the
         // Floquet analysis' per-set data
         self.frequency = None;
+        self.last_evaluation = None;
         self.preconditioner = Default::default();
         self.stability_cache.clear();
         Ok(())
@@ -466,18 +489,43 @@ impl RedistributedMsHbm {
     }
 
     /// The residual (T128), the period's active-set decomposition and the forces `λ̂`.
-    fn evaluate(&mut self, v: &[f64], omega: f64) -> Result<(Vec<f64>, Integration, Vec<f64>)> {
-        check_dimension(v, self.dimension())?;
-        self.prepare(omega)?;
-        let (phi, u) = self.force_and_free_gap(v);
-        let integration = integrate(&mut self.contact, &u, &self.sampling, self.quadrature)?;
-        let forces = assemble_forces(self.n(), self.harmonics, &integration, &u);
-        let mismatch: Vec<f64> = phi.iter().zip(&forces).map(|(a, b)| a - b).collect();
+    fn evaluate(&mut self, v: &[f64], omega: f64) -> Result<(Vec<f64>, Rc<Integration>, Vec<f64>)> {
+        let e = self.evaluation(v, omega)?;
         Ok((
-            times_each_coefficient(self.n(), &self.residual_scale, &mismatch),
-            integration,
-            forces,
+            e.residual.clone(),
+            Rc::clone(&e.integration),
+            e.forces.clone(),
         ))
+    }
+
+    /// The evaluation at `(v, ω)`: the last one when it was at that point (a continuation
+    /// asks for the residual, the tangent and the diagram point of one converged point, and
+    /// the fold location repeats corrector steps), else a new one.
+    fn evaluation(&mut self, v: &[f64], omega: f64) -> Result<&mut Evaluation> {
+        check_dimension(v, self.dimension())?;
+        // the callers use the prepared frequency too (another may have been prepared since)
+        self.prepare(omega)?;
+        let hit = self
+            .last_evaluation
+            .as_ref()
+            .is_some_and(|e| e.omega.to_bits() == omega.to_bits() && e.v == v);
+        if !hit {
+            self.last_evaluation = None;
+            let (phi, u) = self.force_and_free_gap(v);
+            let integration = integrate(&mut self.contact, &u, &self.sampling, self.quadrature)?;
+            let forces = assemble_forces(self.n(), self.harmonics, &integration, &u);
+            let mismatch: Vec<f64> = phi.iter().zip(&forces).map(|(a, b)| a - b).collect();
+            self.last_evaluation = Some(Evaluation {
+                v: v.to_vec(),
+                omega,
+                residual: times_each_coefficient(self.n(), &self.residual_scale, &mismatch),
+                integration: Rc::new(integration),
+                forces,
+                d_omega: None,
+                dense_jacobian: None,
+            });
+        }
+        Ok(self.last_evaluation.as_mut().expect("evaluated"))
     }
 
     /// `∂R/∂ω` at fixed `v` (docs/theory.md (T129)): with
@@ -830,7 +878,15 @@ impl PeriodicProblem for RedistributedMsHbm {
 
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
         let (residual, integration, _) = self.evaluate(x, omega)?;
-        let d_omega = self.frequency_derivative(x, &integration)?;
+        let cached = self.evaluation(x, omega)?;
+        let d_omega = match &cached.d_omega {
+            Some(d) => d.clone(),
+            None => {
+                let d = self.frequency_derivative(x, &integration)?;
+                self.evaluation(x, omega)?.d_omega = Some(d.clone());
+                d
+            }
+        };
         let n = self.n();
         let matrices = Rc::clone(&self.prepared().matrices);
         let jacobian = if self.operator_jacobian {
@@ -842,14 +898,32 @@ impl PeriodicProblem for RedistributedMsHbm {
                 integration,
                 Rc::clone(&self.preconditioner),
             )))
+        } else if let Some(j) = &self.evaluation(x, omega)?.dense_jacobian {
+            Jacobian::Dense(j.clone())
         } else {
-            Jacobian::Dense(dense_jacobian(
-                n,
-                self.harmonics,
-                &matrices,
-                &self.residual_scale,
-                &integration,
-            ))
+            let jacobian = if n <= SMALL_INTERFACE_CONTACTS {
+                let mut jacobian = Mat::zeros(0, 0);
+                small_jacobian::jacobian_into(
+                    n,
+                    self.harmonics,
+                    &matrices,
+                    &self.residual_scale,
+                    &integration,
+                    &mut self.small_jacobian,
+                    &mut jacobian,
+                );
+                jacobian
+            } else {
+                dense_jacobian(
+                    n,
+                    self.harmonics,
+                    &matrices,
+                    &self.residual_scale,
+                    &integration,
+                )
+            };
+            self.evaluation(x, omega)?.dense_jacobian = Some(jacobian.clone());
+            Jacobian::Dense(jacobian)
         };
         Ok(Linearization {
             residual,
