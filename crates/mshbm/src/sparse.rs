@@ -149,6 +149,16 @@ impl SparseMatrix {
         }
     }
 
+    /// The column pointers of the compressed-column storage (`ncols + 1`).
+    pub fn col_ptr(&self) -> &[usize] {
+        &self.col_ptr
+    }
+
+    /// The row index of each stored entry, column by column.
+    pub fn row_idx(&self) -> &[usize] {
+        &self.row_idx
+    }
+
     /// Whether `(i, j)` is in the stored pattern.
     pub fn is_stored(&self, i: usize, j: usize) -> bool {
         let range = self.col_ptr[j]..self.col_ptr[j + 1];

@@ -149,7 +149,7 @@ pub fn harmonics_from_known(
         for (r, j, v) in c_uk.iter() {
             rhs[(r, 0)] -= z[j] * c64::new(0.0, kw * v);
         }
-        factors.solve_in_place(k, &mut rhs)?;
+        factors.solve_in_place(k, &mut rhs.as_mut())?;
         for (r, &d) in uu.iter().enumerate() {
             let zu = rhs[(r, 0)];
             if k == 0 {

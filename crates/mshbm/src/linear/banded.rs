@@ -51,21 +51,23 @@ impl BandedLu {
         (self.kl + self.ku + i - j) + j * self.leading()
     }
 
-    /// Factor the matrix whose entries `set` writes: it is called with a function that
-    /// stores `A[i, j]` (within the band, `i + ku ≥ j`, `j + kl ≥ i`; repeated entries add).
-    /// `false` when a pivot is zero (the matrix is singular).
-    pub fn factor(&mut self, set: impl FnOnce(&mut dyn FnMut(usize, usize, c64))) -> bool {
+    /// The storage position of entry `(i, j)` of a matrix with `kl` sub- and `ku`
+    /// superdiagonals (within the band: `i + ku ≥ j`, `j + kl ≥ i`), for [`BandedLu::factor`].
+    pub fn position(kl: usize, ku: usize, i: usize, j: usize) -> usize {
+        assert!(i + ku >= j && j + kl >= i, "({i}, {j}) outside the band");
+        (kl + ku + i - j) + j * (2 * kl + ku + 1)
+    }
+
+    /// Factor the matrix with entries `value(e)` at the storage positions `positions[e]`
+    /// ([`BandedLu::position`] of this matrix's `kl`, `ku`; repeated positions add). `false` when a pivot is zero (the
+    /// matrix is singular; solutions are then not finite).
+    pub fn factor(&mut self, positions: &[usize], value: impl Fn(usize) -> c64) -> bool {
         self.band.iter_mut().for_each(|v| *v = c64::new(0.0, 0.0));
+        for (e, &p) in positions.iter().enumerate() {
+            self.band[p] += value(e);
+        }
         let (kl, ku) = (self.kl, self.ku);
         let leading = self.leading();
-        {
-            let band = &mut self.band;
-            let mut store = |i: usize, j: usize, v: c64| {
-                debug_assert!(i + ku >= j && j + kl >= i, "({i}, {j}) outside the band");
-                band[(kl + ku + i - j) + j * leading] += v;
-            };
-            set(&mut store);
-        }
         let n = self.n;
         let kv = kl + ku;
         let mut ju = 0;
@@ -97,7 +99,9 @@ impl BandedLu {
                     self.band.swap(a, b);
                 }
             }
-            let inverse = c64::new(1.0, 0.0) / self.band[kv + j * leading];
+            let pivot = self.band[kv + j * leading];
+            let scale = 1.0 / (pivot.re * pivot.re + pivot.im * pivot.im);
+            let inverse = c64::new(pivot.re * scale, -pivot.im * scale);
             self.inverse_diagonal[j] = inverse;
             if km > 0 {
                 for r in 1..=km {
@@ -125,30 +129,35 @@ impl BandedLu {
         let n = self.n;
         let kv = self.kl + self.ku;
         let leading = self.leading();
+        let zero = c64::new(0.0, 0.0);
         // L: the row interchanges and the eliminations, column by column
         for j in 0..n {
             let l = self.pivots[j];
+            let below = self.kl.min(n - 1 - j);
+            let multipliers = &self.band[kv + 1 + j * leading..kv + 1 + below + j * leading];
             if l != j {
                 b.swap(l, j);
             }
             let bj = b[j];
-            if bj == c64::new(0.0, 0.0) {
-                continue;
-            }
-            for r in 1..=self.kl.min(n - 1 - j) {
-                b[j + r] -= self.band[kv + r + j * leading] * bj;
+            if bj != zero {
+                b[j + 1..j + 1 + below]
+                    .iter_mut()
+                    .zip(multipliers)
+                    .for_each(|(bi, m)| *bi -= m * bj);
             }
         }
-        // U: back substitution over its kl + ku superdiagonals
+        // U: back substitution over its kl + ku superdiagonals; rows j − kv .. j of column
+        // j are contiguous in the band
         for j in (0..n).rev() {
-            b[j] *= self.inverse_diagonal[j];
-            let bj = b[j];
-            // rows j − kv .. j of column j are contiguous in the band
             let first = j.saturating_sub(kv);
             let base = self.at(first, j);
+            let upper = &self.band[base..base + (j - first)];
+            let inverse = self.inverse_diagonal[j];
+            b[j] *= inverse;
+            let bj = b[j];
             b[first..j]
                 .iter_mut()
-                .zip(&self.band[base..base + (j - first)])
+                .zip(upper)
                 .for_each(|(bi, u)| *bi -= u * bj);
         }
     }
@@ -197,15 +206,15 @@ mod tests {
                 }
             });
             let mut lu = BandedLu::new(n, kl, ku);
-            assert!(lu.factor(|store| {
-                for j in 0..n {
-                    for i in 0..n {
-                        if in_band(i, j) {
-                            store(i, j, entry(i, j));
-                        }
-                    }
-                }
-            }));
+            let entries: Vec<(usize, usize)> = (0..n)
+                .flat_map(|j| (0..n).map(move |i| (i, j)))
+                .filter(|&(i, j)| in_band(i, j))
+                .collect();
+            let positions: Vec<usize> = entries
+                .iter()
+                .map(|&(i, j)| BandedLu::position(kl, ku, i, j))
+                .collect();
+            assert!(lu.factor(&positions, |e| entry(entries[e].0, entries[e].1)));
             let rhs: Vec<c64> = (0..n)
                 .map(|i| c64::new((0.3 * i as f64).cos(), 1.0 - 0.1 * i as f64))
                 .collect();
@@ -229,10 +238,11 @@ mod tests {
     #[test]
     fn a_zero_column_is_singular() {
         let mut lu = BandedLu::new(3, 1, 1);
-        let ok = lu.factor(|store| {
-            store(0, 0, c64::new(1.0, 0.0));
-            store(2, 2, c64::new(1.0, 0.0));
-        });
+        let positions = [
+            BandedLu::position(1, 1, 0, 0),
+            BandedLu::position(1, 1, 2, 2),
+        ];
+        let ok = lu.factor(&positions, |_| c64::new(1.0, 0.0));
         assert!(!ok && lu.is_singular());
     }
 

@@ -253,7 +253,7 @@ impl Condensation for ExactCondensation {
         for k in 0..=harmonics {
             // Y = A_LL⁻¹ A_LN, then G = A_NL Y column by column
             let mut y = s.ln.dense(k, omega);
-            factors.solve_in_place(k, &mut y)?;
+            factors.solve_in_place(k, &mut y.as_mut())?;
             let mut gk = vec![ZERO; n * n];
             for j in 0..n {
                 (0..nl).for_each(|i| column[i] = y[(i, j)]);

@@ -19,6 +19,7 @@
 //! other by faer's sparse LU.
 
 use faer::linalg::solvers::Solve;
+use faer::prelude::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::{c64, Mat};
 
@@ -144,7 +145,7 @@ enum Analysis {
     Banded {
         kl: usize,
         ku: usize,
-        entries: Vec<(usize, usize)>,
+        positions: Vec<usize>,
     },
 }
 
@@ -174,7 +175,10 @@ impl LinearPart {
             Analysis::Banded {
                 kl,
                 ku,
-                entries: pattern.iter().map(|(i, j, _)| (i, j)).collect(),
+                positions: pattern
+                    .iter()
+                    .map(|(i, j, _)| BandedLu::position(kl, ku, i, j))
+                    .collect(),
             }
         } else {
             Analysis::Sparse(
@@ -195,6 +199,22 @@ impl LinearPart {
 
     pub fn n_dofs(&self) -> usize {
         self.matrices.nrows()
+    }
+
+    /// `out += ∂A_k/∂ω x` ([`StructuralBlock::add_derivative_times`]) over the analysed
+    /// pattern, whose mass and damping values are stored side by side.
+    pub fn add_derivative_times(&self, k: usize, omega: f64, x: &[c64], out: &mut [c64]) {
+        let kf = k as f64;
+        let (col_ptr, row_idx) = (self.pattern.col_ptr(), self.pattern.row_idx());
+        for (j, &xj) in x.iter().enumerate() {
+            for e in col_ptr[j]..col_ptr[j + 1] {
+                let d = c64::new(
+                    -2.0 * kf * kf * omega * self.mass_values[e],
+                    kf * self.damping_values[e],
+                );
+                out[row_idx[e]] += d * xj;
+            }
+        }
     }
 
     /// Factor `A_k(ω)` for `k = 0..=harmonics`.
@@ -226,7 +246,7 @@ impl LinearPart {
         for k in 0..=harmonics {
             let kw = k as f64 * omega;
             match &self.analysis {
-                Analysis::Banded { kl, ku, entries } => {
+                Analysis::Banded { kl, ku, positions } => {
                     let n = self.n_dofs();
                     if !matches!(factors.factors.get(k), Some(Factor::Banded(_))) {
                         let fresh = Factor::Banded(BandedLu::new(n, *kl, *ku));
@@ -240,11 +260,7 @@ impl LinearPart {
                         unreachable!("made banded above")
                     };
                     // a zero pivot leaves non-finite solutions, which the solves report
-                    lu.factor(|store| {
-                        for (e, &(i, j)) in entries.iter().enumerate() {
-                            store(i, j, value(e, kw));
-                        }
-                    });
+                    lu.factor(positions, |e| value(e, kw));
                 }
                 Analysis::Sparse(symbolic) => {
                     let values: Vec<c64> = (0..self.stiffness_values.len())
@@ -272,13 +288,13 @@ impl LinearPart {
 impl HarmonicFactors {
     /// Solve `A_k X = RHS` in place. Fails when the result is not finite (the frequency
     /// `kω` hits an undamped eigenfrequency of the linear part).
-    pub fn solve_in_place(&self, k: usize, rhs: &mut Mat<c64>) -> Result<()> {
+    pub fn solve_in_place(&self, k: usize, rhs: &mut faer::MatMut<'_, c64>) -> Result<()> {
         match &self.factors[k] {
-            Factor::Sparse(lu) => lu.solve_in_place(rhs.as_mut()),
+            Factor::Sparse(lu) => lu.solve_in_place(rhs.rb_mut()),
             Factor::Banded(lu) => {
                 for j in 0..rhs.ncols() {
                     let column = rhs
-                        .as_mut()
+                        .rb_mut()
                         .col_mut(j)
                         .try_as_col_major_mut()
                         .expect("contiguous columns");
@@ -286,7 +302,7 @@ impl HarmonicFactors {
                 }
             }
         }
-        let rhs = &*rhs;
+        let rhs = rhs.rb();
         self.check_finite(
             k,
             (0..rhs.ncols()).flat_map(|j| (0..rhs.nrows()).map(move |i| rhs[(i, j)])),

@@ -197,15 +197,19 @@ impl Receptance for ExactReceptance {
         let mut columns = Vec::with_capacity(if keep { harmonics + 1 } else { 0 });
         let mut gathered = vec![ZERO; nc];
         for k in 0..=harmonics {
-            // A_k⁻¹ [W | f_k]
+            // A_k⁻¹ [W | f_k] (most harmonics are not loaded: their column stays zero)
             let mut rhs = Mat::<c64>::zeros(n, nc + 1);
             for (c, w) in parts.contacts.w.iter().enumerate() {
                 w.iter().for_each(|&(i, v)| rhs[(i, c)] += c64::new(v, 0.0));
             }
-            if let Some(f) = parts.load.complex(k) {
-                (0..n).for_each(|i| rhs[(i, nc)] = f[i]);
-            }
-            factors.solve_in_place(k, &mut rhs)?;
+            let loaded = match parts.load.complex(k) {
+                Some(f) => {
+                    (0..n).for_each(|i| rhs[(i, nc)] = f[i]);
+                    nc + 1
+                }
+                None => nc,
+            };
+            factors.solve_in_place(k, &mut rhs.as_mut().subcols_mut(0, loaded))?;
             let mut r = vec![ZERO; nc * nc];
             for j in 0..=nc {
                 let column = rhs.col(j).try_as_col_major().expect("contiguous columns");
@@ -298,7 +302,9 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
             let columns = &columns[k];
             let q = Self::combine(columns, force, with_load);
             let mut v = vec![ZERO; q.len()];
-            structure.add_derivative_times(k, self.omega, &q, &mut v);
+            self.parts
+                .structure
+                .add_derivative_times(k, self.omega, &q, &mut v);
             return Ok((0..force.len())
                 .map(|c| {
                     -columns

@@ -55,7 +55,7 @@ use frequency_maps::{FrequencyMatrices, Map, StaticMaps};
 use jacobian::{
     assemble_forces, dense_jacobian, times_each_coefficient, ContactJacobian, PreconditionerSlot,
 };
-use quadrature::{integrate, signal_at, Integration};
+use quadrature::{integrate, signal_with_basis, Integration};
 use small_jacobian::{SmallJacobianWork, SMALL_INTERFACE_CONTACTS};
 
 /// Instants whose contact forces a solution's extremum search keeps (each `n_c` numbers).
@@ -713,28 +713,29 @@ impl RedistributedMsHbm {
             );
         }
         let initial_gap = contact.initial_gap().to_vec();
-        let gap_at = |tau: f64, basis: &mut [f64]| -> Vec<f64> {
-            let mut gamma = signal_at(&free_gap, n, h, tau, basis);
+        // the free gap and the state at the instant whose basis row is given
+        let gap_at = |basis: &[f64]| -> Vec<f64> {
+            let mut gamma = signal_with_basis(&free_gap, n, basis);
             gamma
                 .iter_mut()
                 .zip(&initial_gap)
                 .for_each(|(g, g0)| *g += g0);
             gamma
         };
-        let mut state_at =
-            |tau: f64, basis: &mut [f64]| -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-                let gamma = gap_at(tau, basis);
-                let set = contact.solve(&gamma)?;
-                let lambda = set.force(&gamma);
-                let mut q = contact.force_displacement(&lambda);
-                let u = signal_at(&load_displacement, n_n, h, tau, basis);
-                q.iter_mut().zip(&u).for_each(|(q, u)| *q += u);
-                Ok((q, lambda, set.gap(&gamma)))
-            };
+        let mut state_at = |basis: &[f64]| -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+            let gamma = gap_at(basis);
+            let set = contact.solve(&gamma)?;
+            let lambda = set.force(&gamma);
+            let mut q = contact.force_displacement(&lambda);
+            let u = signal_with_basis(&load_displacement, n_n, basis);
+            q.iter_mut().zip(&u).for_each(|(q, u)| *q += u);
+            Ok((q, lambda, set.gap(&gamma)))
+        };
         // the contacts' time signals: for the series, or for a contact-node response DOF
+        // (the grid samples' basis rows from the sampling's table)
         let time_signals = every_contact || matches!(location, DofLocation::Nonlinear(_));
-        for &tau in self.sampling.taus.iter().filter(|_| time_signals) {
-            let (q, lambda, gap) = state_at(tau, &mut basis_buf)?;
+        for row in self.sampling.basis.iter().filter(|_| time_signals) {
+            let (q, lambda, gap) = state_at(row)?;
             q_s.push(q);
             f_s.push(lambda);
             g_s.push(gap);
@@ -744,7 +745,8 @@ impl RedistributedMsHbm {
         // extremum candidate of every DOF, and each costs a static contact solve)
         let mut q_switches = Vec::with_capacity(integration.switches.len());
         for s in integration.switches.iter().filter(|_| time_signals) {
-            q_switches.push(match state_at(s.tau, &mut basis_buf) {
+            basis_into(h, s.tau, &mut basis_buf);
+            q_switches.push(match state_at(&basis_buf) {
                 Ok((q, _, _)) => q,
                 Err(_) => vec![f64::NAN; n_n],
             });
@@ -757,7 +759,8 @@ impl RedistributedMsHbm {
         let mut q_at = |i: usize, tau: f64| -> f64 {
             let key = tau.to_bits();
             if !forces_at.contains_key(&key) {
-                let gamma = gap_at(tau, &mut basis_buf);
+                basis_into(h, tau, &mut basis_buf);
+                let gamma = gap_at(&basis_buf);
                 let lambda = contact.solve(&gamma).ok().map(|set| set.force(&gamma));
                 if forces_at.len() >= MAX_CACHED_INSTANTS {
                     forces_at.clear();

@@ -66,6 +66,12 @@ pub fn signal_at(
     basis: &mut [f64],
 ) -> Vec<f64> {
     basis_into(harmonics, tau, basis);
+    signal_with_basis(load, n, basis)
+}
+
+/// The signal of `n` components from its coefficients (`load[c·n + i]`) at the instant whose
+/// basis row is `basis` (e.g. a grid sample's, from the sampling's table).
+pub fn signal_with_basis(load: &[f64], n: usize, basis: &[f64]) -> Vec<f64> {
     let mut b = vec![0.0; n];
     for (c, &bc) in basis.iter().enumerate() {
         for i in 0..n {

@@ -194,7 +194,10 @@ mod tests {
             .iter()
             .map(|g| g.set.closed_contacts().len())
             .sum();
-        assert!(closed > 0 && integration.groups.len() > 1, "some contacts switch");
+        assert!(
+            closed > 0 && integration.groups.len() > 1,
+            "some contacts switch"
+        );
         let matrices = &method.prepared().matrices;
         let rows = super::super::jacobian::dense_jacobian(
             n,
