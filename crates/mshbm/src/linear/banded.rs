@@ -62,65 +62,110 @@ impl BandedLu {
     /// ([`BandedLu::position`] of this matrix's `kl`, `ku`; repeated positions add). `false` when a pivot is zero (the
     /// matrix is singular; solutions are then not finite).
     pub fn factor(&mut self, positions: &[usize], value: impl Fn(usize) -> c64) -> bool {
-        self.band.iter_mut().for_each(|v| *v = c64::new(0.0, 0.0));
-        for (e, &p) in positions.iter().enumerate() {
-            self.band[p] += value(e);
-        }
-        let (kl, ku) = (self.kl, self.ku);
-        let leading = self.leading();
-        let n = self.n;
-        let kv = kl + ku;
-        let mut ju = 0;
-        self.singular = false;
-        for j in 0..n {
-            let km = kl.min(n - 1 - j);
-            // the pivot: the largest entry of column j on and below the diagonal (in
-            // |Re| + |Im|, as LAPACK)
-            let mut p = 0;
-            let mut largest = -1.0;
-            for r in 0..=km {
-                let v = self.band[kv + r + j * leading];
-                let v = v.re.abs() + v.im.abs();
-                if v > largest {
-                    largest = v;
-                    p = r;
-                }
-            }
-            self.pivots[j] = j + p;
-            if largest == 0.0 || !largest.is_finite() {
-                self.singular = true;
-                self.inverse_diagonal[j] = c64::new(f64::NAN, f64::NAN);
-                continue;
-            }
-            ju = ju.max((j + ku + p).min(n - 1));
-            if p != 0 {
-                for c in j..=ju {
-                    let (a, b) = (self.at(j, c), self.at(j + p, c));
-                    self.band.swap(a, b);
-                }
-            }
-            let pivot = self.band[kv + j * leading];
-            let scale = 1.0 / (pivot.re * pivot.re + pivot.im * pivot.im);
-            let inverse = c64::new(pivot.re * scale, -pivot.im * scale);
-            self.inverse_diagonal[j] = inverse;
-            if km > 0 {
-                for r in 1..=km {
-                    self.band[kv + r + j * leading] *= inverse;
-                }
-                for c in j + 1..=ju {
-                    let f = self.band[self.at(j, c)];
-                    if f == c64::new(0.0, 0.0) {
-                        continue;
-                    }
-                    let column = self.at(j, c);
-                    for r in 1..=km {
-                        let l = self.band[kv + r + j * leading];
-                        self.band[column + r] -= l * f;
-                    }
-                }
-            }
+        self.fill(positions, value);
+        let mut reach = 0;
+        for j in 0..self.n {
+            self.eliminate(j, &mut reach);
         }
         !self.singular
+    }
+
+    /// [`BandedLu::factor`] of several matrices of the same sizes, entry `e` of matrix `m`
+    /// being `value(m, e)`: column by column across the matrices, so that their independent
+    /// eliminations overlap in the processor (one matrix's elimination is a chain of
+    /// dependent divisions and products). `false` when any is singular.
+    pub fn factor_batch(
+        matrices: &mut [BandedLu],
+        positions: &[usize],
+        value: impl Fn(usize, usize) -> c64,
+    ) -> bool {
+        for (m, lu) in matrices.iter_mut().enumerate() {
+            lu.fill(positions, |e| value(m, e));
+        }
+        let n = matrices.first().map_or(0, |lu| lu.n);
+        let mut reach = vec![0; matrices.len()];
+        for j in 0..n {
+            for (lu, reach) in matrices.iter_mut().zip(&mut reach) {
+                lu.eliminate(j, reach);
+            }
+        }
+        matrices.iter().all(|lu| !lu.singular)
+    }
+
+    /// Store the entries of a new matrix (the band zeroed first).
+    fn fill(&mut self, positions: &[usize], value: impl Fn(usize) -> c64) {
+        let band = &mut self.band[..];
+        band.fill(c64::new(0.0, 0.0));
+        for (e, &p) in positions.iter().enumerate() {
+            band[p] += value(e);
+        }
+        self.singular = false;
+    }
+
+    /// Step `j` of the elimination (`zgbtf2`): the pivot of column `j`, the row interchange,
+    /// the multipliers and the rank-one update of the rows below. `reach` is the last column
+    /// that the interchanges so far have filled (`ju`).
+    fn eliminate(&mut self, j: usize, reach: &mut usize) {
+        let zero = c64::new(0.0, 0.0);
+        let (n, kl, ku) = (self.n, self.kl, self.ku);
+        let leading = self.leading();
+        let kv = kl + ku;
+        // from entry (i, c) to (i, c + 1) in the storage
+        let along_row = leading - 1;
+        let band = &mut self.band[..];
+        let km = kl.min(n - 1 - j);
+        let diagonal = kv + j * leading;
+        // the pivot: the largest entry of column j on and below the diagonal (in
+        // |Re| + |Im|, as LAPACK)
+        let mut p = 0;
+        let mut largest = -1.0;
+        for (r, v) in band[diagonal..=diagonal + km].iter().enumerate() {
+            let size = v.re.abs() + v.im.abs();
+            if size > largest {
+                largest = size;
+                p = r;
+            }
+        }
+        self.pivots[j] = j + p;
+        if largest == 0.0 || !largest.is_finite() {
+            self.singular = true;
+            self.inverse_diagonal[j] = c64::new(f64::NAN, f64::NAN);
+            return;
+        }
+        let ju = (*reach).max((j + ku + p).min(n - 1));
+        *reach = ju;
+        if p != 0 {
+            // rows j and j + p, columns j..=ju
+            let mut at = diagonal;
+            for _ in j..=ju {
+                band.swap(at, at + p);
+                at += along_row;
+            }
+        }
+        let pivot = band[diagonal];
+        let scale = 1.0 / (pivot.re * pivot.re + pivot.im * pivot.im);
+        let inverse = c64::new(pivot.re * scale, -pivot.im * scale);
+        self.inverse_diagonal[j] = inverse;
+        if km == 0 {
+            return;
+        }
+        for l in &mut band[diagonal + 1..=diagonal + km] {
+            *l *= inverse;
+        }
+        // the rank-one update of the rows below j, columns j + 1..=ju
+        let (multipliers, rest) = band.split_at_mut(diagonal + km + 1);
+        let multipliers = &multipliers[diagonal + 1..];
+        let mut at = along_row - km - 1;
+        for _ in j + 1..=ju {
+            let f = rest[at];
+            if f != zero {
+                rest[at + 1..=at + km]
+                    .iter_mut()
+                    .zip(multipliers)
+                    .for_each(|(a, l)| *a -= l * f);
+            }
+            at += along_row;
+        }
     }
 
     /// Solve `A x = b` in place (`b` of length `n`) with the factors of the last
@@ -159,6 +204,52 @@ impl BandedLu {
                 .iter_mut()
                 .zip(upper)
                 .for_each(|(bi, u)| *bi -= u * bj);
+        }
+    }
+
+    /// Solve one system per right-hand side, `A_m x = b` for each `(m, b)` of `systems`
+    /// (`m` an index into `matrices`), column by column across them so that the
+    /// independent substitutions overlap in the processor.
+    pub fn solve_batch(matrices: &[BandedLu], systems: &mut [(usize, &mut [c64])]) {
+        let references: Vec<&BandedLu> = matrices.iter().collect();
+        Self::solve_batch_of(&references, systems);
+    }
+
+    /// [`BandedLu::solve_batch`] with the matrices given by reference.
+    pub fn solve_batch_of(matrices: &[&BandedLu], systems: &mut [(usize, &mut [c64])]) {
+        let Some(first) = matrices.first() else {
+            return;
+        };
+        let (n, kl, kv) = (first.n, first.kl, first.kl + first.ku);
+        let leading = first.leading();
+        for j in 0..n {
+            let below = kl.min(n - 1 - j);
+            for (m, b) in systems.iter_mut() {
+                let lu = matrices[*m];
+                let l = lu.pivots[j];
+                if l != j {
+                    b.swap(l, j);
+                }
+                let bj = b[j];
+                let multipliers = &lu.band[kv + 1 + j * leading..kv + 1 + below + j * leading];
+                b[j + 1..j + 1 + below]
+                    .iter_mut()
+                    .zip(multipliers)
+                    .for_each(|(bi, m)| *bi -= m * bj);
+            }
+        }
+        for j in (0..n).rev() {
+            let first_row = j.saturating_sub(kv);
+            let base = (kv + first_row) + j * leading - j;
+            for (m, b) in systems.iter_mut() {
+                let lu = matrices[*m];
+                b[j] *= lu.inverse_diagonal[j];
+                let bj = b[j];
+                b[first_row..j]
+                    .iter_mut()
+                    .zip(&lu.band[base..base + (j - first_row)])
+                    .for_each(|(bi, u)| *bi -= u * bj);
+            }
         }
     }
 
@@ -232,6 +323,50 @@ mod tests {
                     exact[(i, 0)]
                 );
             }
+        }
+    }
+
+    /// The batch factorization and solves give each matrix's own factors and solutions.
+    #[test]
+    fn a_batch_factors_each_matrix_as_alone() {
+        let (n, kl, ku) = (20, 2, 1);
+        let entries: Vec<(usize, usize)> = (0..n)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .filter(|&(i, j)| i + ku >= j && j + kl >= i)
+            .collect();
+        let positions: Vec<usize> = entries
+            .iter()
+            .map(|&(i, j)| BandedLu::position(kl, ku, i, j))
+            .collect();
+        let value = |m: usize, e: usize| {
+            let (i, j) = entries[e];
+            c64::new(
+                (0.7 * (i + 2 * j + m) as f64).sin(),
+                (0.3 * (i * j + m) as f64).cos(),
+            )
+        };
+        let mut batch = vec![BandedLu::new(n, kl, ku); 3];
+        assert!(BandedLu::factor_batch(&mut batch, &positions, value));
+        let rhs = |m: usize| -> Vec<c64> {
+            (0..n)
+                .map(|i| c64::new(1.0 + (i + m) as f64, -0.5 * i as f64))
+                .collect()
+        };
+        let mut solved: Vec<Vec<c64>> = (0..3).map(rhs).collect();
+        let mut systems: Vec<(usize, &mut [c64])> = solved
+            .iter_mut()
+            .enumerate()
+            .map(|(m, b)| (m, b.as_mut_slice()))
+            .collect();
+        BandedLu::solve_batch(&batch, &mut systems);
+        for (m, lu) in batch.iter().enumerate() {
+            let mut alone = BandedLu::new(n, kl, ku);
+            assert!(alone.factor(&positions, |e| value(m, e)));
+            assert_eq!(alone.band, lu.band);
+            assert_eq!(alone.pivots, lu.pivots);
+            let mut x = rhs(m);
+            alone.solve_in_place(&mut x);
+            assert_eq!(x, solved[m]);
         }
     }
 

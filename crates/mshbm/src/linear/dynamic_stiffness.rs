@@ -243,26 +243,25 @@ impl LinearPart {
                 kw * self.damping_values[e],
             )
         };
-        for k in 0..=harmonics {
-            let kw = k as f64 * omega;
-            match &self.analysis {
-                Analysis::Banded { kl, ku, positions } => {
-                    let n = self.n_dofs();
-                    if !matches!(factors.factors.get(k), Some(Factor::Banded(_))) {
-                        let fresh = Factor::Banded(BandedLu::new(n, *kl, *ku));
-                        if k < factors.factors.len() {
-                            factors.factors[k] = fresh;
-                        } else {
-                            factors.factors.push(fresh);
-                        }
+        match &self.analysis {
+            Analysis::Banded { kl, ku, positions } => {
+                let n = self.n_dofs();
+                let mut bands: Vec<BandedLu> = Vec::with_capacity(harmonics + 1);
+                for factor in factors.factors.drain(..) {
+                    if let Factor::Banded(lu) = factor {
+                        bands.push(lu);
                     }
-                    let Factor::Banded(lu) = &mut factors.factors[k] else {
-                        unreachable!("made banded above")
-                    };
-                    // a zero pivot leaves non-finite solutions, which the solves report
-                    lu.factor(positions, |e| value(e, kw));
                 }
-                Analysis::Sparse(symbolic) => {
+                bands.resize_with(harmonics + 1, || BandedLu::new(n, *kl, *ku));
+                // a zero pivot leaves non-finite solutions, which the solves report
+                BandedLu::factor_batch(&mut bands, positions, |k, e| value(e, k as f64 * omega));
+                factors
+                    .factors
+                    .extend(bands.into_iter().map(Factor::Banded));
+            }
+            Analysis::Sparse(symbolic) => {
+                for k in 0..=harmonics {
+                    let kw = k as f64 * omega;
                     let values: Vec<c64> = (0..self.stiffness_values.len())
                         .map(|e| value(e, kw))
                         .collect();
@@ -318,6 +317,30 @@ impl HarmonicFactors {
             Factor::Banded(lu) => lu.solve_in_place(b),
         }
         self.check_finite(k, b.iter().copied())
+    }
+
+    /// Solve `A_k x = b` in place for each `(k, b)` of `systems` (band factors: in one
+    /// pass across the systems, [`BandedLu::solve_batch`]).
+    pub fn solve_batch(&self, systems: &mut [(usize, &mut [c64])]) -> Result<()> {
+        if self.factors.iter().all(|f| matches!(f, Factor::Banded(_))) {
+            let bands: Vec<&BandedLu> = self
+                .factors
+                .iter()
+                .map(|f| match f {
+                    Factor::Banded(lu) => lu,
+                    Factor::Sparse(_) => unreachable!("checked"),
+                })
+                .collect();
+            BandedLu::solve_batch_of(&bands, systems);
+            for (k, b) in systems.iter() {
+                self.check_finite(*k, b.iter().copied())?;
+            }
+            return Ok(());
+        }
+        for (k, b) in systems.iter_mut() {
+            self.solve_slice_in_place(*k, b)?;
+        }
+        Ok(())
     }
 
     /// An error when a solution of `A_k x = b` is not finite.

@@ -192,28 +192,38 @@ impl Receptance for ExactReceptance {
         let factors = parts.structure.factor(omega, harmonics)?;
         let keep = parts.symmetric
             && n.saturating_mul(nc + 1).saturating_mul(harmonics + 1) <= KEPT_COLUMN_VALUES;
+        // per harmonic, A_k⁻¹ [W | f_k] column-major (n_c + 1 columns of n; the last stays
+        // zero for the harmonics that are not loaded), all solved in one batch
+        let mut columns: Vec<Vec<c64>> = Vec::with_capacity(harmonics + 1);
+        let mut loaded = Vec::with_capacity(harmonics + 1);
+        for k in 0..=harmonics {
+            let mut block = vec![ZERO; n * (nc + 1)];
+            for (c, w) in parts.contacts.w.iter().enumerate() {
+                w.iter()
+                    .for_each(|&(i, v)| block[c * n + i] += c64::new(v, 0.0));
+            }
+            let load = parts.load.complex(k);
+            if let Some(f) = &load {
+                block[nc * n..].copy_from_slice(f);
+            }
+            loaded.push(load.is_some());
+            columns.push(block);
+        }
+        {
+            let mut systems: Vec<(usize, &mut [c64])> = Vec::new();
+            for (k, block) in columns.iter_mut().enumerate() {
+                let solved = if loaded[k] { nc + 1 } else { nc };
+                systems.extend(block[..solved * n].chunks_exact_mut(n).map(|b| (k, b)));
+            }
+            factors.solve_batch(&mut systems)?;
+        }
         let mut receptance = Vec::with_capacity(harmonics + 1);
         let mut load_response = Vec::with_capacity(harmonics + 1);
-        let mut columns = Vec::with_capacity(if keep { harmonics + 1 } else { 0 });
         let mut gathered = vec![ZERO; nc];
-        for k in 0..=harmonics {
-            // A_k⁻¹ [W | f_k] (most harmonics are not loaded: their column stays zero)
-            let mut rhs = Mat::<c64>::zeros(n, nc + 1);
-            for (c, w) in parts.contacts.w.iter().enumerate() {
-                w.iter().for_each(|&(i, v)| rhs[(i, c)] += c64::new(v, 0.0));
-            }
-            let loaded = match parts.load.complex(k) {
-                Some(f) => {
-                    (0..n).for_each(|i| rhs[(i, nc)] = f[i]);
-                    nc + 1
-                }
-                None => nc,
-            };
-            factors.solve_in_place(k, &mut rhs.as_mut().subcols_mut(0, loaded))?;
+        for block in &columns {
             let mut r = vec![ZERO; nc * nc];
-            for j in 0..=nc {
-                let column = rhs.col(j).try_as_col_major().expect("contiguous columns");
-                parts.contacts.gather_into(column.as_slice(), &mut gathered);
+            for (j, column) in block.chunks_exact(n).enumerate() {
+                parts.contacts.gather_into(column, &mut gathered);
                 if j < nc {
                     (0..nc).for_each(|i| r[i * nc + j] = gathered[i]);
                 } else {
@@ -221,9 +231,6 @@ impl Receptance for ExactReceptance {
                 }
             }
             receptance.push(r);
-            if keep {
-                columns.push(rhs);
-            }
         }
         Ok(Box::new(ExactReceptanceAt {
             omega,
@@ -242,25 +249,27 @@ struct ExactReceptanceAt {
     factors: HarmonicFactors,
     receptance: Vec<Vec<c64>>,
     load_response: Vec<Vec<c64>>,
-    /// Per harmonic, `[Y | A_k⁻¹ f_k]` (`n × (n_c + 1)`) when `A_k` is complex symmetric.
-    columns: Option<Vec<Mat<c64>>>,
+    /// Per harmonic, `[Y | A_k⁻¹ f_k]` (`n × (n_c + 1)`, column-major) when `A_k` is
+    /// complex symmetric.
+    columns: Option<Vec<Vec<c64>>>,
     parts: Arc<ExactParts>,
 }
 
 impl ExactReceptanceAt {
     /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)` (or `A_k⁻¹ W λ̂_k` without the load) from the kept
     /// columns.
-    fn combine(columns: &Mat<c64>, force: &[c64], with_load: bool) -> Vec<c64> {
+    fn combine(columns: &[c64], force: &[c64], with_load: bool) -> Vec<c64> {
         let nc = force.len();
+        let n = columns.len() / (nc + 1);
         let mut q: Vec<c64> = if with_load {
-            columns.col(nc).iter().copied().collect()
+            columns[nc * n..].to_vec()
         } else {
-            vec![ZERO; columns.nrows()]
+            vec![ZERO; n]
         };
         for (c, &l) in force.iter().enumerate() {
             if l != ZERO {
                 q.iter_mut()
-                    .zip(columns.col(c).iter())
+                    .zip(&columns[c * n..(c + 1) * n])
                     .for_each(|(q, y)| *q += y * l);
             }
         }
@@ -305,10 +314,10 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
             self.parts
                 .structure
                 .add_derivative_times(k, self.omega, &q, &mut v);
+            let n = v.len();
             return Ok((0..force.len())
                 .map(|c| {
-                    -columns
-                        .col(c)
+                    -columns[c * n..(c + 1) * n]
                         .iter()
                         .zip(&v)
                         .fold(ZERO, |s, (y, v)| s + y * v)
