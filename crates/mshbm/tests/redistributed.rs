@@ -444,6 +444,24 @@ fn the_refined_block_converges_at_h5_from_its_h3_solution() {
 fn a_diagram_point_is_that_of_the_whole_solution() {
     use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
     use mshbm::solution::DiagramPoint;
+    // the diagram point takes a contact-node DOF's signal from the active-set intervals of
+    // the exact quadrature, the whole solution from a static contact solve per instant:
+    // their extremes agree to round-off
+    let same = |point: &DiagramPoint, whole: &DiagramPoint, case: &str| {
+        assert_eq!(point.frequency_hz, whole.frequency_hz, "{case}");
+        assert_eq!(
+            point.response.coefficients, whole.response.coefficients,
+            "{case}"
+        );
+        assert_eq!(point.residual_norm, whole.residual_norm, "{case}");
+        let size = whole.response.max.abs().max(whole.response.min.abs());
+        for (a, b) in [
+            (point.response.max, whole.response.max),
+            (point.response.min, whole.response.min),
+        ] {
+            assert!((a - b).abs() <= 1e-13 * size, "{case}: {a} vs {b}");
+        }
+    };
     let model = common::example_model(
         "block_3d/model.toml",
         &["solid.divisions=[4,4,4]", "interfaces.0.gap=0.0003"],
@@ -459,8 +477,30 @@ fn a_diagram_point_is_that_of_the_whole_solution() {
         let whole = p.solution(&out.x, omega, dof).unwrap();
         let point = p.diagram_point(&out.x, omega, dof).unwrap();
         assert!(!whole.contacts.is_empty());
-        assert_eq!(point, DiagramPoint::of(&whole), "DOF {dof}");
+        same(
+            &point,
+            &DiagramPoint::of(&whole),
+            &format!("block, DOF {dof}"),
+        );
         assert!(whole.response.max > whole.response.min, "DOF {dof} moves");
+    }
+    // the bar's contact DOF on the branch near its first contact resonance, where the
+    // receptance amplifies the residual's difference between the two free gaps most
+    let model = damped_bar();
+    let mut p = ms_hbm_with(&model, 10, Quadrature::Exact, None);
+    let dof = model.contacts[0].dofs[0];
+    for f in [30.18e3, 60e3] {
+        let omega = hz(f);
+        let x0 = p.initial_guess(omega).unwrap();
+        let out = mshbm::newton::solve(&mut p, &x0, omega, &Default::default()).unwrap();
+        assert!(out.converged, "{f} Hz");
+        let whole = p.solution(&out.x, omega, dof).unwrap();
+        assert!(
+            whole.contacts[0].force.iter().any(|&l| l > 0.0),
+            "{f} Hz: in contact"
+        );
+        let point = p.diagram_point(&out.x, omega, dof).unwrap();
+        same(&point, &DiagramPoint::of(&whole), &format!("bar at {f} Hz"));
     }
 }
 

@@ -292,6 +292,13 @@ impl StaticContact {
         q
     }
 
+    /// Row `i` of `K_NN⁻¹ W` (`n_c`): the displacement of contact-node DOF `i` per unit
+    /// contact force.
+    pub fn compliance_row(&self, i: usize) -> &[f64] {
+        let nc = self.n_contacts;
+        &self.compliance_w[i * nc..(i + 1) * nc]
+    }
+
     /// Component `i` of [`StaticContact::force_displacement`].
     pub fn force_displacement_of(&self, i: usize, force: &[f64]) -> f64 {
         let nc = self.n_contacts;

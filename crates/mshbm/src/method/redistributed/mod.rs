@@ -26,6 +26,7 @@
 //! `J = blockdiag(D R_k⁻¹) − (I ⊗ D) Σ_A (Γ_A ⊗ F_A) blockdiag(I − D R_k⁻¹)`.
 
 mod frequency_maps;
+mod interval_signal;
 mod jacobian;
 pub mod quadrature;
 mod small_jacobian;
@@ -52,6 +53,7 @@ use crate::solution::{ContactSeries, DiagramPoint, DofResponse, PeriodicSolution
 use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
 use frequency_maps::{FrequencyMatrices, Map, StaticMaps};
+use interval_signal::IntervalSignal;
 use jacobian::{
     assemble_forces, dense_jacobian, times_each_coefficient, ContactJacobian, PreconditionerSlot,
 };
@@ -713,6 +715,26 @@ impl RedistributedMsHbm {
             );
         }
         let initial_gap = contact.initial_gap().to_vec();
+        // (a diagram point of a contact-node DOF with the exact quadrature takes its signal
+        // from the active-set intervals of this free gap instead: no static contact solve
+        // per instant)
+        let from_intervals = !every_contact && self.quadrature == Quadrature::Exact;
+        let interval_extremes = match location {
+            DofLocation::Nonlinear(i) if from_intervals => {
+                let gamma: Vec<f64> = free_gap
+                    .iter()
+                    .enumerate()
+                    .map(|(e, g)| if e < n { g + initial_gap[e] } else { *g })
+                    .collect();
+                let load_i: Vec<f64> = (0..ncoef).map(|m| load_displacement[m * n_n + i]).collect();
+                // the active sets of this free gap (not of the unknowns': near a resonance
+                // the two differ by the residual times the receptance)
+                let own = integrate(contact, &gamma, &self.sampling, Quadrature::Exact)?;
+                let signal = IntervalSignal::new(&own, &gamma, &load_i, contact.compliance_row(i));
+                Some(signal.extremes(&self.sampling))
+            }
+            _ => None,
+        };
         // the free gap and the state at the instant whose basis row is given
         let gap_at = |basis: &[f64]| -> Vec<f64> {
             let mut gamma = signal_with_basis(&free_gap, n, basis);
@@ -733,7 +755,8 @@ impl RedistributedMsHbm {
         };
         // the contacts' time signals: for the series, or for a contact-node response DOF
         // (the grid samples' basis rows from the sampling's table)
-        let time_signals = every_contact || matches!(location, DofLocation::Nonlinear(_));
+        let time_signals = every_contact
+            || (matches!(location, DofLocation::Nonlinear(_)) && interval_extremes.is_none());
         for row in self.sampling.basis.iter().filter(|_| time_signals) {
             let (q, lambda, gap) = state_at(row)?;
             q_s.push(q);
@@ -809,7 +832,7 @@ impl RedistributedMsHbm {
         let response = match location {
             DofLocation::Fixed => fixed_response(response_dof, h),
             DofLocation::Nonlinear(i) => {
-                let (max, min) = n_extremes(i);
+                let (max, min) = interval_extremes.unwrap_or_else(|| n_extremes(i));
                 DofResponse {
                     dof: response_dof,
                     coefficients: n_dof_coefficients(&q_n, n_n, h, i),
