@@ -1,11 +1,29 @@
 //! Dense helpers on faer: solves of the small systems of the methods (moment constraints,
 //! active contact blocks), where a singular matrix must be reported rather than produce
-//! NaNs, and the matrix exponential of the Floquet products.
+//! NaNs, the matrix exponential of the Floquet products, and the short dot products of the
+//! trigonometric polynomials.
 
 use faer::linalg::solvers::Solve;
 use faer::Mat;
 
 use crate::error::{Error, Result};
+
+/// `Σ a_i b_i` with four partial sums (short vectors: a basis row of `2H + 1`
+/// coefficients; one running sum makes each addition wait for the previous one).
+pub fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut sums = [0.0; 4];
+    let (head_a, tail_a) = a.split_at(n - n % 4);
+    let (head_b, tail_b) = b.split_at(n - n % 4);
+    for (x, y) in head_a.chunks_exact(4).zip(head_b.chunks_exact(4)) {
+        for l in 0..4 {
+            sums[l] += x[l] * y[l];
+        }
+    }
+    let tail: f64 = tail_a.iter().zip(tail_b).map(|(x, y)| x * y).sum();
+    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
 
 /// A numerically singular matrix met by [`solve_small_lu`]: the first column whose pivot
 /// `|U_kk|` of the partial-pivoting LU is at most the relative tolerance times the largest

@@ -103,6 +103,21 @@ pub fn evaluate(coef: &[f64], tau: f64) -> f64 {
     v
 }
 
+/// Value and derivative `dq/dτ` of the scalar trigonometric polynomial with coefficients
+/// `coef` at `τ` (one pass of the angle-addition recurrence).
+pub fn evaluate_with_slope(coef: &[f64], tau: f64) -> (f64, f64) {
+    let h = (coef.len() - 1) / 2;
+    let (mut v, mut slope) = (coef[0], 0.0);
+    let mut rotation = Rotation::new(tau);
+    for k in 1..=h {
+        let (c, s) = rotation.next();
+        let (a, b) = (coef[2 * k - 1], coef[2 * k]);
+        v += a * c + b * s;
+        slope += k as f64 * (b * c - a * s);
+    }
+    (v, slope)
+}
+
 /// The coefficient vector `x` of `n` signals with `from` harmonics, ordered harmonic-major
 /// (docs/theory.md (T8)), as the vector of the same signals with `to` harmonics: the higher
 /// harmonics set to zero (`to > from`) or dropped (`to < from`). `None` when `x.len()` is not

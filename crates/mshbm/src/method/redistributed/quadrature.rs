@@ -29,9 +29,10 @@ use std::rc::Rc;
 use crate::contact::static_contact::{ActiveSet, StaticContact};
 use crate::error::Result;
 use crate::harmonic::{
-    add_interval_gram, basis_into, evaluate, n_coefficients, Quadrature, Sampling,
+    add_interval_gram, basis_into, evaluate, evaluate_with_slope, n_coefficients, Quadrature,
+    Sampling,
 };
-use crate::roots::find_sign_change;
+use crate::roots::find_sign_change_with_slope;
 
 /// Samples sharing one active set, with their summed Gram block.
 pub struct Group {
@@ -117,9 +118,17 @@ fn derivative(coef: &[f64]) -> Vec<f64> {
 /// negative, to round-off, given `coef(right) < 0`: the negative end of the final bracket of
 /// [`find_sign_change`]. `left` is where the active set was found valid, so it is taken as
 /// the non-negative end even when round-off makes `coef(left)` slightly negative there.
+/// Located by safeguarded Newton ([`find_sign_change_with_slope`]).
 fn first_negative_time(coef: &[f64], left: f64, right: f64, f_right: f64) -> f64 {
     let f_left = evaluate(coef, left).max(0.0);
-    find_sign_change(|t| evaluate(coef, t), left, right, f_left, f_right).negative
+    find_sign_change_with_slope(
+        |t| evaluate_with_slope(coef, t),
+        left,
+        right,
+        f_left,
+        f_right,
+    )
+    .negative
 }
 
 /// Scan points per cell: `a + (end − a) l / SCAN`, `l = 0..=SCAN`.
@@ -240,8 +249,14 @@ impl CellScan {
                     // the minimum in (p[l − 1], p[l]): the root of the derivative
                     let d = derivative(coef);
                     let (dprev, dp) = (self.slope(c, l - 1), self.slope(c, l));
-                    let tmin =
-                        find_sign_change(|t| evaluate(&d, t), p[l - 1], p[l], dprev, dp).midpoint();
+                    let tmin = find_sign_change_with_slope(
+                        |t| evaluate_with_slope(&d, t),
+                        p[l - 1],
+                        p[l],
+                        dprev,
+                        dp,
+                    )
+                    .midpoint();
                     let value = evaluate(coef, tmin);
                     (value < 0.0).then(|| first_negative_time(coef, p[l - 1], tmin, value))
                 } else {
@@ -408,7 +423,7 @@ impl GridIndicators {
         out.extend(
             self.coefs
                 .chunks_exact(self.ncoef)
-                .map(|c| c.iter().zip(basis).map(|(a, b)| a * b).sum::<f64>()),
+                .map(|c| crate::dense::dot(c, basis)),
         );
     }
 
