@@ -144,6 +144,9 @@ fn case(label: &str, mut problem: Box<dyn PeriodicProblem>) -> Case {
     }
 }
 
+/// Sets a [`Case`] up (on first use: the Newton solve is not timed).
+type MakeCase = Box<dyn Fn() -> Case>;
+
 fn corrector_iteration(c: &mut Case) -> Vec<f64> {
     let flip = !c.flip.get();
     c.flip.set(flip);
@@ -162,7 +165,7 @@ fn bench_iteration(c: &mut Criterion) {
     let mut group = c.benchmark_group("iteration");
     group.warm_up_time(Duration::from_millis(200));
     group.measurement_time(Duration::from_secs(3));
-    let mut cases: Vec<(&str, Box<dyn Fn() -> Case>)> = Vec::new();
+    let mut cases: Vec<(&str, MakeCase)> = Vec::new();
     let m = model.clone();
     cases.push((
         "ms_hbm",
