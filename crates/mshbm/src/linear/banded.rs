@@ -1,5 +1,5 @@
 //! LU factorization with partial pivoting of a complex band matrix (the algorithm of
-//! LAPACK's `zgbtf2`/`zgbtrs`), for the dynamic stiffness `A_k(ω)` of a structure whose DOFs
+//! LAPACK's `zgbtf2`/`zgbtrs`; docs/theory.md (T138)), for the dynamic stiffness `A_k(ω)` of a structure whose DOFs
 //! are numbered along it (a bar, a beam, a chain): `kl` sub- and `ku` superdiagonals cost
 //! `O(n kl (kl + ku))` per factorization and `O(n (2kl + ku))` per solve, with no symbolic
 //! phase and no allocation once the storage exists.

@@ -133,11 +133,11 @@ pub trait ReceptanceAtFrequency: Send + Sync {
     fn frequency_derivative(&self, k: usize, force: &[c64], with_load: bool) -> Result<Vec<c64>>;
 }
 
-/// The exact receptance: the whole dynamic stiffness `A_k` factored by a sparse LU per
-/// harmonic and frequency, `R_k` from `n_c` solves.
+/// The exact receptance: the whole dynamic stiffness `A_k` factored (a sparse or a band LU,
+/// [`LinearPart`]) per harmonic and frequency, `R_k` from `n_c` solves.
 ///
 /// When `K`, `M` and `C` are symmetric, `A_k` is complex symmetric and `Wᵀ A_k⁻¹ = Yᵀ` with
-/// `Y = A_k⁻¹ W`; the solved columns `[Y | A_k⁻¹ f_k]` are then kept (up to
+/// `Y = A_k⁻¹ W` (docs/theory.md (T139)); the solved columns `[Y | A_k⁻¹ f_k]` are then kept (up to
 /// [`KEPT_COLUMN_VALUES`] numbers), and the whole response `q̂_k = A_k⁻¹ f_k + Y λ̂_k` and
 /// the frequency derivative `−Yᵀ ∂A_k/∂ω q̂_k` cost products instead of solves.
 pub struct ExactReceptance {

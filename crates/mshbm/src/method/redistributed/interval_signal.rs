@@ -1,5 +1,6 @@
 //! The exact time signal of one contact-node DOF over a period, from the active-set
-//! intervals of the exact quadrature ([`super::quadrature::Integration`]).
+//! intervals of the exact quadrature ([`super::quadrature::Integration`]; docs/theory.md
+//! (T140)).
 //!
 //! On an interval of constant active set `A` the contact forces are
 //! `λ(τ) = F_A γ(τ)` (docs/theory.md (T124)) and the contact nodes' displacement is

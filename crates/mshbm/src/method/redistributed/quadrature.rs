@@ -436,7 +436,7 @@ impl GridIndicators {
     }
 
     /// Whether every indicator stays positive on the cell of width `width` between the
-    /// values `start` and `end`: with `|h''| ≤ M`, `h ≥ min(h(a), h(b)) − M (b − a)²/8` on
+    /// values `start` and `end` (docs/theory.md (T137)): with `|h''| ≤ M`, `h ≥ min(h(a), h(b)) − M (b − a)²/8` on
     /// `[a, b]` (the chord minus the largest deviation of a function of bounded curvature
     /// that meets it at both ends).
     fn positive_on_cell(&self, width: f64) -> bool {

@@ -1,4 +1,5 @@
-//! The dense Jacobian (T129) of an interface of few contacts, formed directly:
+//! The dense Jacobian (T129) of an interface of few contacts, formed directly (docs/theory.md
+//! §19):
 //!
 //! ```text
 //! J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(C_k),   S = Σ_A Γ_A ⊗ F_A,   C_k = I − D R_k⁻¹,
