@@ -10,16 +10,18 @@ use crate::error::Result;
 use crate::problem::PeriodicProblem;
 
 /// Regula falsi on the ω-component of the tangent along the arc from `last` (arclength
-/// `0`, scaled point `start`) to the accepted point (arclength `ds`). `None` when a corrector
-/// solve on the way fails. `after` is left at 0 for the caller.
+/// `0`, scaled point `start`) to the accepted point `accepted` (arclength `ds`, the Keller
+/// corrector's point from `last` with that step). `None` when a corrector solve on the way
+/// fails. `after` is left at 0 for the caller.
 pub(super) fn locate_fold<P: PeriodicProblem + ?Sized>(
     problem: &mut P,
     sc: &Scaling,
     corrector: &Corrector<'_>,
     last: &BranchPoint,
     start: &[f64],
-    ds: f64,
+    accepted: &BranchPoint,
 ) -> Result<Option<Fold>> {
+    let ds = accepted.step;
     let n = last.x.len();
     let eval = |problem: &mut P, s: f64| -> Result<Option<(f64, Vec<f64>, f64)>> {
         match corrector.keller(problem, sc, start, &last.tangent, s)? {
@@ -34,9 +36,8 @@ pub(super) fn locate_fold<P: PeriodicProblem + ?Sized>(
     };
     // working values fa, fb (scaled by the Illinois rule); true values ta, tb
     let (mut a, mut fa, mut ta) = (0.0, last.tangent[n], last.tangent[n]);
-    let Some((fb0, mut xb, mut wb)) = eval(problem, ds)? else {
-        return Ok(None);
-    };
+    // the accepted point is the corrector's at ds: its tangent is known
+    let (fb0, mut xb, mut wb) = (accepted.tangent[n], accepted.x.clone(), accepted.omega);
     let (mut b, mut fb, mut tb) = (ds, fb0, fb0);
     let (mut xa, mut wa) = (last.x.clone(), last.omega);
     let mut side = 0i32;

@@ -146,7 +146,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         // fold between `last` and `point`?
         let n = point.tangent.len() - 1;
         if last.tangent[n] * point.tangent[n] < 0.0 {
-            if let Some(fold) = locate_fold(problem, &sc, &corrector, &last, &start, ds)? {
+            if let Some(fold) = locate_fold(problem, &sc, &corrector, &last, &start, &point)? {
                 let fold = Fold {
                     after: trace.branch.points.len() - 1,
                     ..fold

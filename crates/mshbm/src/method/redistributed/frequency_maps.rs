@@ -19,6 +19,10 @@ use faer::{c64, Mat, MatRef};
 use crate::error::{Error, Result};
 use crate::linear::{complex_harmonic, store_harmonic, ReceptanceAtFrequency, StaticPlusLowRank};
 
+/// Contacts up to which the dense maps are applied by a direct loop (above, by faer's
+/// matrix–vector products on complex copies of each harmonic).
+const DIRECT_PRODUCT_CONTACTS: usize = 8;
+
 /// Which map `P R_k⁻¹`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Map {
@@ -134,6 +138,30 @@ impl FrequencyMatrices {
     /// (the real form (T15)).
     pub(super) fn apply(&self, map: Map, n: usize, z: &[f64]) -> Vec<f64> {
         match self {
+            FrequencyMatrices::Dense(maps) if n <= DIRECT_PRODUCT_CONTACTS => {
+                // z_k = a − i b per harmonic, read and written in place (no temporaries)
+                let mut out = vec![0.0; z.len()];
+                for (k, m) in maps.iter().enumerate() {
+                    let m = &m[map as usize];
+                    let (re, im) = if k == 0 {
+                        (0, None)
+                    } else {
+                        (2 * k - 1, Some(2 * k))
+                    };
+                    for i in 0..n {
+                        let mut sum = c64::new(0.0, 0.0);
+                        for j in 0..n {
+                            let zj = c64::new(z[re * n + j], im.map_or(0.0, |s| -z[s * n + j]));
+                            sum += m[(i, j)] * zj;
+                        }
+                        out[re * n + i] = sum.re;
+                        if let Some(s) = im {
+                            out[s * n + i] = -sum.im;
+                        }
+                    }
+                }
+                out
+            }
             FrequencyMatrices::Dense(maps) => {
                 let mut out = vec![0.0; z.len()];
                 for (k, m) in maps.iter().enumerate() {
@@ -212,6 +240,44 @@ mod tests {
                 (seed * (e as f64 + 1.0)).sin() + if e % (n + 1) == 0 { n as f64 } else { 0.0 }
             })
             .collect()
+    }
+
+    /// The direct product of few contacts is the complex product per harmonic (T15): real
+    /// coefficients to `z = a − i b`, times the map, back.
+    #[test]
+    fn the_direct_product_is_the_complex_product() {
+        let (n, harmonics) = (3, 4);
+        let map = |k: usize, p: usize| {
+            Mat::<c64>::from_fn(n, n, |i, j| {
+                let e = (i * n + j + 7 * k + 31 * p) as f64;
+                c64::new((0.3 * e).sin(), (0.7 * e).cos())
+            })
+        };
+        let maps = FrequencyMatrices::Dense(
+            (0..=harmonics)
+                .map(|k| [map(k, 0), map(k, 1), map(k, 2)])
+                .collect(),
+        );
+        let z: Vec<f64> = (0..n * (2 * harmonics + 1))
+            .map(|i| (1.1 * i as f64).cos())
+            .collect();
+        for (p, which) in [Map::Inverse, Map::Scaled, Map::Residual]
+            .into_iter()
+            .enumerate()
+        {
+            let out = maps.apply(which, n, &z);
+            let mut expected = vec![0.0; z.len()];
+            for k in 0..=harmonics {
+                let zk = complex_harmonic(&z, n, k);
+                let product: Vec<c64> = (0..n)
+                    .map(|i| (0..n).map(|j| map(k, p)[(i, j)] * zk[j]).sum())
+                    .collect();
+                store_harmonic(&product, n, k, &mut expected);
+            }
+            for (a, b) in out.iter().zip(&expected) {
+                assert!((a - b).abs() <= 1e-14, "{which:?}: {a} vs {b}");
+            }
+        }
     }
 
     /// The static-plus-low-rank maps (T136) against the dense ones, which invert the formed
