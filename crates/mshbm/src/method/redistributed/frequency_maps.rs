@@ -99,6 +99,14 @@ impl FrequencyMatrices {
         let identity = Mat::<c64>::identity(n, n);
         let mut maps = Vec::with_capacity(receptance.harmonics() + 1);
         for k in 0..=receptance.harmonics() {
+            if n == 1 {
+                // one contact: the maps are numbers
+                let r_inv = c64::new(1.0, 0.0) / receptance.receptance(k)[0];
+                let one = |v: c64| Mat::<c64>::from_fn(1, 1, |_, _| v);
+                check_finite(&one(r_inv), k, receptance.omega())?;
+                maps.push([one(r_inv), one(r_inv * delassus[0]), one(r_inv * scale[0])]);
+                continue;
+            }
             let r = MatRef::from_row_major_slice(receptance.receptance(k), n, n);
             let r_inv = r.partial_piv_lu().solve(&identity);
             check_finite(&r_inv, k, receptance.omega())?;
