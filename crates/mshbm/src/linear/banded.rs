@@ -70,28 +70,6 @@ impl BandedLu {
         !self.singular
     }
 
-    /// [`BandedLu::factor`] of several matrices of the same sizes, entry `e` of matrix `m`
-    /// being `value(m, e)`: column by column across the matrices, so that their independent
-    /// eliminations overlap in the processor (one matrix's elimination is a chain of
-    /// dependent divisions and products). `false` when any is singular.
-    pub fn factor_batch(
-        matrices: &mut [BandedLu],
-        positions: &[usize],
-        value: impl Fn(usize, usize) -> c64,
-    ) -> bool {
-        for (m, lu) in matrices.iter_mut().enumerate() {
-            lu.fill(positions, |e| value(m, e));
-        }
-        let n = matrices.first().map_or(0, |lu| lu.n);
-        let mut reach = vec![0; matrices.len()];
-        for j in 0..n {
-            for (lu, reach) in matrices.iter_mut().zip(&mut reach) {
-                lu.eliminate(j, reach);
-            }
-        }
-        matrices.iter().all(|lu| !lu.singular)
-    }
-
     /// Store the entries of a new matrix (the band zeroed first).
     fn fill(&mut self, positions: &[usize], value: impl Fn(usize) -> c64) {
         let band = &mut self.band[..];
@@ -207,54 +185,253 @@ impl BandedLu {
         }
     }
 
-    /// Solve one system per right-hand side, `A_m x = b` for each `(m, b)` of `systems`
-    /// (`m` an index into `matrices`), column by column across them so that the
-    /// independent substitutions overlap in the processor.
-    pub fn solve_batch(matrices: &[BandedLu], systems: &mut [(usize, &mut [c64])]) {
-        let references: Vec<&BandedLu> = matrices.iter().collect();
-        Self::solve_batch_of(&references, systems);
+    pub fn is_singular(&self) -> bool {
+        self.singular
+    }
+}
+
+/// The LU factors of several band matrices of the same sizes (the dynamic stiffness of each
+/// harmonic), stored side by side: entry `(i, j)` of matrix `m` at
+/// `position(i, j) · lanes + m`, real and imaginary parts apart. Each step of the
+/// elimination is done for every matrix in one pass over contiguous numbers, so that the
+/// processor works on the matrices' independent chains of divisions and products together
+/// (and in vector registers). The arithmetic per matrix is [`BandedLu`]'s, operation for
+/// operation: the factors and solutions are the same to the last bit.
+#[derive(Clone, Debug)]
+pub struct BandedLuBatch {
+    n: usize,
+    kl: usize,
+    ku: usize,
+    lanes: usize,
+    re: Vec<f64>,
+    im: Vec<f64>,
+    /// The row interchanged with row `j` of matrix `m`, at `j · lanes + m`.
+    pivots: Vec<usize>,
+    inverse_re: Vec<f64>,
+    inverse_im: Vec<f64>,
+    singular: Vec<bool>,
+}
+
+impl BandedLuBatch {
+    /// Storage for `lanes` matrices `n × n` with `kl` sub- and `ku` superdiagonals.
+    pub fn new(n: usize, kl: usize, ku: usize, lanes: usize) -> Self {
+        let values = BandedLu::values(n, kl, ku) * lanes;
+        BandedLuBatch {
+            n,
+            kl,
+            ku,
+            lanes,
+            re: vec![0.0; values],
+            im: vec![0.0; values],
+            pivots: vec![0; n * lanes],
+            inverse_re: vec![0.0; n * lanes],
+            inverse_im: vec![0.0; n * lanes],
+            singular: vec![false; lanes],
+        }
     }
 
-    /// [`BandedLu::solve_batch`] with the matrices given by reference.
-    pub fn solve_batch_of(matrices: &[&BandedLu], systems: &mut [(usize, &mut [c64])]) {
-        let Some(first) = matrices.first() else {
-            return;
+    /// The number of matrices.
+    pub fn lanes(&self) -> usize {
+        self.lanes
+    }
+
+    /// Whether the batch has these sizes.
+    pub fn fits(&self, n: usize, kl: usize, ku: usize, lanes: usize) -> bool {
+        (self.n, self.kl, self.ku, self.lanes) == (n, kl, ku, lanes)
+    }
+
+    fn leading(&self) -> usize {
+        2 * self.kl + self.ku + 1
+    }
+
+    /// Factor the dynamic stiffnesses `A_m = K − Ω_m² M + iΩ_m C` (docs/theory.md (T13)) at
+    /// the frequencies `frequencies[m]` (one per matrix), with the entries `stiffness[e]`,
+    /// `mass[e]`, `damping[e]` at the storage positions `positions[e]`
+    /// ([`BandedLu::position`]). `false` when any is singular (its solutions are then not
+    /// finite).
+    pub fn factor_dynamic_stiffness(
+        &mut self,
+        positions: &[usize],
+        stiffness: &[f64],
+        mass: &[f64],
+        damping: &[f64],
+        frequencies: &[f64],
+    ) -> bool {
+        let (n, kl, ku, lanes) = (self.n, self.kl, self.ku, self.lanes);
+        assert_eq!(frequencies.len(), lanes, "one frequency per matrix");
+        let leading = self.leading();
+        let kv = kl + ku;
+        let along_row = leading - 1;
+        self.re.fill(0.0);
+        self.im.fill(0.0);
+        let squares: Vec<f64> = frequencies.iter().map(|w| w * w).collect();
+        for (e, &p) in positions.iter().enumerate() {
+            let (k, m, c) = (stiffness[e], mass[e], damping[e]);
+            let at = p * lanes;
+            for (re, w2) in self.re[at..at + lanes].iter_mut().zip(&squares) {
+                *re += k - w2 * m;
+            }
+            for (im, w) in self.im[at..at + lanes].iter_mut().zip(frequencies) {
+                *im += w * c;
+            }
+        }
+        self.singular.fill(false);
+        let mut reach = vec![0usize; lanes];
+        let mut largest = vec![0.0f64; lanes];
+        let mut pivot_row = vec![0usize; lanes];
+        let (mut multipliers_re, mut multipliers_im) = (Vec::new(), Vec::new());
+        let (mut f_re, mut f_im) = (Vec::new(), Vec::new());
+        for j in 0..n {
+            let km = kl.min(n - 1 - j);
+            let diagonal = kv + j * leading;
+            // the pivot of each matrix: the largest |Re| + |Im| on and below the diagonal
+            largest.fill(-1.0);
+            pivot_row.fill(0);
+            for r in 0..=km {
+                let at = (diagonal + r) * lanes;
+                let (re, im) = (&self.re[at..at + lanes], &self.im[at..at + lanes]);
+                for (((l, p), x), y) in largest.iter_mut().zip(&mut pivot_row).zip(re).zip(im) {
+                    let size = x.abs() + y.abs();
+                    let better = size > *l;
+                    *l = if better { size } else { *l };
+                    *p = if better { r } else { *p };
+                }
+            }
+            let mut ju = 0;
+            for m in 0..lanes {
+                let p = pivot_row[m];
+                self.pivots[j * lanes + m] = j + p;
+                // a zero pivot makes this matrix's factors (and solutions) not finite
+                self.singular[m] |= largest[m] == 0.0 || !largest[m].is_finite();
+                reach[m] = reach[m].max((j + ku + p).min(n - 1));
+                ju = ju.max(reach[m]);
+            }
+            // the row interchanges, as selects across the matrices (beyond a matrix's own
+            // reach both rows are zero)
+            for r in 1..=km {
+                let mut at = diagonal;
+                for _ in j..=ju {
+                    let (upper, lower) = (at * lanes, (at + r) * lanes);
+                    for part in [&mut self.re, &mut self.im] {
+                        let (head, tail) = part.split_at_mut(lower);
+                        let rows = head[upper..upper + lanes]
+                            .iter_mut()
+                            .zip(&mut tail[..lanes]);
+                        for ((x, y), &p) in rows.zip(&pivot_row) {
+                            let swap = p == r;
+                            let (a, b) = (*x, *y);
+                            *x = if swap { b } else { a };
+                            *y = if swap { a } else { b };
+                        }
+                    }
+                    at += along_row;
+                }
+            }
+            {
+                let at = diagonal * lanes;
+                let inverse = self.inverse_re[j * lanes..(j + 1) * lanes]
+                    .iter_mut()
+                    .zip(&mut self.inverse_im[j * lanes..(j + 1) * lanes]);
+                let pivots = self.re[at..at + lanes].iter().zip(&self.im[at..at + lanes]);
+                for ((ir, ii), (pr, pi)) in inverse.zip(pivots) {
+                    let scale = 1.0 / (pr * pr + pi * pi);
+                    *ir = pr * scale;
+                    *ii = -pi * scale;
+                }
+            }
+            if km == 0 {
+                continue;
+            }
+            let (inverse_re, inverse_im) = (
+                &self.inverse_re[j * lanes..(j + 1) * lanes],
+                &self.inverse_im[j * lanes..(j + 1) * lanes],
+            );
+            // the multipliers: column j below the diagonal times the pivot's inverse
+            for r in 1..=km {
+                let at = (diagonal + r) * lanes;
+                let (re, im) = (&mut self.re[at..at + lanes], &mut self.im[at..at + lanes]);
+                for (((lr, li), ir), ii) in re.iter_mut().zip(im).zip(inverse_re).zip(inverse_im) {
+                    let (a, b) = (*lr, *li);
+                    *lr = a * ir - b * ii;
+                    *li = a * ii + b * ir;
+                }
+            }
+            // the rank-one update of the rows below j, columns j + 1..=ju (for a matrix
+            // whose reach is shorter, its row j is zero beyond it: nothing changes)
+            // (the multipliers are copied once per column: they and the targets share storage)
+            multipliers_re.clear();
+            multipliers_im.clear();
+            for r in 1..=km {
+                let at = (diagonal + r) * lanes;
+                multipliers_re.extend_from_slice(&self.re[at..at + lanes]);
+                multipliers_im.extend_from_slice(&self.im[at..at + lanes]);
+            }
+            let mut at = diagonal + along_row;
+            for _ in j + 1..=ju {
+                let source = at * lanes;
+                f_re.clear();
+                f_im.clear();
+                f_re.extend_from_slice(&self.re[source..source + lanes]);
+                f_im.extend_from_slice(&self.im[source..source + lanes]);
+                for r in 1..=km {
+                    let target = (at + r) * lanes;
+                    let (lr, li) = (
+                        &multipliers_re[(r - 1) * lanes..r * lanes],
+                        &multipliers_im[(r - 1) * lanes..r * lanes],
+                    );
+                    let targets = self.re[target..target + lanes]
+                        .iter_mut()
+                        .zip(&mut self.im[target..target + lanes]);
+                    for ((((tr, ti), fr), fi), (lr, li)) in
+                        targets.zip(&f_re).zip(&f_im).zip(lr.iter().zip(li))
+                    {
+                        *tr -= lr * fr - li * fi;
+                        *ti -= lr * fi + li * fr;
+                    }
+                }
+                at += along_row;
+            }
+        }
+        !self.singular.iter().any(|&s| s)
+    }
+
+    /// Solve `A_m x = b` in place for each `(m, b)` of `systems`, column by column across
+    /// them.
+    pub fn solve_batch(&self, systems: &mut [(usize, &mut [c64])]) {
+        let (n, kl, lanes) = (self.n, self.kl, self.lanes);
+        let kv = kl + self.ku;
+        let leading = self.leading();
+        let entry = |position: usize, m: usize| {
+            c64::new(self.re[position * lanes + m], self.im[position * lanes + m])
         };
-        let (n, kl, kv) = (first.n, first.kl, first.kl + first.ku);
-        let leading = first.leading();
         for j in 0..n {
             let below = kl.min(n - 1 - j);
             for (m, b) in systems.iter_mut() {
-                let lu = matrices[*m];
-                let l = lu.pivots[j];
+                let l = self.pivots[j * lanes + *m];
                 if l != j {
                     b.swap(l, j);
                 }
                 let bj = b[j];
-                let multipliers = &lu.band[kv + 1 + j * leading..kv + 1 + below + j * leading];
-                b[j + 1..j + 1 + below]
-                    .iter_mut()
-                    .zip(multipliers)
-                    .for_each(|(bi, m)| *bi -= m * bj);
+                for r in 1..=below {
+                    b[j + r] -= entry(kv + r + j * leading, *m) * bj;
+                }
             }
         }
         for j in (0..n).rev() {
-            let first_row = j.saturating_sub(kv);
-            let base = (kv + first_row) + j * leading - j;
+            let first = j.saturating_sub(kv);
+            let base = kv + first + j * leading - j;
             for (m, b) in systems.iter_mut() {
-                let lu = matrices[*m];
-                b[j] *= lu.inverse_diagonal[j];
+                let inverse = c64::new(
+                    self.inverse_re[j * lanes + *m],
+                    self.inverse_im[j * lanes + *m],
+                );
+                b[j] *= inverse;
                 let bj = b[j];
-                b[first_row..j]
-                    .iter_mut()
-                    .zip(&lu.band[base..base + (j - first_row)])
-                    .for_each(|(bi, u)| *bi -= u * bj);
+                for (i, bi) in b[first..j].iter_mut().enumerate() {
+                    *bi -= entry(base + i, *m) * bj;
+                }
             }
         }
-    }
-
-    pub fn is_singular(&self) -> bool {
-        self.singular
     }
 }
 
@@ -326,47 +503,59 @@ mod tests {
         }
     }
 
-    /// The batch factorization and solves give each matrix's own factors and solutions.
+    /// The batch factorization and solves give each matrix's own factors and solutions,
+    /// to the last bit.
     #[test]
-    fn a_batch_factors_each_matrix_as_alone() {
-        let (n, kl, ku) = (20, 2, 1);
-        let entries: Vec<(usize, usize)> = (0..n)
-            .flat_map(|j| (0..n).map(move |i| (i, j)))
-            .filter(|&(i, j)| i + ku >= j && j + kl >= i)
-            .collect();
-        let positions: Vec<usize> = entries
-            .iter()
-            .map(|&(i, j)| BandedLu::position(kl, ku, i, j))
-            .collect();
-        let value = |m: usize, e: usize| {
-            let (i, j) = entries[e];
-            c64::new(
-                (0.7 * (i + 2 * j + m) as f64).sin(),
-                (0.3 * (i * j + m) as f64).cos(),
-            )
-        };
-        let mut batch = vec![BandedLu::new(n, kl, ku); 3];
-        assert!(BandedLu::factor_batch(&mut batch, &positions, value));
-        let rhs = |m: usize| -> Vec<c64> {
-            (0..n)
-                .map(|i| c64::new(1.0 + (i + m) as f64, -0.5 * i as f64))
-                .collect()
-        };
-        let mut solved: Vec<Vec<c64>> = (0..3).map(rhs).collect();
-        let mut systems: Vec<(usize, &mut [c64])> = solved
-            .iter_mut()
-            .enumerate()
-            .map(|(m, b)| (m, b.as_mut_slice()))
-            .collect();
-        BandedLu::solve_batch(&batch, &mut systems);
-        for (m, lu) in batch.iter().enumerate() {
-            let mut alone = BandedLu::new(n, kl, ku);
-            assert!(alone.factor(&positions, |e| value(m, e)));
-            assert_eq!(alone.band, lu.band);
-            assert_eq!(alone.pivots, lu.pivots);
-            let mut x = rhs(m);
-            alone.solve_in_place(&mut x);
-            assert_eq!(x, solved[m]);
+    fn a_batch_factors_and_solves_each_matrix_as_alone() {
+        for (n, kl, ku) in [(20, 2, 1), (15, 1, 1), (9, 0, 2)] {
+            let entries: Vec<(usize, usize)> = (0..n)
+                .flat_map(|j| (0..n).map(move |i| (i, j)))
+                .filter(|&(i, j)| i + ku >= j && j + kl >= i)
+                .collect();
+            let positions: Vec<usize> = entries
+                .iter()
+                .map(|&(i, j)| BandedLu::position(kl, ku, i, j))
+                .collect();
+            let part = |e: usize, s: f64| {
+                let (i, j) = entries[e];
+                (s * (i + 2 * j) as f64 + 0.1 * (i * j) as f64).sin()
+            };
+            let stiffness: Vec<f64> = (0..entries.len()).map(|e| 3.0 + part(e, 0.7)).collect();
+            let mass: Vec<f64> = (0..entries.len()).map(|e| part(e, 0.3)).collect();
+            let damping: Vec<f64> = (0..entries.len()).map(|e| 0.2 * part(e, 1.1)).collect();
+            let lanes = 5;
+            let frequencies: Vec<f64> = (0..lanes).map(|m| 0.9 * m as f64).collect();
+            let value = |m: usize, e: usize| {
+                let w = frequencies[m];
+                c64::new(stiffness[e] - w * w * mass[e], w * damping[e])
+            };
+            let mut batch = BandedLuBatch::new(n, kl, ku, lanes);
+            assert!(batch.factor_dynamic_stiffness(
+                &positions,
+                &stiffness,
+                &mass,
+                &damping,
+                &frequencies
+            ));
+            let rhs = |m: usize| -> Vec<c64> {
+                (0..n)
+                    .map(|i| c64::new(1.0 + (i + m) as f64, -0.5 * i as f64))
+                    .collect()
+            };
+            let mut solved: Vec<Vec<c64>> = (0..lanes).map(rhs).collect();
+            let mut systems: Vec<(usize, &mut [c64])> = solved
+                .iter_mut()
+                .enumerate()
+                .map(|(m, b)| (m, b.as_mut_slice()))
+                .collect();
+            batch.solve_batch(&mut systems);
+            for (m, solution) in solved.iter().enumerate() {
+                let mut alone = BandedLu::new(n, kl, ku);
+                assert!(alone.factor(&positions, |e| value(m, e)));
+                let mut x = rhs(m);
+                alone.solve_in_place(&mut x);
+                assert_eq!(&x, solution, "n = {n}, kl = {kl}, ku = {ku}, matrix {m}");
+            }
         }
     }
 

@@ -23,7 +23,7 @@ use faer::prelude::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::{c64, Mat};
 
-use super::banded::{bandwidths, BandedLu};
+use super::banded::{bandwidths, BandedLu, BandedLuBatch};
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
 
@@ -149,16 +149,18 @@ enum Analysis {
     },
 }
 
-/// One factored `A_k(ω)`.
-enum Factor {
-    Sparse(Box<Lu<usize, c64>>),
-    Banded(BandedLu),
+/// The factors of `A_k(ω)`, `k = 0..=H`.
+enum Factors {
+    /// One sparse LU per harmonic.
+    Sparse(Vec<Lu<usize, c64>>),
+    /// The band LUs of every harmonic, side by side.
+    Banded(BandedLuBatch),
 }
 
 /// The factored `A_k(ω)` for `k = 0..=H`.
 pub struct HarmonicFactors {
     pub omega: f64,
-    factors: Vec<Factor>,
+    factors: Factors,
 }
 
 impl LinearPart {
@@ -221,7 +223,7 @@ impl LinearPart {
     pub fn factor(&self, omega: f64, harmonics: usize) -> Result<HarmonicFactors> {
         let mut factors = HarmonicFactors {
             omega,
-            factors: Vec::with_capacity(harmonics + 1),
+            factors: Factors::Sparse(Vec::new()),
         };
         self.factor_into(omega, harmonics, &mut factors)?;
         Ok(factors)
@@ -236,7 +238,6 @@ impl LinearPart {
         factors: &mut HarmonicFactors,
     ) -> Result<()> {
         factors.omega = omega;
-        factors.factors.truncate(harmonics + 1);
         let value = |e: usize, kw: f64| {
             c64::new(
                 self.stiffness_values[e] - kw * kw * self.mass_values[e],
@@ -246,38 +247,40 @@ impl LinearPart {
         match &self.analysis {
             Analysis::Banded { kl, ku, positions } => {
                 let n = self.n_dofs();
-                let mut bands: Vec<BandedLu> = Vec::with_capacity(harmonics + 1);
-                for factor in factors.factors.drain(..) {
-                    if let Factor::Banded(lu) = factor {
-                        bands.push(lu);
-                    }
+                let lanes = harmonics + 1;
+                if !matches!(&factors.factors, Factors::Banded(b) if b.fits(n, *kl, *ku, lanes)) {
+                    factors.factors = Factors::Banded(BandedLuBatch::new(n, *kl, *ku, lanes));
                 }
-                bands.resize_with(harmonics + 1, || BandedLu::new(n, *kl, *ku));
+                let Factors::Banded(batch) = &mut factors.factors else {
+                    unreachable!("made banded above")
+                };
                 // a zero pivot leaves non-finite solutions, which the solves report
-                BandedLu::factor_batch(&mut bands, positions, |k, e| value(e, k as f64 * omega));
-                factors
-                    .factors
-                    .extend(bands.into_iter().map(Factor::Banded));
+                let frequencies: Vec<f64> = (0..lanes).map(|k| k as f64 * omega).collect();
+                batch.factor_dynamic_stiffness(
+                    positions,
+                    &self.stiffness_values,
+                    &self.mass_values,
+                    &self.damping_values,
+                    &frequencies,
+                );
             }
             Analysis::Sparse(symbolic) => {
+                let mut lus = Vec::with_capacity(harmonics + 1);
                 for k in 0..=harmonics {
                     let kw = k as f64 * omega;
                     let values: Vec<c64> = (0..self.stiffness_values.len())
                         .map(|e| value(e, kw))
                         .collect();
                     let a = faer::sparse::SparseColMat::new(self.pattern.faer_symbolic(), values);
-                    let lu =
+                    lus.push(
                         Lu::try_new_with_symbolic(symbolic.clone(), a.as_ref()).map_err(|e| {
                             Error::Numerical(format!(
                                 "sparse LU of the dynamic stiffness (harmonic {k}): {e:?}"
                             ))
-                        })?;
-                    if k < factors.factors.len() {
-                        factors.factors[k] = Factor::Sparse(Box::new(lu));
-                    } else {
-                        factors.factors.push(Factor::Sparse(Box::new(lu)));
-                    }
+                        })?,
+                    );
                 }
+                factors.factors = Factors::Sparse(lus);
             }
         }
         Ok(())
@@ -288,16 +291,16 @@ impl HarmonicFactors {
     /// Solve `A_k X = RHS` in place. Fails when the result is not finite (the frequency
     /// `kω` hits an undamped eigenfrequency of the linear part).
     pub fn solve_in_place(&self, k: usize, rhs: &mut faer::MatMut<'_, c64>) -> Result<()> {
-        match &self.factors[k] {
-            Factor::Sparse(lu) => lu.solve_in_place(rhs.rb_mut()),
-            Factor::Banded(lu) => {
+        match &self.factors {
+            Factors::Sparse(lus) => lus[k].solve_in_place(rhs.rb_mut()),
+            Factors::Banded(batch) => {
                 for j in 0..rhs.ncols() {
                     let column = rhs
                         .rb_mut()
                         .col_mut(j)
                         .try_as_col_major_mut()
                         .expect("contiguous columns");
-                    lu.solve_in_place(column.as_slice_mut());
+                    batch.solve_batch(&mut [(k, column.as_slice_mut())]);
                 }
             }
         }
@@ -310,35 +313,23 @@ impl HarmonicFactors {
 
     /// Solve `A_k x = b` in place for one right-hand side.
     pub fn solve_slice_in_place(&self, k: usize, b: &mut [c64]) -> Result<()> {
-        match &self.factors[k] {
-            Factor::Sparse(lu) => {
-                lu.solve_in_place(faer::MatMut::from_column_major_slice_mut(b, b.len(), 1))
-            }
-            Factor::Banded(lu) => lu.solve_in_place(b),
-        }
-        self.check_finite(k, b.iter().copied())
+        self.solve_batch(&mut [(k, b)])
     }
 
     /// Solve `A_k x = b` in place for each `(k, b)` of `systems` (band factors: in one
-    /// pass across the systems, [`BandedLu::solve_batch`]).
+    /// pass across the systems, [`BandedLuBatch::solve_batch`]).
     pub fn solve_batch(&self, systems: &mut [(usize, &mut [c64])]) -> Result<()> {
-        if self.factors.iter().all(|f| matches!(f, Factor::Banded(_))) {
-            let bands: Vec<&BandedLu> = self
-                .factors
-                .iter()
-                .map(|f| match f {
-                    Factor::Banded(lu) => lu,
-                    Factor::Sparse(_) => unreachable!("checked"),
-                })
-                .collect();
-            BandedLu::solve_batch_of(&bands, systems);
-            for (k, b) in systems.iter() {
-                self.check_finite(*k, b.iter().copied())?;
+        match &self.factors {
+            Factors::Banded(batch) => batch.solve_batch(systems),
+            Factors::Sparse(lus) => {
+                for (k, b) in systems.iter_mut() {
+                    let n = b.len();
+                    lus[*k].solve_in_place(faer::MatMut::from_column_major_slice_mut(b, n, 1));
+                }
             }
-            return Ok(());
         }
-        for (k, b) in systems.iter_mut() {
-            self.solve_slice_in_place(*k, b)?;
+        for (k, b) in systems.iter() {
+            self.check_finite(*k, b.iter().copied())?;
         }
         Ok(())
     }
@@ -362,6 +353,9 @@ impl HarmonicFactors {
     }
 
     pub fn harmonics(&self) -> usize {
-        self.factors.len() - 1
+        match &self.factors {
+            Factors::Sparse(lus) => lus.len() - 1,
+            Factors::Banded(batch) => batch.lanes() - 1,
+        }
     }
 }
