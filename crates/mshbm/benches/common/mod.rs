@@ -152,11 +152,12 @@ pub fn report_growth(title: &str, variable: &str, ids: &[(f64, String)]) {
     }
 }
 
-/// A global allocator that counts the bytes in use and their peak (install it with
-/// `#[global_allocator]` in the benchmark that reports memory).
+/// A global allocator that counts the bytes in use, their peak and the allocations made
+/// (install it with `#[global_allocator]` in the benchmark that reports memory).
 pub struct CountingAllocator {
     current: AtomicUsize,
     peak: AtomicUsize,
+    allocations: AtomicUsize,
 }
 
 impl CountingAllocator {
@@ -164,7 +165,13 @@ impl CountingAllocator {
         CountingAllocator {
             current: AtomicUsize::new(0),
             peak: AtomicUsize::new(0),
+            allocations: AtomicUsize::new(0),
         }
+    }
+
+    /// Allocations (and reallocations) made so far.
+    pub fn allocations(&self) -> usize {
+        self.allocations.load(Ordering::Relaxed)
     }
 
     /// Restart the peak at the bytes in use now; returns them.
@@ -179,6 +186,7 @@ impl CountingAllocator {
     }
 
     fn add(&self, bytes: usize) {
+        self.allocations.fetch_add(1, Ordering::Relaxed);
         let now = self.current.fetch_add(bytes, Ordering::SeqCst) + bytes;
         self.peak.fetch_max(now, Ordering::SeqCst);
     }
