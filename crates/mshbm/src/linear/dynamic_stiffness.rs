@@ -23,7 +23,7 @@ use faer::prelude::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::{c64, Mat};
 
-use super::banded::{bandwidths, BandedLu, BandedLuBatch};
+use super::banded::{band_position, bandwidths, BandedLu};
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
 
@@ -154,7 +154,7 @@ enum Factors {
     /// One sparse LU per harmonic.
     Sparse(Vec<Lu<usize, c64>>),
     /// The band LUs of every harmonic, side by side.
-    Banded(BandedLuBatch),
+    Banded(BandedLu),
 }
 
 /// The factored `A_k(ω)` for `k = 0..=H`.
@@ -179,7 +179,7 @@ impl LinearPart {
                 ku,
                 positions: pattern
                     .iter()
-                    .map(|(i, j, _)| BandedLu::position(kl, ku, i, j))
+                    .map(|(i, j, _)| band_position(kl, ku, i, j))
                     .collect(),
             }
         } else {
@@ -249,7 +249,7 @@ impl LinearPart {
                 let n = self.n_dofs();
                 let lanes = harmonics + 1;
                 if !matches!(&factors.factors, Factors::Banded(b) if b.fits(n, *kl, *ku, lanes)) {
-                    factors.factors = Factors::Banded(BandedLuBatch::new(n, *kl, *ku, lanes));
+                    factors.factors = Factors::Banded(BandedLu::new(n, *kl, *ku, lanes));
                 }
                 let Factors::Banded(batch) = &mut factors.factors else {
                     unreachable!("made banded above")
@@ -317,7 +317,7 @@ impl HarmonicFactors {
     }
 
     /// Solve `A_k x = b` in place for each `(k, b)` of `systems` (band factors: in one
-    /// pass across the systems, [`BandedLuBatch::solve_batch`]).
+    /// pass across the systems, [`BandedLu::solve_batch`]).
     pub fn solve_batch(&self, systems: &mut [(usize, &mut [c64])]) -> Result<()> {
         match &self.factors {
             Factors::Banded(batch) => batch.solve_batch(systems),
