@@ -62,30 +62,14 @@ pub fn find_sign_change(
         (fa < 0.0) != (fb < 0.0),
         "find_sign_change: f({a}) = {fa} and f({b}) = {fb} do not bracket a sign change"
     );
-    let (mut negative, mut f_negative, mut non_negative, mut f_non_negative) = if fa < 0.0 {
-        (a, fa, b, fb)
-    } else {
-        (b, fb, a, fa)
-    };
+    let mut bracket = Bracket::new(a, b, fa, fb);
     for _ in 0..200 {
-        let mid = 0.5 * (negative + non_negative);
-        let (lo, hi) = (negative.min(non_negative), negative.max(non_negative));
-        if mid <= lo || mid >= hi {
+        let Some(mid) = bracket.midpoint() else {
             break;
-        }
-        let f_mid = f(mid);
-        if f_mid < 0.0 {
-            (negative, f_negative) = (mid, f_mid);
-        } else {
-            (non_negative, f_non_negative) = (mid, f_mid);
-        }
+        };
+        bracket.update(mid, f(mid));
     }
-    SignChange {
-        negative,
-        f_negative,
-        non_negative,
-        f_non_negative,
-    }
+    bracket.sign_change()
 }
 
 /// [`find_sign_change`] for a smooth `f` whose slope is known: `f_and_slope(x)` gives
