@@ -21,7 +21,7 @@ use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::time::Duration;
 
-use common::{hz, median, show, timed};
+use common::{corrector_iteration, hz, median, show, timed};
 use criterion::Criterion;
 use mshbm::continuation::arclength::StopReason;
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
@@ -29,7 +29,7 @@ use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use mshbm::method::settings::MethodSettings;
-use mshbm::newton::{newton_direction, solve, NewtonOptions};
+use mshbm::newton::{solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::Model;
 
@@ -147,18 +147,6 @@ fn case(label: &str, mut problem: Box<dyn PeriodicProblem>) -> Case {
 /// Sets a [`Case`] up (on first use: the Newton solve is not timed).
 type MakeCase = Box<dyn Fn() -> Case>;
 
-fn corrector_iteration(c: &mut Case) -> Vec<f64> {
-    let flip = !c.flip.get();
-    c.flip.set(flip);
-    let omega = if flip {
-        c.omega * (1.0 + 1e-7)
-    } else {
-        c.omega
-    };
-    let lin = c.problem.linearize(&c.x, omega).expect("linearize");
-    newton_direction(&lin.jacobian, &lin.residual).expect("direction")
-}
-
 fn bench_iteration(c: &mut Criterion) {
     let model = fig9_model();
     let h = ITERATION_HARMONICS;
@@ -195,7 +183,9 @@ fn bench_iteration(c: &mut Criterion) {
         let mut slot: Option<Case> = None;
         group.bench_function(*name, |b| {
             let c = slot.get_or_insert_with(make);
-            timed(b, &id, || corrector_iteration(c));
+            timed(b, &id, || {
+                corrector_iteration(c.problem.as_mut(), &c.x, c.omega, &c.flip)
+            });
         });
     }
     group.finish();

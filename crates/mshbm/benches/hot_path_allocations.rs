@@ -9,11 +9,11 @@
 
 mod common;
 
-use common::{hz, CountingAllocator};
+use common::{corrector_iteration, hz, CountingAllocator};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions};
 use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
-use mshbm::newton::{newton_direction, solve, NewtonOptions};
+use mshbm::newton::{solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 
 #[global_allocator]
@@ -29,22 +29,15 @@ fn count(label: &str, mut problem: Box<dyn PeriodicProblem>) {
     let omega = hz(FREQUENCY_HZ);
     let x0 = problem.initial_guess(omega).expect("initial guess");
     let out = solve(problem.as_mut(), &x0, omega, &NewtonOptions::default()).expect("Newton");
-    let mut iteration = |i: usize| {
-        let w = if i % 2 == 0 {
-            omega
-        } else {
-            omega * (1.0 + 1e-7)
-        };
-        let lin = problem.linearize(&out.x, w).expect("linearize");
-        newton_direction(&lin.jacobian, &lin.residual).expect("direction")
-    };
-    for i in 0..WARM_UP {
-        iteration(i);
+    let flip = std::cell::Cell::new(false);
+    let mut iteration = || corrector_iteration(problem.as_mut(), &out.x, omega, &flip);
+    for _ in 0..WARM_UP {
+        iteration();
     }
     let (allocations, bytes) = (ALLOCATOR.allocations(), ALLOCATOR.reset_peak());
     let mut peak_growth = 0;
-    for i in 0..COUNTED {
-        std::hint::black_box(iteration(i));
+    for _ in 0..COUNTED {
+        std::hint::black_box(iteration());
         peak_growth = peak_growth.max(ALLOCATOR.peak().saturating_sub(bytes));
     }
     let per_iteration = (ALLOCATOR.allocations() - allocations) as f64 / COUNTED as f64;

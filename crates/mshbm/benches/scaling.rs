@@ -44,14 +44,14 @@ mod common;
 use std::cell::Cell;
 use std::time::Duration;
 
-use common::{hz, median, report_growth, timed, CountingAllocator};
+use common::{corrector_iteration, hz, median, report_growth, timed, CountingAllocator};
 use criterion::{BenchmarkId, Criterion};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{
     JacobianForm, ReceptanceChoice, RedistributedMsHbm, RedistributedOptions,
 };
 use mshbm::model::lattice::lattice_model;
-use mshbm::newton::{newton_direction, solve, NewtonOptions};
+use mshbm::newton::{solve, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
 use mshbm::Model;
 
@@ -172,19 +172,6 @@ fn case_with(
     }
 }
 
-/// One corrector iteration at a new frequency (see the module docs).
-fn corrector_iteration(c: &mut Case) -> Vec<f64> {
-    let flip = !c.flip.get();
-    c.flip.set(flip);
-    let omega = if flip {
-        c.omega * (1.0 + 1e-7)
-    } else {
-        c.omega
-    };
-    let lin = c.problem.linearize(&c.x, omega).expect("linearize");
-    newton_direction(&lin.jacobian, &lin.residual).expect("direction")
-}
-
 fn bench_case(
     group: &mut criterion::BenchmarkGroup<criterion::measurement::WallTime>,
     name: &str,
@@ -195,7 +182,9 @@ fn bench_case(
     let mut slot: Option<Case> = None;
     group.bench_function(BenchmarkId::new(name, parameter), |b| {
         let c = slot.get_or_insert_with(&make);
-        timed(b, &id, || corrector_iteration(c));
+        timed(b, &id, || {
+            corrector_iteration(&mut c.problem, &c.x, c.omega, &c.flip)
+        });
     });
     id
 }
@@ -390,7 +379,9 @@ fn bench_receptance(c: &mut Criterion) {
                     &format!("plate {n} x {n} x 4, {label} receptance"),
                 )
             });
-            timed(b, &id, || corrector_iteration(c));
+            timed(b, &id, || {
+                corrector_iteration(&mut c.problem, &c.x, c.omega, &c.flip)
+            });
         });
     }
     group.finish();

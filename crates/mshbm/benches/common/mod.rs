@@ -1,6 +1,7 @@
 //! Shared by the benchmarks: models, a record of the measured times (so that a benchmark can
-//! print ratios and fitted exponents of times measured in the same run), a log–log fit, and
-//! a counting allocator for peak heap memory.
+//! print ratios and fitted exponents of times measured in the same run), a log–log fit, a
+//! counting allocator for peak heap memory and allocations, and the corrector iteration the
+//! per-iteration benchmarks time.
 #![allow(dead_code)]
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -14,6 +15,25 @@ use std::time::{Duration, Instant};
 use criterion::{black_box, Bencher};
 use mshbm::model::file::load_model;
 use mshbm::{MassKind, Model};
+
+/// One corrector iteration of a continuation at a new frequency: `linearize` at `omega` or
+/// at `omega (1 + 1e-7)`, alternating with `flip` (so each call is at a new frequency and
+/// includes the per-frequency work), and the Newton direction.
+pub fn corrector_iteration(
+    problem: &mut dyn mshbm::problem::PeriodicProblem,
+    x: &[f64],
+    omega: f64,
+    flip: &std::cell::Cell<bool>,
+) -> Vec<f64> {
+    flip.set(!flip.get());
+    let omega = if flip.get() {
+        omega * (1.0 + 1e-7)
+    } else {
+        omega
+    };
+    let lin = problem.linearize(x, omega).expect("linearize");
+    mshbm::newton::newton_direction(&lin.jacobian, &lin.residual).expect("direction")
+}
 
 pub fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
