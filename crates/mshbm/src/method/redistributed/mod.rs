@@ -210,6 +210,8 @@ struct Evaluation {
     omega: f64,
     residual: Vec<f64>,
     integration: Rc<Integration>,
+    /// The structure's force `φ` (T128).
+    phi: Vec<f64>,
     /// `λ̂`.
     forces: Vec<f64>,
     /// `∂R/∂ω`, once a linearization asked for it.
@@ -522,6 +524,7 @@ impl RedistributedMsHbm {
                 omega,
                 residual: times_each_coefficient(self.n(), &self.residual_scale, &mismatch),
                 integration: Rc::new(integration),
+                phi,
                 forces,
                 d_omega: None,
                 dense_jacobian: None,
@@ -534,15 +537,14 @@ impl RedistributedMsHbm {
     /// `ψ_k = R_k⁻¹ ∂(Wᵀ q̂_k)/∂ω |_φ` (the derivative of (T125) at the structure's force
     /// `φ`, zero for `k = 0`), `∂φ/∂ω = −ψ`, `∂u/∂ω = D ψ` and
     /// `∂R/∂ω = −(I ⊗ Λ) (ψ + S (I ⊗ D) ψ)`.
-    fn frequency_derivative(&self, v: &[f64], integration: &Integration) -> Result<Vec<f64>> {
+    fn frequency_derivative(&self, phi: &[f64], integration: &Integration) -> Result<Vec<f64>> {
         let n = self.n();
         let f = self.prepared();
-        let (phi, _) = self.force_and_free_gap(v);
-        let mut derivative = vec![0.0; v.len()];
+        let mut derivative = vec![0.0; phi.len()];
         for k in 1..=self.harmonics {
             let dg = f
                 .receptance
-                .frequency_derivative(k, &complex_harmonic(&phi, n, k), true)?;
+                .frequency_derivative(k, &complex_harmonic(phi, n, k), true)?;
             store_harmonic(&dg, n, k, &mut derivative);
         }
         let psi = f.matrices.apply(Map::Inverse, n, &derivative);
@@ -903,12 +905,13 @@ impl PeriodicProblem for RedistributedMsHbm {
     }
 
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
-        let (residual, integration, _) = self.evaluate(x, omega)?;
-        let cached = self.evaluation(x, omega)?;
-        let d_omega = match &cached.d_omega {
+        let e = self.evaluation(x, omega)?;
+        let (residual, integration) = (e.residual.clone(), Rc::clone(&e.integration));
+        let d_omega = match &e.d_omega {
             Some(d) => d.clone(),
             None => {
-                let d = self.frequency_derivative(x, &integration)?;
+                let phi = e.phi.clone();
+                let d = self.frequency_derivative(&phi, &integration)?;
                 self.evaluation(x, omega)?.d_omega = Some(d.clone());
                 d
             }
@@ -988,7 +991,7 @@ impl PeriodicProblem for RedistributedMsHbm {
     /// truncation error), as [`RedistributedMsHbm::set_stability_options`] chooses.
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
         let reduced = self.stability_system()?;
-        let (_, integration, _) = self.evaluate(x, omega)?;
+        let integration = Rc::clone(&self.evaluation(x, omega)?.integration);
         // the first-order matrices depend only on the active set (not on ω): build them,
         // and their eigendecompositions, once per set
         for g in &integration.groups {
