@@ -61,6 +61,32 @@ fn harmonic_coefficients(k: usize) -> (usize, usize) {
     }
 }
 
+/// Visit every entry of the real form (T15) of the map `P R_k⁻¹` of harmonic `k`: its row
+/// and column in the `n_c(2H+1)` unknowns and its value.
+fn real_form_entries(
+    f: &FrequencyMatrices,
+    map: Map,
+    k: usize,
+    n: usize,
+    mut visit: impl FnMut(usize, usize, f64),
+) {
+    let m = f.matrix(map, k);
+    let (first, count) = harmonic_coefficients(k);
+    for rr in 0..count {
+        for cp in 0..count {
+            for i in 0..n {
+                for j in 0..n {
+                    visit(
+                        (first + rr) * n + i,
+                        (first + cp) * n + j,
+                        real_form(m[(i, j)], rr, cp),
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// Write the dense `J` of (T129) in the real form (T15) into `out` (`n_c(2H+1)` square).
 pub(super) fn jacobian_into(
     n: usize,
@@ -118,41 +144,19 @@ pub(super) fn jacobian_into(
     let p = &mut work.product;
     p.fill(0.0);
     for k in 0..=harmonics {
-        let scaled = f.matrix(Map::Scaled, k);
-        let (first, count) = harmonic_coefficients(k);
-        for cc in 0..count {
-            for cp in 0..count {
-                for i in 0..n {
-                    for j in 0..n {
-                        let identity = if cc == cp && i == j { 1.0 } else { 0.0 };
-                        let c = identity - real_form(scaled[(i, j)], cc, cp);
-                        if c == 0.0 {
-                            continue;
-                        }
-                        let (from, to) = ((first + cc) * n + i, (first + cp) * n + j);
-                        for r in 0..dim {
-                            p[(r, to)] += s[(r, from)] * c;
-                        }
-                    }
+        real_form_entries(f, Map::Scaled, k, n, |from, to, scaled| {
+            let c = if from == to { 1.0 } else { 0.0 } - scaled;
+            if c != 0.0 {
+                for r in 0..dim {
+                    p[(r, to)] += s[(r, from)] * c;
                 }
             }
-        }
+        });
     }
     // J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(C_k)
     out.fill(0.0);
     for k in 0..=harmonics {
-        let residual = f.matrix(Map::Residual, k);
-        let (first, count) = harmonic_coefficients(k);
-        for rr in 0..count {
-            for cp in 0..count {
-                for i in 0..n {
-                    for j in 0..n {
-                        out[((first + rr) * n + i, (first + cp) * n + j)] =
-                            real_form(residual[(i, j)], rr, cp);
-                    }
-                }
-            }
-        }
+        real_form_entries(f, Map::Residual, k, n, |row, col, v| out[(row, col)] = v);
     }
     for m in 0..ncoef {
         for i in 0..n {
