@@ -256,7 +256,9 @@ pub struct RedistributedMsHbm {
     /// The L-system of the Floquet analysis (full or reduced), built on first use.
     stability_system: Option<Rc<ReducedSystem>>,
     /// First-order matrix and its eigendecomposition per active set (stability).
-    stability_cache: std::collections::HashMap<Vec<bool>, Rc<StabilityData>>,
+    stability_sets: std::collections::HashMap<Vec<bool>, usize>,
+    /// The first-order matrices of the active sets in `stability_sets` (T141).
+    stability_pieces: stability::PiecewiseLinearSystems,
     /// The memory budget, also of the Floquet analysis.
     limits: Limits,
     /// Scratch space of the dense Jacobian of few contacts.
@@ -264,8 +266,6 @@ pub struct RedistributedMsHbm {
     /// The last evaluation of the residual.
     last_evaluation: Option<Evaluation>,
 }
-
-type StabilityData = (Mat<f64>, Option<crate::stability::ModalExponential>);
 
 impl RedistributedMsHbm {
     /// Set up the method for `model` (mass redistribution, partition, checks) within the
@@ -370,7 +370,8 @@ impl RedistributedMsHbm {
             frequency: None,
             stability_options: StabilityOptions::default(),
             stability_system: None,
-            stability_cache: std::collections::HashMap::new(),
+            stability_sets: std::collections::HashMap::new(),
+            stability_pieces: stability::PiecewiseLinearSystems::new(),
             limits: *limits,
             system,
             small_jacobian: SmallJacobianWork::default(),
@@ -418,7 +419,8 @@ impl RedistributedMsHbm {
         self.frequency = None;
         self.last_evaluation = None;
         self.preconditioner = Default::default();
-        self.stability_cache.clear();
+        self.stability_sets.clear();
+        self.stability_pieces = stability::PiecewiseLinearSystems::new();
         Ok(())
     }
 
@@ -595,7 +597,8 @@ impl RedistributedMsHbm {
         if options != self.stability_options {
             self.stability_options = options;
             self.stability_system = None;
-            self.stability_cache.clear();
+            self.stability_sets.clear();
+            self.stability_pieces = stability::PiecewiseLinearSystems::new();
         }
         Ok(())
     }
@@ -993,41 +996,29 @@ impl PeriodicProblem for RedistributedMsHbm {
         let reduced = self.stability_system()?;
         let integration = Rc::clone(&self.evaluation(x, omega)?.integration);
         // the first-order matrices depend only on the active set (not on ω): build them,
-        // and their eigendecompositions, once per set
+        // and their modal forms, once per set
+        let mut systems = Vec::with_capacity(integration.groups.len());
         for g in &integration.groups {
-            if !self.stability_cache.contains_key(&g.set.closed) {
-                let compliance = self.contact.compliance(&g.set.closed)?;
-                let a = reduced.state_matrix(&compliance)?;
-                let modal = crate::stability::ModalExponential::new(&a);
-                self.stability_cache
-                    .insert(g.set.closed.clone(), Rc::new((a, modal)));
-            }
+            let index = match self.stability_sets.get(&g.set.closed) {
+                Some(&index) => index,
+                None => {
+                    let compliance = self.contact.compliance(&g.set.closed)?;
+                    let index = self
+                        .stability_pieces
+                        .add(reduced.state_matrix(&compliance)?);
+                    self.stability_sets.insert(g.set.closed.clone(), index);
+                    index
+                }
+            };
+            systems.push(index);
         }
-        let data: Vec<Rc<StabilityData>> = integration
-            .groups
-            .iter()
-            .map(|g| self.stability_cache[&g.set.closed].clone())
-            .collect();
-        let intervals: Vec<(usize, f64)> = integration
+        let pieces: Vec<(usize, f64)> = integration
             .intervals
             .iter()
             .filter(|(a, b, _)| b > a)
-            .map(|&(a, b, g)| (g, (b - a) / omega))
+            .map(|&(a, b, g)| (systems[g], (b - a) / omega))
             .collect();
-        let phi = if intervals.iter().all(|(g, _)| data[*g].1.is_some()) {
-            let pieces: Vec<(&crate::stability::ModalExponential, f64)> = intervals
-                .iter()
-                .map(|&(g, dt)| (data[g].1.as_ref().expect("checked"), dt))
-                .collect();
-            crate::stability::modal_monodromy(&pieces)
-        } else {
-            let pieces: Vec<(&Mat<f64>, f64)> =
-                intervals.iter().map(|&(g, dt)| (&data[g].0, dt)).collect();
-            crate::stability::piecewise_monodromy(&pieces)
-        };
-        let values = phi
-            .eigenvalues()
-            .map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
+        let values = self.stability_pieces.multipliers(&pieces)?;
         Ok(Some(crate::stability::Floquet::from_eigenvalues(values)))
     }
 }

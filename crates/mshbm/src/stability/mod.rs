@@ -12,6 +12,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
 
+mod piecewise;
+
+pub use piecewise::{piecewise_monodromy, PiecewiseLinearSystems, RealModalForm};
+
 /// Floquet multipliers of one periodic solution.
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Floquet {
@@ -34,71 +38,6 @@ impl Floquet {
             stable: max_multiplier < 1.0 - 1e-9,
         }
     }
-}
-
-/// Monodromy of `ż = A_i z` over consecutive intervals of lengths `Δt_i` (seconds):
-/// `Φ = exp(A_m Δt_m) ⋯ exp(A_1 Δt_1)` (docs/theory.md (T81)). Exact for piecewise-constant
-/// systems.
-pub fn piecewise_monodromy(pieces: &[(&Mat<f64>, f64)]) -> Mat<f64> {
-    let n = pieces.first().map_or(0, |(a, _)| a.nrows());
-    let mut phi = Mat::<f64>::identity(n, n);
-    for (a, dt) in pieces {
-        let step = crate::dense::expm(&(*a * *dt));
-        phi = &step * &phi;
-    }
-    phi
-}
-
-/// `exp(A t)` for many `t` from one eigendecomposition `A = V Λ V⁻¹` (used when the same
-/// piecewise-constant system matrices recur along a frequency response diagram).
-#[derive(Clone, Debug)]
-pub struct ModalExponential {
-    v: Mat<c64>,
-    lambda: Vec<c64>,
-    v_inv: Mat<c64>,
-}
-
-impl ModalExponential {
-    /// Eigendecomposition of `a`; `None` when it is too ill-conditioned to reproduce `a`
-    /// to `1e-10` (then use [`crate::dense::expm`]).
-    pub fn new(a: &Mat<f64>) -> Option<Self> {
-        use faer::linalg::solvers::Solve;
-        let n = a.nrows();
-        let eig = a.eigen().ok()?;
-        let v = eig.U().to_owned();
-        let lambda: Vec<c64> = (0..n).map(|i| eig.S().column_vector()[i]).collect();
-        let v_inv = v.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
-        let scaled = Mat::<c64>::from_fn(n, n, |i, j| v[(i, j)] * lambda[j]);
-        let back = &scaled * &v_inv;
-        let norm = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .fold(0.0f64, |m, (i, j)| m.max(a[(i, j)].abs()));
-        let err = (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .fold(0.0f64, |m, (i, j)| {
-                m.max((back[(i, j)] - c64::new(a[(i, j)], 0.0)).norm())
-            });
-        (err <= 1e-10 * norm.max(f64::MIN_POSITIVE) && err.is_finite())
-            .then_some(ModalExponential { v, lambda, v_inv })
-    }
-
-    /// `exp(A t)`.
-    pub fn exp(&self, t: f64) -> Mat<c64> {
-        let n = self.lambda.len();
-        let scaled = Mat::<c64>::from_fn(n, n, |i, j| self.v[(i, j)] * (self.lambda[j] * t).exp());
-        &scaled * &self.v_inv
-    }
-}
-
-/// Monodromy of a piecewise-constant system from cached exponentials: `pieces` are
-/// `(exponential, Δt)` in time order. The (real) result is returned.
-pub fn modal_monodromy(pieces: &[(&ModalExponential, f64)]) -> Mat<f64> {
-    let n = pieces.first().map_or(0, |(e, _)| e.lambda.len());
-    let mut phi = Mat::<c64>::identity(n, n);
-    for (e, dt) in pieces {
-        phi = &e.exp(*dt) * &phi;
-    }
-    Mat::<f64>::from_fn(n, n, |i, j| phi[(i, j)].re)
 }
 
 /// Largest linear part analysed in the full basis by default ([`StabilityOptions::modes`]
