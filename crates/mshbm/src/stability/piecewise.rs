@@ -242,10 +242,9 @@ impl PiecewiseLinearSystems {
                 let p = pieces.len();
                 for s in 0..p {
                     let (h, g) = (pieces[s].0, pieces[(s + 1) % p].0);
-                    if !self.transfers.contains_key(&(g, h)) {
-                        let t = &form(g).v_inv * &form(h).v;
-                        self.transfers.insert((g, h), t);
-                    }
+                    self.transfers
+                        .entry((g, h))
+                        .or_insert_with(|| &form(g).v_inv * &form(h).v);
                 }
                 // P = T_{g_2←g_1} e^{B_1 Δt_1}, then e^{B_s Δt_s} and T_{g_{s+1}←g_s} in turn
                 let (g1, dt1) = pieces[0];
