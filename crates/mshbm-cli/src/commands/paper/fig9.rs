@@ -141,7 +141,7 @@ impl Plan {
     /// One job per number of harmonics (the largest first: they take longest).
     pub fn branch_jobs<'a>(&'a self, progress: &'a Progress) -> Vec<Job<'a>> {
         let mut order = self.harmonics.clone();
-        order.sort_by_key(|&h| std::cmp::Reverse(if h == 10 { 0 } else { h }));
+        order.sort_by_key(|&h| std::cmp::Reverse(h));
         order
             .into_iter()
             .map(|h| Job {

@@ -141,27 +141,40 @@ pub(crate) fn run_jobs(jobs: Vec<Job<'_>>, threads: usize, progress: &Progress) 
     let next = AtomicUsize::new(0);
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1).min(queue.len().max(1)) {
-            scope.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::SeqCst);
-                if i >= queue.len() {
-                    break;
-                }
-                let Some(job) = queue[i].lock().map(|mut j| j.take()).ok().flatten() else {
-                    continue;
+            scope.spawn(|| {
+                // the parts are the parallelism: the library's parallel kernels (faer's, the
+                // general MS-HBM's columns) run on a pool of this one thread; on the shared
+                // pool they would contend with the other parts, mostly spinning
+                let own_pool = (threads > 1)
+                    .then(|| rayon::ThreadPoolBuilder::new().num_threads(1).build().ok())
+                    .flatten();
+                let run = |job: Job| match &own_pool {
+                    Some(pool) => pool.install(|| catch_unwind(AssertUnwindSafe(job.work))),
+                    None => catch_unwind(AssertUnwindSafe(job.work)),
                 };
-                let t0 = Instant::now();
-                progress.line(&job.name, "started");
-                let result = catch_unwind(AssertUnwindSafe(job.work))
-                    .unwrap_or_else(|_| Err(anyhow!("internal error (panic)")));
-                match &result {
-                    Ok(_) => progress.line(
-                        &job.name,
-                        &format!("finished in {:.1} s", t0.elapsed().as_secs_f64()),
-                    ),
-                    Err(e) => progress.line(&job.name, &format!("FAILED: {e:#}")),
-                }
-                if let Ok(mut slot) = results[i].lock() {
-                    *slot = Some((result, t0.elapsed().as_secs_f64()));
+                loop {
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    if i >= queue.len() {
+                        break;
+                    }
+                    let Some(job) = queue[i].lock().map(|mut j| j.take()).ok().flatten() else {
+                        continue;
+                    };
+                    let t0 = Instant::now();
+                    progress.line(&job.name, "started");
+                    let name = job.name.clone();
+                    let result =
+                        run(job).unwrap_or_else(|_| Err(anyhow!("internal error (panic)")));
+                    match &result {
+                        Ok(_) => progress.line(
+                            &name,
+                            &format!("finished in {:.1} s", t0.elapsed().as_secs_f64()),
+                        ),
+                        Err(e) => progress.line(&name, &format!("FAILED: {e:#}")),
+                    }
+                    if let Ok(mut slot) = results[i].lock() {
+                        *slot = Some((result, t0.elapsed().as_secs_f64()));
+                    }
                 }
             });
         }
