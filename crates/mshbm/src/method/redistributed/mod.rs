@@ -988,7 +988,9 @@ impl PeriodicProblem for RedistributedMsHbm {
     /// subsystem leaves the linear time-periodic system `M̄ q̈_L + C q̇_L + K_eff(t) q_L = 0`
     /// with `K_eff = K_LL − K_LN P_A(t) K_NL`, piecewise constant between the switching
     /// times; its vector field is continuous, so no saltation terms. The monodromy is the
-    /// product of exact matrix exponentials over the intervals of constant active set, in
+    /// product of exact matrix exponentials over the intervals of constant active set,
+    /// evaluated as the cyclic product of modal transfers (T141) of the sets' cached real
+    /// modal forms, in
     /// the full L-space (dense: up to 1500 L-DOFs) or in the reduced basis of
     /// [`ReducedSystem`] (fixed-interface modes plus static interface correction, with its
     /// truncation error), as [`RedistributedMsHbm::set_stability_options`] chooses.
