@@ -271,3 +271,71 @@ fn bad_settings_are_refused_before_any_work() {
     });
     assert!(bad_penalty.build(&model).is_err());
 }
+
+/// The folds of the README's main branch before issue 18's speed work
+/// (tests/data/bar_h10_folds.txt, with its provenance), in Hz.
+fn reference_folds_hz() -> Vec<f64> {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bar_h10_folds.txt");
+    std::fs::read_to_string(&path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .map(|l| l.trim().parse().unwrap())
+        .collect()
+}
+
+/// The README's main branch (the bar, H = 10, 1 → 100 kHz, 1 % damping), traced with every
+/// shortcut of the fast path (kept evaluations, kept receptance columns, band factors,
+/// cells passed without a scan, the diagram point's own quadrature): its 97 folds are those
+/// traced before those shortcuts existed, to 1e-4 Hz; every point is a solution of a fresh
+/// method (Newton started on it meets the tolerance without an update); and every 25th
+/// point's extremes equal the fresh method's whole solution's.
+#[test]
+fn readme_branch_keeps_its_folds_and_every_point_is_a_fresh_solution() {
+    let model = common::example_model("clamped_bar.toml", &["damping.first_mode_ratio=0.01"]);
+    let method = MethodSettings::redistributed(10);
+    let traced = trace_frd_branch(
+        &model,
+        &method,
+        &FrdSettings::new(1000.0, 100000.0),
+        false,
+        &mut Recording::default(),
+    )
+    .unwrap();
+    assert!(traced.report.completed, "{}", traced.report.stop);
+    let folds: Vec<f64> = traced.folds.iter().map(|f| f.frequency_hz).collect();
+    let reference = reference_folds_hz();
+    assert_eq!(folds.len(), reference.len(), "{folds:?}");
+    for (f, r) in folds.iter().zip(&reference) {
+        assert!((f - r).abs() <= 1e-4, "fold at {f} Hz, before at {r} Hz");
+    }
+    let dof = model.contacts[0].dofs[0];
+    let points: Vec<&FrdPoint> = traced.report.points.iter().filter(|p| !p.fold).collect();
+    assert_eq!(points.len(), traced.branch.points.len());
+    let newton = mshbm::newton::NewtonOptions::default();
+    for (i, (p, b)) in points.iter().zip(&traced.branch.points).enumerate() {
+        let mut fresh = method.build(&model).unwrap().problem;
+        let solved = mshbm::newton::solve(fresh.as_mut(), &b.x, b.omega, &newton).unwrap();
+        assert!(
+            solved.converged && solved.iterations == 0,
+            "point {i} at {} Hz: a fresh residual of {:.3e}",
+            p.frequency_hz,
+            solved.residual_norm
+        );
+        if i % 25 == 0 {
+            let whole = fresh.solution(&b.x, b.omega, dof).unwrap().response;
+            let scale = p.max_qn.abs().max(p.min_qn.abs());
+            assert!(
+                (whole.max - p.max_qn).abs() <= 1e-9 * scale
+                    && (whole.min - p.min_qn).abs() <= 1e-9 * scale,
+                "point {i} at {} Hz: extremes {} {} against the whole solution's {} {}",
+                p.frequency_hz,
+                p.max_qn,
+                p.min_qn,
+                whole.max,
+                whole.min
+            );
+        }
+    }
+}
