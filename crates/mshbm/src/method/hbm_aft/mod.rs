@@ -84,6 +84,7 @@
 //! state, the penalty groups, the penetration); `homotopy.rs` the penalty homotopy of the
 //! initial guess.
 
+mod floquet;
 mod homotopy;
 mod penalty;
 
@@ -191,6 +192,8 @@ pub struct HbmAft {
     frequency: Option<FrequencyData>,
     /// Newton iterations spent by the last [`PeriodicProblem::initial_guess`].
     guess_iterations: usize,
+    /// The variational system of the Floquet analysis (built when first asked).
+    stability: Option<floquet::PenaltyStability>,
 }
 
 fn mat_vec(a: &Mat<c64>, x: &[c64]) -> Vec<c64> {
@@ -281,6 +284,7 @@ impl HbmAft {
             reference_stiffness,
             frequency: None,
             guess_iterations: 0,
+            stability: None,
             system,
         })
     }
@@ -518,6 +522,12 @@ impl PeriodicProblem for HbmAft {
             jacobian: Jacobian::Dense(jacobian),
             d_omega,
         })
+    }
+
+    /// The monodromy of the penalty system along the orbit (docs/theory.md (T142)).
+    fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
+        check_dimension(x, self.dimension())?;
+        self.penalty_floquet(x, omega).map(Some)
     }
 
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {

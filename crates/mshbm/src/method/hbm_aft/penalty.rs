@@ -125,65 +125,19 @@ impl HbmAft {
         x: &[f64],
         state: &ContactState,
     ) -> (Vec<f64>, Vec<PenaltyGroup>) {
-        let (n, ncon, ns) = (self.n(), self.n_contacts(), self.sampling.len());
+        let (n, ncon) = (self.n(), self.n_contacts());
         let h = self.harmonics;
         let nc = n_coefficients(h);
-        let two_pi = 2.0 * std::f64::consts::PI;
         let mut fc = vec![0.0; n * nc];
         let mut groups = Vec::new();
         for (c, g) in self.gap_coefficients(x).iter().enumerate() {
-            let dg = |t: f64| -> f64 {
-                basis_derivative(h, t)
-                    .iter()
-                    .zip(g)
-                    .map(|(b, v)| b * v)
-                    .sum::<f64>()
-            };
-            let value = |t: f64| evaluate(g, t);
-            let mut roots = Vec::new();
-            for j in 0..ns {
-                let a = self.sampling.taus[j];
-                let b = if j + 1 < ns {
-                    self.sampling.taus[j + 1]
-                } else {
-                    two_pi
-                };
-                let ga = state.gap[j * ncon + c];
-                let gb = if j + 1 < ns {
-                    state.gap[(j + 1) * ncon + c]
-                } else {
-                    state.gap[c]
-                };
-                if (ga < 0.0) != (gb < 0.0) {
-                    roots.push(find_root(&value, a, b, ga, gb));
-                } else {
-                    // an extremum inside the cell that crosses zero (grazing, or a
-                    // contact shorter than a cell)
-                    let (da, db) = (dg(a), dg(b));
-                    if (da < 0.0) != (db < 0.0) {
-                        let m = find_root(&dg, a, b, da, db);
-                        let gm = value(m);
-                        if (gm < 0.0) != (ga < 0.0) {
-                            roots.push(find_root(&value, a, m, ga, gm));
-                            roots.push(find_root(&value, m, b, gm, gb));
-                        }
-                    }
-                }
+            let intervals = self.penetration_intervals(g, |j| state.gap[j * ncon + c]);
+            if intervals.is_empty() {
+                continue;
             }
             let mut gram = vec![0.0; nc * nc];
-            if roots.is_empty() {
-                if state.gap[c] >= 0.0 {
-                    continue;
-                }
-                add_interval_gram(h, 0.0, two_pi, &mut gram);
-            } else {
-                roots.sort_by(f64::total_cmp);
-                for (i, &a) in roots.iter().enumerate() {
-                    let b = roots.get(i + 1).copied().unwrap_or(roots[0] + two_pi);
-                    if b > a && value(0.5 * (a + b)) < 0.0 {
-                        add_interval_gram(h, a, b, &mut gram);
-                    }
-                }
+            for &(a, b) in &intervals {
+                add_interval_gram(h, a, b, &mut gram);
             }
             // λ̂_c = −k_p Γ_c ĝ_c, force W λ
             let kp = self.penalty[c];
@@ -201,8 +155,69 @@ impl HbmAft {
         (fc, groups)
     }
 
+    /// The intervals of `[0, 2π)` (in `τ = ωt`; one may reach past `2π`, wrapping round)
+    /// where the gap series `g` (coefficients) is negative, given its values at the samples
+    /// (`gap_at(j)`): sign changes between samples, and within a cell an extremum that
+    /// crosses zero (grazing, or a contact shorter than a cell), located to round-off.
+    pub(super) fn penetration_intervals(
+        &self,
+        g: &[f64],
+        gap_at: impl Fn(usize) -> f64,
+    ) -> Vec<(f64, f64)> {
+        let (h, ns) = (self.harmonics, self.sampling.len());
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let dg = |t: f64| -> f64 {
+            basis_derivative(h, t)
+                .iter()
+                .zip(g)
+                .map(|(b, v)| b * v)
+                .sum::<f64>()
+        };
+        let value = |t: f64| evaluate(g, t);
+        let mut roots = Vec::new();
+        for j in 0..ns {
+            let a = self.sampling.taus[j];
+            let b = if j + 1 < ns {
+                self.sampling.taus[j + 1]
+            } else {
+                two_pi
+            };
+            let ga = gap_at(j);
+            let gb = gap_at((j + 1) % ns);
+            if (ga < 0.0) != (gb < 0.0) {
+                roots.push(find_root(&value, a, b, ga, gb));
+            } else {
+                let (da, db) = (dg(a), dg(b));
+                if (da < 0.0) != (db < 0.0) {
+                    let m = find_root(&dg, a, b, da, db);
+                    let gm = value(m);
+                    if (gm < 0.0) != (ga < 0.0) {
+                        roots.push(find_root(&value, a, m, ga, gm));
+                        roots.push(find_root(&value, m, b, gm, gb));
+                    }
+                }
+            }
+        }
+        if roots.is_empty() {
+            return if gap_at(0) < 0.0 {
+                vec![(0.0, two_pi)]
+            } else {
+                Vec::new()
+            };
+        }
+        roots.sort_by(f64::total_cmp);
+        let mut intervals = Vec::new();
+        for (i, &a) in roots.iter().enumerate() {
+            let b = roots.get(i + 1).copied().unwrap_or(roots[0] + two_pi);
+            if b > a && value(0.5 * (a + b)) < 0.0 {
+                intervals.push((a, b));
+            }
+        }
+        intervals
+    }
+
     /// Coefficients of the gap `g_c(τ) = w_cᵀ q_N(τ) + g0_c` of each contact.
-    fn gap_coefficients(&self, x: &[f64]) -> Vec<Vec<f64>> {
+    pub(super) fn gap_coefficients(&self, x: &[f64]) -> Vec<Vec<f64>> {
         let (n, ncon) = (self.n(), self.n_contacts());
         let nc = n_coefficients(self.harmonics);
         (0..ncon)
