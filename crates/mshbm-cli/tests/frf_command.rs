@@ -180,3 +180,62 @@ fn stability_columns_are_filled_with_stability() {
         assert!(cols[9].parse::<f64>().unwrap() > 0.0);
     }
 }
+
+/// HBM-AFT with stability on NLvib's example 03 (penalty spring 100, 61 harmonics): the
+/// CSV lists each bifurcation as a comment line before the status line (the same ones as
+/// the JSON, with their kinds: folds, period doublings and Neimark–Sacker bifurcations),
+/// and the plot is drawn with them. Their physical meaning is tested in
+/// `crates/mshbm/tests/hbm_aft_stability.rs`.
+#[test]
+fn hbm_aft_bifurcations_are_written_to_the_csv_and_the_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let (csv, png) = (dir.path().join("frd.csv"), dir.path().join("frd.png"));
+    let (model, csv_arg, png_arg) = (
+        example("nlvib_03/model.toml"),
+        csv.display().to_string(),
+        png.display().to_string(),
+    );
+    let out = mshbm(&[
+        "frf",
+        &model,
+        "--method",
+        "hbm-aft",
+        "--penalty",
+        "100",
+        "--harmonics",
+        "61",
+        "--from",
+        "0.1273240",
+        "--to",
+        "0.0795775",
+        "--stability",
+        "--json",
+        "--output",
+        &csv_arg,
+        "--plot",
+        &png_arg,
+    ]);
+    assert_success(&out);
+    let v = stdout_json(&out);
+    let kinds: Vec<&str> = v["bifurcations"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["kind"].as_str().unwrap())
+        .collect();
+    for kind in ["fold", "period-doubling", "neimark-sacker"] {
+        assert!(kinds.contains(&kind), "{kinds:?}");
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let comments: Vec<&str> = text
+        .lines()
+        .filter(|l| l.starts_with("# bifurcation"))
+        .collect();
+    assert_eq!(comments.len(), kinds.len(), "{text}");
+    for (line, kind) in comments.iter().zip(&kinds) {
+        let words = |s: &str| s.to_lowercase().replace('-', " ");
+        assert!(words(line).contains(&words(kind)), "{line} vs {kind}");
+    }
+    assert!(text.lines().last().unwrap().starts_with("# finished"));
+    assert_png(&png);
+}

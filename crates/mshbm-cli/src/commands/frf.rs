@@ -8,10 +8,12 @@ use anyhow::{bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::frd::{
-    trace_diagram, BranchInfo, BranchReport, FoldReport, FrdObserver, FrdPoint, FrdSettings,
+    trace_diagram, BifurcationReport, BranchInfo, BranchReport, FoldReport, FrdObserver, FrdPoint,
+    FrdSettings,
 };
 use mshbm::method::settings::MethodSettings;
 use mshbm::solution::MethodKind;
+use mshbm::stability::Crossing;
 use mshbm::Model;
 
 use super::solve::{Method, MethodArgs};
@@ -263,12 +265,23 @@ pub fn frd_figure(
     model: &Model,
     branches: &[BranchReport],
     folds: &[FoldReport],
+    bifurcations: &[BifurcationReport],
     title: &str,
     y_label: &str,
 ) -> Figure {
+    // kHz for the structures of the paper, Hz for slow (or dimensionless) models
+    let highest = branches
+        .iter()
+        .flat_map(|b| b.points.iter().map(|p| p.frequency_hz))
+        .fold(0.0f64, f64::max);
+    let (per_unit, unit) = if highest >= 1e3 {
+        (1e3, "kHz")
+    } else {
+        (1.0, "Hz")
+    };
     let mut fig = Figure {
         title: title.to_string(),
-        x_label: "frequency [kHz]".into(),
+        x_label: format!("frequency [{unit}]"),
         y_label: y_label.to_string(),
         ..Figure::default()
     };
@@ -312,7 +325,7 @@ pub fn frd_figure(
                     label: if i == 0 { label.clone() } else { String::new() },
                     points: pts
                         .iter()
-                        .map(|p| (p.frequency_hz / 1e3, value(p)))
+                        .map(|p| (p.frequency_hz / per_unit, value(p)))
                         .collect(),
                     style,
                     color: k,
@@ -325,11 +338,30 @@ pub fn frd_figure(
             label: "folds".into(),
             points: folds
                 .iter()
-                .map(|f| (f.frequency_hz / 1e3, f.min_qn))
+                .map(|f| (f.frequency_hz / per_unit, f.min_qn))
                 .collect(),
             style: Style::Markers,
             color: 7,
         });
+    }
+    // the bifurcations that are not folds, where the stability changes
+    for (kind, color) in [(Crossing::PeriodDoubling, 3), (Crossing::NeimarkSacker, 4)] {
+        let at: Vec<(f64, f64)> = bifurcations
+            .iter()
+            .filter(|b| b.kind == kind)
+            .flat_map(|b| {
+                let f = b.frequency_hz / per_unit;
+                [(f, b.max_qn), (f, b.min_qn)]
+            })
+            .collect();
+        if !at.is_empty() {
+            fig.series.push(Series {
+                label: crossing_name(kind).into(),
+                points: at,
+                style: Style::HollowMarkers,
+                color,
+            });
+        }
     }
     if let Some(c) = model.contacts.first() {
         if c.dofs.len() == 1 {
@@ -458,7 +490,19 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     } else {
         None
     };
-    if let Some(csv) = output.csv.take() {
+    if let Some(mut csv) = output.csv.take() {
+        // where the stability changes, with how (a fold, a period doubling, a
+        // Neimark–Sacker bifurcation), between the two points of different verdicts
+        for b in &report.bifurcations {
+            csv.comment(&format!(
+                "bifurcation ({}): {} near {:.9} Hz, max {:.6e}, min {:.6e}",
+                b.label,
+                crossing_name(b.kind),
+                b.frequency_hz,
+                b.max_qn,
+                b.min_qn
+            ))?;
+        }
         let status = match &failure {
             Some(why) => format!("incomplete: branch {why}"),
             None => format!("finished: {} points, every branch complete", output.points),
@@ -471,6 +515,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
             &model,
             &report.branches,
             &report.folds,
+            &report.bifurcations,
             &format!("Frequency response — {}", model.name),
             &format!("displacement of DOF {dof} (max, min)"),
         );
@@ -490,9 +535,9 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         }
         for b in &report.bifurcations {
             crate::outln!(
-                "stability change ({}): {:?} near {:.3} Hz",
+                "stability change ({}): {} near {:.3} Hz",
                 b.label,
-                b.kind,
+                crossing_name(b.kind),
                 b.frequency_hz
             )?;
         }
@@ -507,4 +552,13 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         .into());
     }
     Ok(())
+}
+
+/// How a multiplier crosses the unit circle, for people.
+pub fn crossing_name(kind: Crossing) -> &'static str {
+    match kind {
+        Crossing::Fold => "fold",
+        Crossing::PeriodDoubling => "period doubling",
+        Crossing::NeimarkSacker => "Neimark-Sacker",
+    }
 }

@@ -66,6 +66,13 @@ impl StreamedCsv {
         Ok(())
     }
 
+    /// Append the comment line `# {text}` (CSV readers skip it with `comment="#"`).
+    pub fn comment(&mut self, text: &str) -> Result<()> {
+        let line = format!("# {}\n", text.replace('\n', " "));
+        self.file.write_all(line.as_bytes())?;
+        Ok(())
+    }
+
     /// End the file with `# {status}` and rename it into place.
     pub fn finish(mut self, status: &str) -> Result<()> {
         let line = format!("# {}\n", status.replace('\n', " "));

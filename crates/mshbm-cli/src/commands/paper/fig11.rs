@@ -212,6 +212,7 @@ impl Plan {
             &model,
             &reports,
             &[],
+            &[],
             &title,
             "contact displacement q_N [mm] (max, min)",
         );

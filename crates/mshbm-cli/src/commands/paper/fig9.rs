@@ -386,6 +386,7 @@ impl Plan {
             &model,
             &reports,
             &folds,
+            &[],
             &title,
             "contact displacement q_N [mm] (max, min)",
         );
