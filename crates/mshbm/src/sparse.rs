@@ -371,7 +371,13 @@ pub(crate) struct SparseCholesky {
     values: Vec<f64>,
     buf: Mat<f64>,
     mem: faer::dyn_stack::MemBuffer,
+    /// `A⁻¹` (row-major) of a matrix of at most [`DENSE_INVERSE_SIZE`] rows: a solve is then
+    /// one small product (the time integrators of a few nonlinear DOFs solve once per step).
+    dense_inverse: Option<Vec<f64>>,
 }
+
+/// Largest size whose inverse a [`SparseCholesky`] keeps dense.
+const DENSE_INVERSE_SIZE: usize = 8;
 
 impl SparseCholesky {
     /// Factor `a` (its lower triangle is used); `what` names it in the error when it is not
@@ -397,18 +403,42 @@ impl SparseCholesky {
             )
             .map_err(|_| not_pd())?;
         let mem = MemBuffer::new(symbolic.solve_in_place_scratch::<f64>(1, par));
-        Ok(SparseCholesky {
+        let mut factor = SparseCholesky {
             symbolic,
             values,
             buf: Mat::zeros(a.nrows(), 1),
             mem,
-        })
+            dense_inverse: None,
+        };
+        let n = a.nrows();
+        if n <= DENSE_INVERSE_SIZE {
+            let mut inverse = vec![0.0; n * n];
+            let mut column = vec![0.0; n];
+            for j in 0..n {
+                column.iter_mut().enumerate().for_each(|(i, v)| *v = f64::from(u8::from(i == j)));
+                factor.solve(&mut column);
+                for (i, v) in column.iter().enumerate() {
+                    inverse[i * n + j] = *v;
+                }
+            }
+            factor.dense_inverse = Some(inverse);
+        }
+        Ok(factor)
     }
 
     /// `x ← A⁻¹ x`.
     pub(crate) fn solve(&mut self, x: &mut [f64]) {
         use faer::dyn_stack::MemStack;
         use faer::sparse::linalg::cholesky::LltRef;
+        if let Some(inverse) = &self.dense_inverse {
+            let n = x.len();
+            let mut y = [0.0; DENSE_INVERSE_SIZE];
+            for (i, yi) in y[..n].iter_mut().enumerate() {
+                *yi = crate::dense::dot(&inverse[i * n..(i + 1) * n], x);
+            }
+            x.copy_from_slice(&y[..n]);
+            return;
+        }
         for (i, v) in x.iter().enumerate() {
             self.buf[(i, 0)] = *v;
         }

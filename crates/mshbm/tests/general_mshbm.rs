@@ -228,7 +228,7 @@ fn friction_oscillator_agrees_with_time_integration_across_resonance() {
             "{connectivity} {periodicity}"
         );
         let tr = run.problem.trajectory(&run.x, run.omega).unwrap();
-        let forces: Vec<f64> = tr.friction_forces.iter().map(|p| p[0]).collect();
+        let forces: Vec<f64> = tr.friction_force_series(0);
         assert!(forces.iter().all(|p| p.abs() <= limit * (1.0 + 1e-12)));
         let stick = forces
             .iter()

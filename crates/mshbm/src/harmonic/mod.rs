@@ -91,6 +91,23 @@ pub fn basis_derivative(harmonics: usize, tau: f64) -> Vec<f64> {
     b
 }
 
+/// `out[i] += q_i(τ)` for `n` signals whose coefficients are harmonic-major
+/// (`coefficients[c·n + i]`, `harmonics` harmonics): the series at any `τ`, by the
+/// angle-addition recurrence (one `sin_cos` per call, no allocation).
+pub fn add_series_at(harmonics: usize, tau: f64, coefficients: &[f64], n: usize, out: &mut [f64]) {
+    for (o, &q) in out[..n].iter_mut().zip(&coefficients[..n]) {
+        *o += q;
+    }
+    let mut rotation = Rotation::new(tau);
+    for k in 1..=harmonics {
+        let (c, s) = rotation.next();
+        let (a, b) = (&coefficients[(2 * k - 1) * n..2 * k * n], &coefficients[2 * k * n..(2 * k + 1) * n]);
+        for ((o, &a), &b) in out[..n].iter_mut().zip(a).zip(b) {
+            *o += a * c + b * s;
+        }
+    }
+}
+
 /// Value of the scalar trigonometric polynomial with coefficients `coef` at `τ`.
 pub fn evaluate(coef: &[f64], tau: f64) -> f64 {
     let h = (coef.len() - 1) / 2;

@@ -87,7 +87,7 @@ pub(crate) struct Data {
 impl Data {
     /// `f(t) = f_const + f_harm cos ωt` into `out`.
     pub(crate) fn load_into(&self, t: f64, out: &mut [f64]) {
-        let c = if self.omega != 0.0 {
+        let c = if self.omega != 0.0 && self.harmonic_load.iter().any(|&f| f != 0.0) {
             (self.omega * t).cos()
         } else {
             0.0
@@ -96,13 +96,7 @@ impl Data {
             *o = self.constant_load[i] + c * self.harmonic_load[i];
         }
         if let Some((h, coef)) = &self.periodic_load {
-            let n = self.n;
-            let b = crate::harmonic::basis(*h, self.omega * t);
-            for (ci, bc) in b.iter().enumerate() {
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o += bc * coef[ci * n + i];
-                }
-            }
+            crate::harmonic::add_series_at(*h, self.omega * t, coef, self.n, out);
         }
     }
 }

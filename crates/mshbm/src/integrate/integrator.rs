@@ -361,6 +361,10 @@ impl Integrator {
             return Err(Error::argument("periodic load", "must be finite"));
         }
         self.data.periodic_load = Some((harmonics, coefficients));
+        // a load kept from the last step is stale now
+        if let Kernel::Moreau(k) = &mut self.kernel {
+            k.reset(&self.data, &mut self.state)?;
+        }
         Ok(())
     }
 

@@ -63,6 +63,12 @@ pub(crate) struct MoreauJean {
     solvers: HashMap<Vec<bool>, LcpSolver>,
     f_k: Vec<f64>,
     f_k1: Vec<f64>,
+    /// The time of `f_k1` (the next step's `f_k`).
+    f_k1_time: Option<f64>,
+    /// The new velocity of a step (swapped into the state).
+    v_new: Vec<f64>,
+    /// Buffers of the frictional impact problem, kept between steps.
+    friction: FrictionWork,
     rhs: Vec<f64>,
     closed: Vec<bool>,
     /// Per contact: the term added to `Wᵢᵀ v_{k+1}` in the impact law (`e Wᵢᵀ v_k`, plus
@@ -153,6 +159,9 @@ impl MoreauJean {
             solvers: HashMap::new(),
             f_k: vec![0.0; n],
             f_k1: vec![0.0; n],
+            f_k1_time: None,
+            v_new: vec![0.0; n],
+            friction: FrictionWork::default(),
             rhs: vec![0.0; n],
             closed: vec![false; nc],
             offset: vec![0.0; nc],
@@ -162,6 +171,7 @@ impl MoreauJean {
     }
 
     pub(crate) fn reset(&mut self, _data: &Data, _state: &mut State) -> Result<()> {
+        self.f_k1_time = None;
         Ok(())
     }
 
@@ -169,8 +179,15 @@ impl MoreauJean {
         let h = d.dt;
         let theta = self.theta;
         let t = s.time(h);
-        d.load_into(t, &mut self.f_k);
-        d.load_into(s.t0 + (s.steps + 1) as f64 * h, &mut self.f_k1);
+        // the last step's f_{k+1} is this step's f_k (the same time, bit for bit)
+        if self.f_k1_time == Some(t) {
+            std::mem::swap(&mut self.f_k, &mut self.f_k1);
+        } else {
+            d.load_into(t, &mut self.f_k);
+        }
+        let t1 = s.t0 + (s.steps + 1) as f64 * h;
+        d.load_into(t1, &mut self.f_k1);
+        self.f_k1_time = Some(t1);
         // rhs = explicit v − h K q + h (θ f_{k+1} + (1−θ) f_k)
         for i in 0..d.n {
             self.rhs[i] = h * (theta * self.f_k1[i] + (1.0 - theta) * self.f_k[i]);
@@ -199,14 +216,17 @@ impl MoreauJean {
         s.forces.iter_mut().for_each(|f| *f = 0.0);
         s.friction_forces.iter_mut().for_each(|f| *f = 0.0);
         // new velocity (v_free plus impulses); keep v_k for the position update
-        let mut v_new = v_free.clone();
+        let mut v_new = std::mem::take(&mut self.v_new);
+        v_new.clear();
+        v_new.extend_from_slice(v_free);
         let nf = d.frictions.len();
         let friction_active = (0..nf).any(|f| match d.frictions.normal[f] {
             Ok(p) => d.frictions.mu[f] * p > 0.0,
             Err(c) => self.closed[c] && d.frictions.mu[f] > 0.0,
         });
         if friction_active {
-            let (pn, pt) = self.frictional_impulses(d, s)?;
+            self.frictional_impulses(d, s)?;
+            let (pn, pt) = (&self.friction.pn, &self.friction.pt);
             for (i, &p) in pn.iter().enumerate() {
                 if p != 0.0 {
                     for (vj, mwj) in v_new.iter_mut().zip(&self.mw[i]) {
@@ -254,7 +274,7 @@ impl MoreauJean {
         for ((q, &vn), &v) in s.q.iter_mut().zip(&v_new).zip(&s.v) {
             *q += h * (theta * vn + (1.0 - theta) * v);
         }
-        s.v = v_new;
+        self.v_new = std::mem::replace(&mut s.v, v_new);
         d.contacts.gaps_into(&s.q, &mut s.gaps);
         if self.project && s.gaps.iter().any(|&g| g < 0.0) {
             self.project_positions(d, s, t)?;
@@ -288,14 +308,34 @@ impl MoreauJean {
 
     /// Impulses `(P_N per contact, P_T per friction element)` of one step with friction
     /// (see the module docs). `self.rhs` holds `v_free`, `self.closed` the index set.
-    fn frictional_impulses(&self, d: &Data, s: &State) -> Result<(Vec<f64>, Vec<f64>)> {
+    fn frictional_impulses(&mut self, d: &Data, s: &State) -> Result<()> {
+        let mut work = std::mem::take(&mut self.friction);
+        let solved = self.frictional_impulses_into(d, s, &mut work);
+        self.friction = work;
+        solved
+    }
+
+    /// [`Self::frictional_impulses`] with the buffers `work` (results in `work.pn`, `work.pt`).
+    fn frictional_impulses_into(&self, d: &Data, s: &State, work: &mut FrictionWork) -> Result<()> {
         let h = d.dt;
         let nc = d.contacts.len();
         let nf = d.frictions.len();
         let na = nc + nf;
         let v_free = &self.rhs;
+        let FrictionWork {
+            rows,
+            pos,
+            c,
+            p,
+            status,
+            a,
+            rhs,
+            pn,
+            pt,
+        } = work;
         // active rows (global indices into G: contacts first, then frictions)
-        let mut rows: Vec<usize> = (0..nc).filter(|&i| self.closed[i]).collect();
+        rows.clear();
+        rows.extend((0..nc).filter(|&i| self.closed[i]));
         for f in 0..nf {
             let on = match d.frictions.normal[f] {
                 Ok(p) => d.frictions.mu[f] * p > 0.0,
@@ -306,19 +346,19 @@ impl MoreauJean {
             }
         }
         let m = rows.len();
-        let mut pos = vec![usize::MAX; na];
+        pos.clear();
+        pos.resize(na, usize::MAX);
         rows.iter().enumerate().for_each(|(k, &r)| pos[r] = k);
         // ξ = c + G P
-        let c: Vec<f64> = rows
-            .iter()
-            .map(|&r| {
-                if r < nc {
-                    d.contacts.dot(r, v_free) + self.offset[r]
-                } else {
-                    d.frictions.dot(r - nc, v_free)
-                }
-            })
-            .collect();
+        c.clear();
+        c.extend(rows.iter().map(|&r| {
+            if r < nc {
+                d.contacts.dot(r, v_free) + self.offset[r]
+            } else {
+                d.frictions.dot(r - nc, v_free)
+            }
+        }));
+        let (rows, pos, c) = (&*rows, &*pos, &*c);
         let g = |a: usize, b: usize| self.g_all[rows[a] * na + rows[b]];
         // bound of a friction row given the current impulses
         let bound = |k: usize, p: &[f64]| -> f64 {
@@ -328,7 +368,8 @@ impl MoreauJean {
                 Err(ci) => d.frictions.mu[f] * p[pos[ci]].max(0.0),
             }
         };
-        let mut p = vec![0.0; m];
+        p.clear();
+        p.resize(m, 0.0);
         let scale = c
             .iter()
             .enumerate()
@@ -356,8 +397,8 @@ impl MoreauJean {
             }
         }
         // polish: exact solve of the status found
-        let status: Vec<i8> = (0..m)
-            .map(|k| {
+        status.clear();
+        status.extend((0..m).map(|k| {
                 if rows[k] < nc {
                     if p[k] > 0.0 {
                         1
@@ -376,10 +417,11 @@ impl MoreauJean {
                         1
                     }
                 }
-            })
-            .collect();
-        let mut a = vec![0.0; m * m];
-        let mut rhs = vec![0.0; m];
+            }));
+        a.clear();
+        a.resize(m * m, 0.0);
+        rhs.clear();
+        rhs.resize(m, 0.0);
         for k in 0..m {
             match status[k] {
                 1 => {
@@ -401,7 +443,7 @@ impl MoreauJean {
             }
         }
         let tol = 1e-9;
-        let polished = crate::dense::solve_small(&a, &rhs, 1e-14).filter(|q| {
+        let polished = crate::dense::solve_small(a, rhs, 1e-14).filter(|q| {
             (0..m).all(|k| {
                 let xi: f64 = c[k] + (0..m).map(|j| g(k, j) * q[j]).sum::<f64>();
                 let vs = scale * g(k, k).abs() * tol; // velocity scale
@@ -417,16 +459,16 @@ impl MoreauJean {
                 }
             })
         });
-        let mut p = match polished {
-            Some(q) => q,
-            None if converged => p,
+        match polished {
+            Some(q) => p.copy_from_slice(&q),
+            None if converged => {}
             None => {
                 return Err(Error::Numerical(format!(
                     "frictional impact problem at t = {} did not converge",
                     s.time(h)
                 )))
             }
-        };
+        }
         // exact feasibility: P_N ≥ 0, |P_T| ≤ bound
         for k in 0..m {
             if rows[k] < nc {
@@ -439,8 +481,10 @@ impl MoreauJean {
                 p[k] = p[k].clamp(-b, b);
             }
         }
-        let mut pn = vec![0.0; nc];
-        let mut pt = vec![0.0; nf];
+        pn.clear();
+        pn.resize(nc, 0.0);
+        pt.clear();
+        pt.resize(nf, 0.0);
         for (k, &r) in rows.iter().enumerate() {
             if r < nc {
                 pn[r] = p[k];
@@ -448,8 +492,23 @@ impl MoreauJean {
                 pt[r - nc] = p[k];
             }
         }
-        Ok((pn, pt))
+        Ok(())
     }
+}
+
+/// Buffers of the frictional impact problem of one step (rows of the active contacts and
+/// friction elements, their free velocities, impulses, status and the polishing system).
+#[derive(Clone, Debug, Default)]
+struct FrictionWork {
+    rows: Vec<usize>,
+    pos: Vec<usize>,
+    c: Vec<f64>,
+    p: Vec<f64>,
+    status: Vec<i8>,
+    a: Vec<f64>,
+    rhs: Vec<f64>,
+    pn: Vec<f64>,
+    pt: Vec<f64>,
 }
 
 #[cfg(test)]

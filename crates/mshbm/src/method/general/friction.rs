@@ -11,7 +11,7 @@ impl GeneralMsHbm {
         let fr = &self.subsystem.frictions[f];
         match fr.normal {
             FrictionNormal::Force(p) => fr.mu * p,
-            FrictionNormal::Contact(c) => fr.mu * tr.contact_forces[j][c].max(0.0),
+            FrictionNormal::Contact(c) => fr.mu * tr.contact_forces(j)[c].max(0.0),
         }
     }
 
@@ -29,7 +29,7 @@ impl GeneralMsHbm {
         for (f, fr) in self.subsystem.frictions.iter().enumerate() {
             let stuck = (0..self.steps).all(|j| {
                 let limit = self.friction_limit(tr, f, j);
-                limit > 0.0 && tr.friction_forces[j][f].abs() < limit * (1.0 - 1e-9)
+                limit > 0.0 && tr.friction_forces(j)[f].abs() < limit * (1.0 - 1e-9)
             });
             let dof =
                 fr.w.iter()

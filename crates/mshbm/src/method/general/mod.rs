@@ -144,6 +144,8 @@ pub struct GeneralMsHbm {
     system: System,
     harmonics: usize,
     steps: usize,
+    /// The DFT over the step grid (`steps` samples).
+    sampling: Sampling,
     theta: f64,
     restitution: f64,
     fd_step: f64,
@@ -257,6 +259,7 @@ impl GeneralMsHbm {
             partition,
             harmonics: h,
             steps,
+            sampling: Sampling::within(h, steps, limits)?,
             theta: options.theta,
             restitution: options.restitution,
             fd_step: options.fd_step,
@@ -485,14 +488,14 @@ impl PeriodicProblem for GeneralMsHbm {
         let n = self.n();
         let h = self.harmonics;
         let ns = self.steps;
-        let sampling = Sampling::new(h, ns);
+        let sampling = &self.sampling;
         let extremes = |v: &[f64]| -> (f64, f64) {
             v.iter()
                 .fold((f64::NEG_INFINITY, f64::INFINITY), |(mx, mn), &x| {
                     (mx.max(x), mn.min(x))
                 })
         };
-        let series = |i: usize| -> Vec<f64> { tr.displacement.iter().map(|q| q[i]).collect() };
+        let series = |i: usize| -> Vec<f64> { tr.displacement_series(i) };
         let mut contacts = Vec::with_capacity(self.system.contacts.len());
         for (c, sc) in self.system.contacts.iter().enumerate() {
             let i = self.partition.contact_n_index(&self.system, c);
@@ -502,8 +505,8 @@ impl PeriodicProblem for GeneralMsHbm {
                 dof: self.system.model_dof[sc.w[0].0],
                 coefficients: n_dof_coefficients(x, n, h, i),
                 displacement: disp,
-                gap: tr.gaps.iter().map(|g| g[c]).collect(),
-                force: tr.contact_forces.iter().map(|f| f[c]).collect(),
+                gap: tr.gap_series(c),
+                force: tr.contact_force_series(c),
                 max,
                 min,
             });
@@ -514,7 +517,7 @@ impl PeriodicProblem for GeneralMsHbm {
             .iter()
             .enumerate()
             .map(|(f, fr)| {
-                let force: Vec<f64> = tr.friction_forces.iter().map(|p| p[f]).collect();
+                let force: Vec<f64> = tr.friction_force_series(f);
                 let (max, min) = extremes(&force);
                 FrictionSeries {
                     dof: self.subsystem.model_dof[fr.w[0].0],

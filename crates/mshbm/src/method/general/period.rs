@@ -3,27 +3,87 @@
 
 use super::GeneralMsHbm;
 use crate::error::Result;
-use crate::harmonic::{n_coefficients, Sampling};
+use crate::harmonic::n_coefficients;
 use crate::integrate::{Integrator, Scheme, Settings};
 use crate::linear::CondensedFrequency;
 
-/// The time history of the nonlinear subsystem over one period for given unknowns.
+/// The time history of the nonlinear subsystem over one period for given unknowns, at the
+/// step times `t_j = jT/N_s`, `j = 0..N_s` (rows of `n_N`, `n_c` or `n_f` values, stored
+/// row after row).
 #[derive(Clone, Debug)]
 pub struct Trajectory {
-    /// `q_N` at the step times `t_j = jT/N_s`, `j = 0..N_s` (row `j`, N numbering).
-    pub displacement: Vec<Vec<f64>>,
-    /// `q̇_N` at the step times.
-    pub velocity: Vec<Vec<f64>>,
-    /// Contact gaps at the step times.
-    pub gaps: Vec<Vec<f64>>,
+    n: usize,
+    n_contacts: usize,
+    n_frictions: usize,
+    displacement: Vec<f64>,
+    velocity: Vec<f64>,
+    gaps: Vec<f64>,
+    contact_forces: Vec<f64>,
+    friction_forces: Vec<f64>,
+    end_q: Vec<f64>,
+    end_v: Vec<f64>,
+}
+
+/// Row `j` of `values` stored in rows of `width`.
+fn row(values: &[f64], width: usize, j: usize) -> &[f64] {
+    &values[j * width..(j + 1) * width]
+}
+
+/// Column `i` of `values` stored in rows of `width`.
+fn column(values: &[f64], width: usize, i: usize) -> Vec<f64> {
+    values.chunks_exact(width.max(1)).map(|r| r[i]).collect()
+}
+
+impl Trajectory {
+    /// Steps per period `N_s`.
+    pub fn steps(&self) -> usize {
+        self.displacement.len() / self.n.max(1)
+    }
+    /// `q_N(t_j)` (N numbering).
+    pub fn displacement(&self, j: usize) -> &[f64] {
+        row(&self.displacement, self.n, j)
+    }
+    /// `q̇_N(t_j)`.
+    pub fn velocity(&self, j: usize) -> &[f64] {
+        row(&self.velocity, self.n, j)
+    }
+    /// Contact gaps at `t_j`.
+    pub fn gaps(&self, j: usize) -> &[f64] {
+        row(&self.gaps, self.n_contacts, j)
+    }
     /// Contact forces (impulse / h) of the step ending at `t_j` (row 0: the last step of
     /// the period, `t_{N_s} ≡ t_0`).
-    pub contact_forces: Vec<Vec<f64>>,
+    pub fn contact_forces(&self, j: usize) -> &[f64] {
+        row(&self.contact_forces, self.n_contacts, j)
+    }
     /// Friction forces (impulse / h), same convention.
-    pub friction_forces: Vec<Vec<f64>>,
+    pub fn friction_forces(&self, j: usize) -> &[f64] {
+        row(&self.friction_forces, self.n_frictions, j)
+    }
+    /// `q_N(t_j)` of N-DOF `i` over the period.
+    pub fn displacement_series(&self, i: usize) -> Vec<f64> {
+        column(&self.displacement, self.n, i)
+    }
+    /// The gap of contact `c` over the period.
+    pub fn gap_series(&self, c: usize) -> Vec<f64> {
+        column(&self.gaps, self.n_contacts, c)
+    }
+    /// The force of contact `c` over the period.
+    pub fn contact_force_series(&self, c: usize) -> Vec<f64> {
+        column(&self.contact_forces, self.n_contacts, c)
+    }
+    /// The force of friction element `f` over the period.
+    pub fn friction_force_series(&self, f: usize) -> Vec<f64> {
+        column(&self.friction_forces, self.n_frictions, f)
+    }
     /// State at `t = T`.
-    pub end_q: Vec<f64>,
-    pub end_v: Vec<f64>,
+    pub fn end_q(&self) -> &[f64] {
+        &self.end_q
+    }
+    /// Velocity at `t = T`.
+    pub fn end_v(&self) -> &[f64] {
+        &self.end_v
+    }
 }
 
 impl GeneralMsHbm {
@@ -60,23 +120,27 @@ impl GeneralMsHbm {
             .map(|v| v * omega)
             .collect();
         it.set_state(0.0, q0, &v0)?;
+        let (nc, nf) = (it.forces().len(), it.friction_forces().len());
         let mut tr = Trajectory {
-            displacement: Vec::with_capacity(ns),
-            velocity: Vec::with_capacity(ns),
-            gaps: Vec::with_capacity(ns),
-            contact_forces: vec![vec![]; ns],
-            friction_forces: vec![vec![]; ns],
+            n,
+            n_contacts: nc,
+            n_frictions: nf,
+            displacement: Vec::with_capacity(ns * n),
+            velocity: Vec::with_capacity(ns * n),
+            gaps: Vec::with_capacity(ns * nc),
+            contact_forces: vec![0.0; ns * nc],
+            friction_forces: vec![0.0; ns * nf],
             end_q: vec![],
             end_v: vec![],
         };
         for j in 0..ns {
-            tr.displacement.push(it.q().to_vec());
-            tr.velocity.push(it.v().to_vec());
-            tr.gaps.push(it.gaps().to_vec());
+            tr.displacement.extend_from_slice(it.q());
+            tr.velocity.extend_from_slice(it.v());
+            tr.gaps.extend_from_slice(it.gaps());
             it.step()?;
             let slot = (j + 1) % ns;
-            tr.contact_forces[slot] = it.forces().to_vec();
-            tr.friction_forces[slot] = it.friction_forces().to_vec();
+            tr.contact_forces[slot * nc..(slot + 1) * nc].copy_from_slice(it.forces());
+            tr.friction_forces[slot * nf..(slot + 1) * nf].copy_from_slice(it.friction_forces());
         }
         tr.end_q = it.q().to_vec();
         tr.end_v = it.v().to_vec();
@@ -91,13 +155,11 @@ impl GeneralMsHbm {
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
         let tr = self.integrate(fd, x)?;
-        let sampling = Sampling::new(self.harmonics, self.steps);
+        let dft = self.sampling.dft_set(&tr.displacement, n);
         let mut r = vec![0.0; n * (nc + 2)];
         for i in 0..n {
-            let samples: Vec<f64> = tr.displacement.iter().map(|q| q[i]).collect();
-            let dft = sampling.dft(&samples);
             for c in 0..nc {
-                r[c * n + i] = x[c * n + i] - dft[c];
+                r[c * n + i] = x[c * n + i] - dft[c * n + i];
             }
             r[nc * n + i] = tr.end_q[i] - x[nc * n + i];
             r[(nc + 1) * n + i] = tr.end_v[i] / fd.omega() - x[(nc + 1) * n + i];
@@ -107,7 +169,7 @@ impl GeneralMsHbm {
             // zero mean friction force instead of the (dependent) position periodicity
             let fr = &self.subsystem.frictions[f];
             let w_i: f64 = fr.w.iter().filter(|(d, _)| *d == i).map(|(_, w)| w).sum();
-            let mean = tr.friction_forces.iter().map(|p| p[f]).sum::<f64>() / self.steps as f64;
+            let mean = tr.friction_force_series(f).iter().sum::<f64>() / self.steps as f64;
             r[nc * n + i] = w_i * mean / self.stiffness_nn_diagonal[i];
         }
         Ok((r, tr))
