@@ -415,7 +415,10 @@ impl SparseCholesky {
             let mut inverse = vec![0.0; n * n];
             let mut column = vec![0.0; n];
             for j in 0..n {
-                column.iter_mut().enumerate().for_each(|(i, v)| *v = f64::from(u8::from(i == j)));
+                column
+                    .iter_mut()
+                    .enumerate()
+                    .for_each(|(i, v)| *v = f64::from(u8::from(i == j)));
                 factor.solve(&mut column);
                 for (i, v) in column.iter().enumerate() {
                     inverse[i * n + j] = *v;

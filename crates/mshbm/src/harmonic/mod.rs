@@ -101,7 +101,10 @@ pub fn add_series_at(harmonics: usize, tau: f64, coefficients: &[f64], n: usize,
     let mut rotation = Rotation::new(tau);
     for k in 1..=harmonics {
         let (c, s) = rotation.next();
-        let (a, b) = (&coefficients[(2 * k - 1) * n..2 * k * n], &coefficients[2 * k * n..(2 * k + 1) * n]);
+        let (a, b) = (
+            &coefficients[(2 * k - 1) * n..2 * k * n],
+            &coefficients[2 * k * n..(2 * k + 1) * n],
+        );
         for ((o, &a), &b) in out[..n].iter_mut().zip(a).zip(b) {
             *o += a * c + b * s;
         }

@@ -399,25 +399,25 @@ impl MoreauJean {
         // polish: exact solve of the status found
         status.clear();
         status.extend((0..m).map(|k| {
-                if rows[k] < nc {
-                    if p[k] > 0.0 {
-                        1
-                    } else {
-                        0
-                    }
+            if rows[k] < nc {
+                if p[k] > 0.0 {
+                    1
                 } else {
-                    let b = bound(k, &p);
-                    if b == 0.0 {
-                        0
-                    } else if p[k] >= b * (1.0 - 1e-12) {
-                        2
-                    } else if p[k] <= -b * (1.0 - 1e-12) {
-                        -2
-                    } else {
-                        1
-                    }
+                    0
                 }
-            }));
+            } else {
+                let b = bound(k, &p);
+                if b == 0.0 {
+                    0
+                } else if p[k] >= b * (1.0 - 1e-12) {
+                    2
+                } else if p[k] <= -b * (1.0 - 1e-12) {
+                    -2
+                } else {
+                    1
+                }
+            }
+        }));
         a.clear();
         a.resize(m * m, 0.0);
         rhs.clear();

@@ -94,11 +94,11 @@ struct Bordered<'a, P: PeriodicProblem + ?Sized, G: ClosingEquation> {
 }
 
 impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<'_, P, G> {
-    /// `[R_X; ∂g/∂X]` and `[R; g]`; `None` off positive frequencies or where a matrix of the
-    /// problem is singular.
+    /// `[R_X; ∂g/∂X]` and `[R; g]`; `None` off positive frequencies (a subnormal one, whose
+    /// period overflows, included) or where a matrix of the problem is singular.
     fn linearize(&mut self, xs: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>> {
         let (x, omega) = self.sc.unscale(xs);
-        if !(omega.is_finite() && omega > 0.0) {
+        if !(omega.is_normal() && omega > 0.0) {
             return Ok(None);
         }
         let border = self.equation.gradient(xs);
@@ -217,5 +217,83 @@ impl Corrector<'_> {
             return Ok(None);
         }
         Ok(Some(corrected))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::problem::{ArclengthFallback, ContinuationPolicy, Linearization};
+    use crate::solution::PeriodicSolution;
+
+    /// `R(x, ω) = x − 1/ω`, which refuses (as the general MS-HBM's integrator does) a
+    /// frequency whose period overflows.
+    struct Reciprocal;
+
+    impl PeriodicProblem for Reciprocal {
+        fn dimension(&self) -> usize {
+            1
+        }
+        fn length_scale(&self) -> f64 {
+            1.0
+        }
+        fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![1.0 / omega])
+        }
+        fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+            let period = 1.0 / omega;
+            assert!(period.is_finite(), "evaluated at ω = {omega:e}");
+            Ok(vec![x[0] - period])
+        }
+        fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+            Ok(Linearization {
+                residual: self.residual(x, omega)?,
+                jacobian: Jacobian::Dense(faer::Mat::from_fn(1, 1, |_, _| 1.0)),
+                d_omega: vec![1.0 / (omega * omega)],
+            })
+        }
+        fn solution(&mut self, _: &[f64], _: f64, _: usize) -> Result<PeriodicSolution> {
+            unreachable!("not asked")
+        }
+        fn continuation_policy(&self) -> ContinuationPolicy {
+            ContinuationPolicy {
+                newton_contraction: NewtonContraction::Unchecked,
+                where_arclength_fails: ArclengthFallback::EscapeCorner,
+                signals: 1,
+            }
+        }
+    }
+
+    /// A corrector iterate at a subnormal frequency (positive, but its period overflows) is
+    /// refused like one off the positive frequencies, before the problem sees it.
+    #[test]
+    fn a_subnormal_frequency_is_refused_before_the_problem_is_evaluated() {
+        let sc = Scaling::new(1.0, 1, 1.0);
+        let options = NewtonOptions::default();
+        let corrector = Corrector {
+            newton: &options,
+            contraction: NewtonContraction::Unchecked,
+        };
+        let subnormal: f64 = 1e-320;
+        assert!(subnormal > 0.0 && !subnormal.is_normal() && !(1.0 / subnormal).is_finite());
+        let start = sc.to_scaled(&[0.0], subnormal);
+        let sphere = Sphere {
+            center: &start,
+            radius: 1.0,
+        };
+        assert!(corrector
+            .solve(&mut Reciprocal, &sc, start.clone(), &sphere, 0)
+            .unwrap()
+            .is_none());
+        // a normal frequency is evaluated as before
+        let start = sc.to_scaled(&[1.0], 1.0);
+        let sphere = Sphere {
+            center: &sc.to_scaled(&[0.0], 1.0),
+            radius: 1.0,
+        };
+        assert!(corrector
+            .solve(&mut Reciprocal, &sc, start, &sphere, 0)
+            .unwrap()
+            .is_some());
     }
 }
