@@ -385,7 +385,7 @@ impl MoreauJean {
                 let new = if rows[k] < nc {
                     trial.max(0.0)
                 } else {
-                    let b = bound(k, &p);
+                    let b = bound(k, p);
                     trial.clamp(-b, b)
                 };
                 change = change.max((new - p[k]).abs());
@@ -406,7 +406,7 @@ impl MoreauJean {
                     0
                 }
             } else {
-                let b = bound(k, &p);
+                let b = bound(k, p);
                 if b == 0.0 {
                     0
                 } else if p[k] >= b * (1.0 - 1e-12) {
@@ -477,7 +477,7 @@ impl MoreauJean {
         }
         for k in 0..m {
             if rows[k] >= nc {
-                let b = bound(k, &p);
+                let b = bound(k, p);
                 p[k] = p[k].clamp(-b, b);
             }
         }
