@@ -31,7 +31,8 @@
 //!    the step grid `t_j = jT/N_s` (the velocity block is divided by ω so that all blocks are
 //!    lengths, as Newton's tolerance is relative to a length).
 //!
-//! **Jacobian** (docs/theory.md (T65)): forward differences, columns in parallel (rayon);
+//! **Jacobian** (docs/theory.md (T65)): forward differences, the point's residual, the
+//! columns' and the frequency's perturbed residuals integrated as one parallel batch (rayon);
 //! the per-column work takes `&self` (the frequency data is shared read-only, each column
 //! builds its own small N-subsystem integrator). Step `h_j = ε · max(|x_j|, s)`
 //! (`ε` = [`GeneralOptions::fd_step`], default 1e-6) with `s` the length scale. `∂R/∂ω` also
@@ -411,30 +412,36 @@ impl PeriodicProblem for GeneralMsHbm {
         self.prepare(omega)?;
         let this = &*self;
         let fd = this.frequency.as_deref().expect("prepared");
-        let residual = this.residual_with(fd, x)?.0;
         let dim = this.dimension();
-        let columns: Vec<Result<Vec<f64>>> = (0..dim)
-            .into_par_iter()
-            .map(|j| {
-                let h = this.fd_step * x[j].abs().max(this.partition.length_scale());
-                let mut xp = x.to_vec();
-                xp[j] += h;
-                let h = xp[j] - x[j];
-                let rp = this.residual_with(fd, &xp)?.0;
-                Ok(rp.iter().zip(&residual).map(|(a, b)| (a - b) / h).collect())
-            })
-            .collect();
-        let mut jacobian = Mat::<f64>::zeros(dim, dim);
-        for (j, col) in columns.into_iter().enumerate() {
-            for (i, v) in col?.into_iter().enumerate() {
-                jacobian[(i, j)] = v;
-            }
-        }
         let dw = 0.1 * this.fd_step * omega;
         let fdp = this.frequency_data(omega + dw)?;
         let dw = (omega + dw) - omega;
-        let rp = this.residual_with(&*fdp, x)?.0;
-        let d_omega = rp
+        // the point, each column's step and the frequency's step: one parallel batch of
+        // period integrations (the differences are taken afterwards)
+        let perturbed = |j: usize| {
+            let h = this.fd_step * x[j].abs().max(this.partition.length_scale());
+            let mut xp = x.to_vec();
+            xp[j] += h;
+            xp
+        };
+        let mut evaluations = (0..dim + 2)
+            .into_par_iter()
+            .map(|e| match e {
+                0 => this.residual_with(fd, x).map(|r| r.0),
+                e if e <= dim => this.residual_with(fd, &perturbed(e - 1)).map(|r| r.0),
+                _ => this.residual_with(&*fdp, x).map(|r| r.0),
+            })
+            .collect::<Result<Vec<Vec<f64>>>>()?;
+        let rp_omega = evaluations.pop().expect("dim + 2 evaluations");
+        let residual = evaluations.remove(0);
+        let mut jacobian = Mat::<f64>::zeros(dim, dim);
+        for (j, rp) in evaluations.iter().enumerate() {
+            let h = perturbed(j)[j] - x[j];
+            for (i, (a, b)) in rp.iter().zip(&residual).enumerate() {
+                jacobian[(i, j)] = (a - b) / h;
+            }
+        }
+        let d_omega = rp_omega
             .iter()
             .zip(&residual)
             .map(|(a, b)| (a - b) / dw)
