@@ -95,10 +95,19 @@ pub fn basis_derivative(harmonics: usize, tau: f64) -> Vec<f64> {
 /// (`coefficients[c·n + i]`, `harmonics` harmonics): the series at any `τ`, by the
 /// angle-addition recurrence (one `sin_cos` per call, no allocation).
 pub fn add_series_at(harmonics: usize, tau: f64, coefficients: &[f64], n: usize, out: &mut [f64]) {
+    let mut rotation = Rotation::new(tau);
+    if n == 1 {
+        let mut v = coefficients[0];
+        for k in 1..=harmonics {
+            let (c, s) = rotation.next();
+            v += coefficients[2 * k - 1] * c + coefficients[2 * k] * s;
+        }
+        out[0] += v;
+        return;
+    }
     for (o, &q) in out[..n].iter_mut().zip(&coefficients[..n]) {
         *o += q;
     }
-    let mut rotation = Rotation::new(tau);
     for k in 1..=harmonics {
         let (c, s) = rotation.next();
         let (a, b) = (
@@ -279,12 +288,23 @@ impl Sampling {
             if row.iter().all(|&v| v == 0.0) {
                 continue;
             }
+            if n == 1 {
+                let v = row[0];
+                for (o, &bm) in out.iter_mut().zip(b) {
+                    *o += bm * v;
+                }
+                continue;
+            }
             for (m, &bm) in b.iter().enumerate() {
-                let f = weight(m) * bm / ns;
                 for (o, &v) in out[m * n..(m + 1) * n].iter_mut().zip(row) {
-                    *o += f * v;
+                    *o += bm * v;
                 }
             }
+        }
+        // the weights of (T10), applied once per coefficient
+        for (m, chunk) in out.chunks_exact_mut(n.max(1)).enumerate() {
+            let f = weight(m) / ns;
+            chunk.iter_mut().for_each(|o| *o *= f);
         }
         out
     }

@@ -134,9 +134,10 @@ impl GeneralMsHbm {
             end_v: vec![],
         };
         for j in 0..ns {
-            tr.displacement.extend_from_slice(it.q());
-            tr.velocity.extend_from_slice(it.v());
-            tr.gaps.extend_from_slice(it.gaps());
+            // element by element: rows of one or two values, where a copy call costs more
+            tr.displacement.extend(it.q().iter().copied());
+            tr.velocity.extend(it.v().iter().copied());
+            tr.gaps.extend(it.gaps().iter().copied());
             it.step()?;
             let slot = (j + 1) % ns;
             tr.contact_forces[slot * nc..(slot + 1) * nc].copy_from_slice(it.forces());
