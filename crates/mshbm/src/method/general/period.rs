@@ -16,7 +16,6 @@ pub struct Trajectory {
     n_contacts: usize,
     n_frictions: usize,
     displacement: Vec<f64>,
-    velocity: Vec<f64>,
     gaps: Vec<f64>,
     contact_forces: Vec<f64>,
     friction_forces: Vec<f64>,
@@ -42,10 +41,6 @@ impl Trajectory {
     /// `q_N(t_j)` (N numbering).
     pub fn displacement(&self, j: usize) -> &[f64] {
         row(&self.displacement, self.n, j)
-    }
-    /// `q̇_N(t_j)`.
-    pub fn velocity(&self, j: usize) -> &[f64] {
-        row(&self.velocity, self.n, j)
     }
     /// Contact gaps at `t_j`.
     pub fn gaps(&self, j: usize) -> &[f64] {
@@ -126,7 +121,6 @@ impl GeneralMsHbm {
             n_contacts: nc,
             n_frictions: nf,
             displacement: Vec::with_capacity(ns * n),
-            velocity: Vec::with_capacity(ns * n),
             gaps: Vec::with_capacity(ns * nc),
             contact_forces: vec![0.0; ns * nc],
             friction_forces: vec![0.0; ns * nf],
@@ -136,7 +130,6 @@ impl GeneralMsHbm {
         for j in 0..ns {
             // element by element: rows of one or two values, where a copy call costs more
             tr.displacement.extend(it.q().iter().copied());
-            tr.velocity.extend(it.v().iter().copied());
             tr.gaps.extend(it.gaps().iter().copied());
             it.step()?;
             let slot = (j + 1) % ns;
