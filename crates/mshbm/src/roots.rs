@@ -58,11 +58,7 @@ pub fn find_sign_change(
     fa: f64,
     fb: f64,
 ) -> SignChange {
-    assert!(
-        (fa < 0.0) != (fb < 0.0),
-        "find_sign_change: f({a}) = {fa} and f({b}) = {fb} do not bracket a sign change"
-    );
-    let mut bracket = Bracket::new(a, b, fa, fb);
+    let mut bracket = Bracket::checked("find_sign_change", a, b, fa, fb);
     for _ in 0..200 {
         let Some(mid) = bracket.midpoint() else {
             break;
@@ -91,11 +87,7 @@ pub fn find_sign_change_with_slope(
     fa: f64,
     fb: f64,
 ) -> SignChange {
-    assert!(
-        (fa < 0.0) != (fb < 0.0),
-        "find_sign_change_with_slope: f({a}) = {fa} and f({b}) = {fb} do not bracket a sign change"
-    );
-    let mut bracket = Bracket::new(a, b, fa, fb);
+    let mut bracket = Bracket::checked("find_sign_change_with_slope", a, b, fa, fb);
     // 1. Newton from the evaluated point of smallest |f|, while it stays in the bracket and
     // halves |f|; bisection otherwise
     let mut latest: Option<(f64, f64, f64)> = None;
@@ -161,7 +153,13 @@ struct Bracket {
 }
 
 impl Bracket {
-    fn new(a: f64, b: f64, fa: f64, fb: f64) -> Self {
+    /// The bracket of `caller`'s sign change; panics (naming `caller`) when `fa`, `fb` do
+    /// not have opposite signs.
+    fn checked(caller: &str, a: f64, b: f64, fa: f64, fb: f64) -> Self {
+        assert!(
+            (fa < 0.0) != (fb < 0.0),
+            "{caller}: f({a}) = {fa} and f({b}) = {fb} do not bracket a sign change"
+        );
         let (negative, f_negative, non_negative, f_non_negative) = if fa < 0.0 {
             (a, fa, b, fb)
         } else {
