@@ -327,45 +327,14 @@ pub fn solve_at_frequency_observed<P: PeriodicProblem + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{
-        ArclengthFallback, ContinuationPolicy, Jacobian, Linearization, NewtonContraction,
-    };
-    use crate::solution::PeriodicSolution;
+    use crate::problem::tests::Scalar;
+    use crate::problem::NewtonContraction;
 
     /// `R(x, ω) = a x − ω` in one unknown (`a = 0`: singular Jacobian).
-    struct Line {
-        a: f64,
-    }
-
-    impl PeriodicProblem for Line {
-        fn dimension(&self) -> usize {
-            1
-        }
-        fn length_scale(&self) -> f64 {
-            1.0
-        }
-        fn initial_guess(&mut self, _omega: f64) -> Result<Vec<f64>> {
-            Ok(vec![0.0])
-        }
-        fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
-            Ok(vec![self.a * x[0] - omega])
-        }
-        fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
-            Ok(Linearization {
-                residual: self.residual(x, omega)?,
-                jacobian: Jacobian::Dense(faer::Mat::from_fn(1, 1, |_, _| self.a)),
-                d_omega: vec![-1.0],
-            })
-        }
-        fn solution(&mut self, _x: &[f64], _omega: f64, _dof: usize) -> Result<PeriodicSolution> {
-            unimplemented!("not needed by Newton")
-        }
-        fn continuation_policy(&self) -> ContinuationPolicy {
-            ContinuationPolicy {
-                newton_contraction: NewtonContraction::Quadratic,
-                where_arclength_fails: ArclengthFallback::EscapeCorner,
-                signals: 1,
-            }
+    fn line(a: f64) -> Scalar<impl FnMut(f64, f64) -> (f64, f64, f64)> {
+        Scalar {
+            equation: move |x, omega| (a * x - omega, a, -1.0),
+            contraction: NewtonContraction::Quadratic,
         }
     }
 
@@ -401,7 +370,7 @@ mod tests {
             ..NewtonOptions::default()
         };
         assert!(matches!(
-            solve(&mut Line { a: 2.0 }, &[0.0], 1.0, &bad),
+            solve(&mut line(2.0), &[0.0], 1.0, &bad),
             Err(Error::InvalidArgument { .. })
         ));
     }
@@ -409,11 +378,11 @@ mod tests {
     #[test]
     fn failures_are_typed_and_read_as_before() {
         // a = 2: x = ω / 2 in one step
-        let out = solve(&mut Line { a: 2.0 }, &[0.0], 3.0, &NewtonOptions::default()).unwrap();
+        let out = solve(&mut line(2.0), &[0.0], 3.0, &NewtonOptions::default()).unwrap();
         assert!(out.converged && out.reason.is_none());
         assert_eq!(out.x, vec![1.5]);
         // a = 0: no direction
-        let out = solve(&mut Line { a: 0.0 }, &[0.0], 3.0, &NewtonOptions::default()).unwrap();
+        let out = solve(&mut line(0.0), &[0.0], 3.0, &NewtonOptions::default()).unwrap();
         assert!(!out.converged);
         assert_eq!(out.reason, Some(NewtonFailure::SingularJacobian));
         assert_eq!(out.reason.unwrap().to_string(), "the Jacobian is singular");

@@ -272,7 +272,51 @@ pub(crate) mod tests {
     use faer::linalg::solvers::Solve;
     use faer::Mat;
 
-    use super::{Jacobian, JacobianOperator};
+    use super::{
+        ArclengthFallback, ContinuationPolicy, Jacobian, JacobianOperator, Linearization,
+        NewtonContraction, PeriodicProblem,
+    };
+    use crate::error::Result;
+    use crate::solution::PeriodicSolution;
+
+    /// A problem in one unknown: `equation(x, ω) = (R, ∂R/∂x, ∂R/∂ω)`, starting from 0.
+    pub(crate) struct Scalar<F: FnMut(f64, f64) -> (f64, f64, f64)> {
+        pub equation: F,
+        pub contraction: NewtonContraction,
+    }
+
+    impl<F: FnMut(f64, f64) -> (f64, f64, f64)> PeriodicProblem for Scalar<F> {
+        fn dimension(&self) -> usize {
+            1
+        }
+        fn length_scale(&self) -> f64 {
+            1.0
+        }
+        fn initial_guess(&mut self, _omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![0.0])
+        }
+        fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
+            Ok(vec![(self.equation)(x[0], omega).0])
+        }
+        fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
+            let (r, dx, dw) = (self.equation)(x[0], omega);
+            Ok(Linearization {
+                residual: vec![r],
+                jacobian: Jacobian::Dense(Mat::from_fn(1, 1, |_, _| dx)),
+                d_omega: vec![dw],
+            })
+        }
+        fn solution(&mut self, _: &[f64], _: f64, _: usize) -> Result<PeriodicSolution> {
+            unimplemented!("not needed by Newton or the corrector")
+        }
+        fn continuation_policy(&self) -> ContinuationPolicy {
+            ContinuationPolicy {
+                newton_contraction: self.contraction,
+                where_arclength_fails: ArclengthFallback::EscapeCorner,
+                signals: 1,
+            }
+        }
+    }
 
     /// A dense matrix as an operator: preconditioned by the identity until refreshed, then
     /// by its own LU (or never, with `refreshable = false`).

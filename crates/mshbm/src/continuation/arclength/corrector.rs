@@ -223,44 +223,18 @@ impl Corrector<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{ArclengthFallback, ContinuationPolicy, Linearization};
-    use crate::solution::PeriodicSolution;
+    use crate::problem::tests::Scalar;
 
     /// `R(x, ω) = x − 1/ω`, which refuses (as the general MS-HBM's integrator does) a
     /// frequency whose period overflows.
-    struct Reciprocal;
-
-    impl PeriodicProblem for Reciprocal {
-        fn dimension(&self) -> usize {
-            1
-        }
-        fn length_scale(&self) -> f64 {
-            1.0
-        }
-        fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
-            Ok(vec![1.0 / omega])
-        }
-        fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
-            let period = 1.0 / omega;
-            assert!(period.is_finite(), "evaluated at ω = {omega:e}");
-            Ok(vec![x[0] - period])
-        }
-        fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
-            Ok(Linearization {
-                residual: self.residual(x, omega)?,
-                jacobian: Jacobian::Dense(faer::Mat::from_fn(1, 1, |_, _| 1.0)),
-                d_omega: vec![1.0 / (omega * omega)],
-            })
-        }
-        fn solution(&mut self, _: &[f64], _: f64, _: usize) -> Result<PeriodicSolution> {
-            unreachable!("not asked")
-        }
-        fn continuation_policy(&self) -> ContinuationPolicy {
-            ContinuationPolicy {
-                newton_contraction: NewtonContraction::Unchecked,
-                where_arclength_fails: ArclengthFallback::EscapeCorner,
-                signals: 1,
-            }
+    fn reciprocal() -> Scalar<impl FnMut(f64, f64) -> (f64, f64, f64)> {
+        Scalar {
+            equation: |x, omega| {
+                let period = 1.0 / omega;
+                assert!(period.is_finite(), "evaluated at ω = {omega:e}");
+                (x - period, 1.0, period * period)
+            },
+            contraction: NewtonContraction::Unchecked,
         }
     }
 
@@ -282,7 +256,7 @@ mod tests {
             radius: 1.0,
         };
         assert!(corrector
-            .solve(&mut Reciprocal, &sc, start.clone(), &sphere, 0)
+            .solve(&mut reciprocal(), &sc, start.clone(), &sphere, 0)
             .unwrap()
             .is_none());
         // a normal frequency is evaluated as before
@@ -292,7 +266,7 @@ mod tests {
             radius: 1.0,
         };
         assert!(corrector
-            .solve(&mut Reciprocal, &sc, start, &sphere, 0)
+            .solve(&mut reciprocal(), &sc, start, &sphere, 0)
             .unwrap()
             .is_some());
     }
