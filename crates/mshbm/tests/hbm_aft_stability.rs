@@ -6,7 +6,7 @@ mod common;
 
 use std::f64::consts::PI;
 
-use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
+use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings, TracedBranch};
 use mshbm::harmonic::evaluate_with_slope;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
 use mshbm::method::settings::MethodSettings;
@@ -97,14 +97,12 @@ fn integrated_monodromy(omega: f64, z0: [f64; 4]) -> faer::Mat<f64> {
     })
 }
 
-/// The branch of example 03 from Ω = 0.8 down to 0.5 with the multipliers of every point,
-/// and a fresh method for the orbits.
-fn traced(harmonics: usize) -> (mshbm::frd::TracedBranch, Box<dyn PeriodicProblem>) {
-    let model = model();
+/// The branch of example 03 from Ω = 0.8 down to 0.5 with the multipliers of every point.
+fn trace(harmonics: usize) -> TracedBranch {
     let mut settings = FrdSettings::new(0.8 / (2.0 * PI), 0.5 / (2.0 * PI));
     settings.stability = true;
     let traced = trace_frd_branch(
-        &model,
+        &model(),
         &method_with(harmonics),
         &settings,
         false,
@@ -112,10 +110,21 @@ fn traced(harmonics: usize) -> (mshbm::frd::TracedBranch, Box<dyn PeriodicProble
     )
     .unwrap();
     assert!(traced.report.completed, "{}", traced.report.stop);
+    traced
+}
+
+/// The branch with [`HARMONICS`], traced once for the tests that share it, and a fresh
+/// method for the orbits.
+fn traced() -> (&'static TracedBranch, Box<dyn PeriodicProblem>) {
+    static SHARED: std::sync::OnceLock<TracedBranch> = std::sync::OnceLock::new();
     (
-        traced,
-        method_with(harmonics).build(&model).unwrap().problem,
+        SHARED.get_or_init(|| trace(HARMONICS)),
+        fresh_method(HARMONICS),
     )
+}
+
+fn fresh_method(harmonics: usize) -> Box<dyn PeriodicProblem> {
+    method_with(harmonics).build(&model()).unwrap().problem
 }
 
 /// Which piece of the branch a point is on: below the contact (`Lower`), between the
@@ -128,7 +137,7 @@ enum Piece {
     Upper,
 }
 
-fn piece(traced: &mshbm::frd::TracedBranch, index: usize, max_qn: f64) -> Piece {
+fn piece(traced: &TracedBranch, index: usize, max_qn: f64) -> Piece {
     let folds = &traced.branch.folds;
     if max_qn < 1.0 {
         Piece::Lower
@@ -146,7 +155,7 @@ fn piece(traced: &mshbm::frd::TracedBranch, index: usize, max_qn: f64) -> Piece 
 /// an unstable one leaves (by more than 5 %); on the lower, middle and upper branches.
 #[test]
 fn verdicts_agree_with_time_integration_started_on_the_orbit() {
-    let (traced, mut problem) = traced(HARMONICS);
+    let (traced, mut problem) = traced();
     let points: Vec<_> = traced.report.points.iter().filter(|p| !p.fold).collect();
     let mut checked = Vec::new();
     for (i, (p, b)) in points.iter().zip(&traced.branch.points).enumerate() {
@@ -184,7 +193,7 @@ fn verdicts_agree_with_time_integration_started_on_the_orbit() {
 /// (the variational equation is then the linear system's, exactly).
 #[test]
 fn largest_multiplier_equals_the_integrated_monodromys() {
-    let (traced, mut problem) = traced(HARMONICS);
+    let (traced, mut problem) = traced();
     let points: Vec<_> = traced.report.points.iter().filter(|p| !p.fold).collect();
     let mut seen = Vec::new();
     for (i, (p, b)) in points
@@ -229,7 +238,7 @@ fn largest_multiplier_equals_the_integrated_monodromys() {
 /// window it settles on neither period T nor 2T (quasi-periodic).
 #[test]
 fn period_doubling_and_neimark_sacker_are_labelled_where_the_motion_changes() {
-    let (traced, mut problem) = traced(HARMONICS);
+    let (traced, mut problem) = traced();
     let at = |kind: Crossing| -> Vec<f64> {
         traced
             .bifurcations
@@ -301,7 +310,7 @@ fn period_doubling_and_neimark_sacker_are_labelled_where_the_motion_changes() {
 /// [`HARMONICS`] the middle branch agrees ([`largest_multiplier_equals_the_integrated_monodromys`]).
 #[test]
 fn at_21_harmonics_the_contact_phase_is_too_coarse_for_the_multipliers() {
-    let (traced, mut problem) = traced(21);
+    let (traced, mut problem) = (trace(21), fresh_method(21));
     let points: Vec<_> = traced.report.points.iter().filter(|p| !p.fold).collect();
     let wrong = points
         .iter()
