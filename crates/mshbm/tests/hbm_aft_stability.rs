@@ -174,7 +174,7 @@ fn verdicts_agree_with_time_integration_started_on_the_orbit() {
             b.omega,
             p.max_qn
         );
-        checked.push((piece(&traced, i, p.max_qn), stable));
+        checked.push((piece(traced, i, p.max_qn), stable));
     }
     for piece in [Piece::Lower, Piece::Middle, Piece::Upper] {
         for stable in [true, false] {
@@ -202,7 +202,7 @@ fn largest_multiplier_equals_the_integrated_monodromys() {
         .enumerate()
         .step_by(3)
     {
-        let piece = piece(&traced, i, p.max_qn);
+        let piece = piece(traced, i, p.max_qn);
         let grazing = (p.max_qn - 1.0).abs() < 2e-3;
         // the upper branch's period-doubling window near its folds is left to the verdicts
         if grazing || (piece == Piece::Upper && !p.stable.unwrap()) {
@@ -259,7 +259,7 @@ fn period_doubling_and_neimark_sacker_are_labelled_where_the_motion_changes() {
             .zip(&traced.branch.points)
             .enumerate()
             .find(|(i, (p, b))| {
-                piece(&traced, *i, p.max_qn) == Piece::Upper
+                piece(traced, *i, p.max_qn) == Piece::Upper
                     && b.omega > window.0
                     && b.omega < window.1
                     && !p.stable.unwrap()
