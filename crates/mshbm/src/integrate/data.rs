@@ -73,6 +73,7 @@ pub(crate) struct Data {
     pub(crate) stiffness: SparseMatrix,
     pub(crate) damping: SparseMatrix,
     pub(crate) constant_load: Vec<f64>,
+    /// Amplitudes of `f_harm cos ωt`; empty when there is none.
     pub(crate) harmonic_load: Vec<f64>,
     pub(crate) omega: f64,
     pub(crate) contacts: Contacts,
@@ -87,13 +88,13 @@ pub(crate) struct Data {
 impl Data {
     /// `f(t) = f_const + f_harm cos ωt` into `out`.
     pub(crate) fn load_into(&self, t: f64, out: &mut [f64]) {
-        let c = if self.omega != 0.0 && self.harmonic_load.iter().any(|&f| f != 0.0) {
-            (self.omega * t).cos()
-        } else {
-            0.0
-        };
-        for (i, o) in out.iter_mut().enumerate() {
-            *o = self.constant_load[i] + c * self.harmonic_load[i];
+        out.copy_from_slice(&self.constant_load);
+        // an unforced system keeps no harmonic load (no cosine per step)
+        if self.omega != 0.0 && !self.harmonic_load.is_empty() {
+            let c = (self.omega * t).cos();
+            for (o, f) in out.iter_mut().zip(&self.harmonic_load) {
+                *o += c * f;
+            }
         }
         if let Some((h, coef)) = &self.periodic_load {
             crate::harmonic::add_series_at(*h, self.omega * t, coef, self.n, out);

@@ -112,7 +112,11 @@ impl Integrator {
             stiffness: system.stiffness.clone(),
             damping: system.damping.clone(),
             constant_load: system.constant_load.clone(),
-            harmonic_load: system.harmonic_load.clone(),
+            harmonic_load: if forced {
+                system.harmonic_load.clone()
+            } else {
+                Vec::new()
+            },
             omega,
             contacts,
             frictions,
