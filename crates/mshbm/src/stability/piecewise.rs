@@ -184,11 +184,14 @@ impl RealModalForm {
 }
 
 /// The system matrices of a piecewise-constant linear system that recur along a diagram,
-/// with their real modal forms and the transfers between them, for the multipliers of
-/// many interval sequences (docs/theory.md (T141)).
+/// one per active set (a set of closed contacts), with their real modal forms and the
+/// transfers between them, for the multipliers of many interval sequences
+/// (docs/theory.md (T141)).
 #[derive(Clone, Debug, Default)]
 pub struct PiecewiseLinearSystems {
     systems: Vec<(Mat<f64>, Option<RealModalForm>)>,
+    /// Index into `systems` by active set.
+    by_set: HashMap<Vec<bool>, usize>,
     /// `V_g⁻¹ V_h` by `(g, h)`.
     transfers: HashMap<(usize, usize), Mat<f64>>,
 }
@@ -199,21 +202,22 @@ impl PiecewiseLinearSystems {
         Self::default()
     }
 
-    /// Adds the system matrix `𝔄` (all of the same size) and returns its index.
-    pub fn add(&mut self, a: Mat<f64>) -> usize {
+    /// The index of the system matrix `𝔄` of the active set `set`, built by `matrix` (all
+    /// of the same size) the first time the set is met.
+    pub fn index_of(
+        &mut self,
+        set: &[bool],
+        matrix: impl FnOnce() -> Result<Mat<f64>>,
+    ) -> Result<usize> {
+        if let Some(&index) = self.by_set.get(set) {
+            return Ok(index);
+        }
+        let a = matrix()?;
         let modal = RealModalForm::new(&a);
         self.systems.push((a, modal));
-        self.systems.len() - 1
-    }
-
-    /// Number of systems added.
-    pub fn len(&self) -> usize {
-        self.systems.len()
-    }
-
-    /// No system added.
-    pub fn is_empty(&self) -> bool {
-        self.systems.is_empty()
+        let index = self.systems.len() - 1;
+        self.by_set.insert(set.to_vec(), index);
+        Ok(index)
     }
 
     /// The Floquet multipliers of `ż = 𝔄_{g_s} z` on consecutive intervals `(g_s, Δt_s)`
@@ -329,11 +333,18 @@ mod tests {
     fn cyclic_modal_product_has_the_eigenvalues_of_the_monodromy_of_dense_exponentials() {
         let (open, closed, stiff) = (chain(0.0, 0.05), chain(4.0, 0.05), chain(30.0, 0.05));
         let mut systems = PiecewiseLinearSystems::new();
-        let ids = [
-            systems.add(open.clone()),
-            systems.add(closed.clone()),
-            systems.add(stiff.clone()),
-        ];
+        // three active sets, one matrix each
+        let sets = [[false, false], [true, false], [true, true]];
+        let ids = [&open, &closed, &stiff]
+            .iter()
+            .zip(&sets)
+            .map(|(a, set)| systems.index_of(set, || Ok((*a).clone())).unwrap())
+            .collect::<Vec<_>>();
+        // a set met again is not built again
+        assert_eq!(
+            systems.index_of(&sets[1], || unreachable!()).unwrap(),
+            ids[1]
+        );
         let matrices = [&open, &closed, &stiff];
         assert!(
             systems.systems.iter().all(|(_, form)| form.is_some()),
@@ -391,7 +402,7 @@ mod tests {
         let a = Mat::from_fn(2, 2, |i, j| [[0.0, 1.0], [-1.0, -2.0]][i][j]);
         assert!(RealModalForm::new(&a).is_none());
         let mut systems = PiecewiseLinearSystems::new();
-        let g = systems.add(a.clone());
+        let g = systems.index_of(&[true], || Ok(a.clone())).unwrap();
         let values = systems.multipliers(&[(g, 0.5), (g, 0.5)]).unwrap();
         // double eigenvalue −1: multipliers e^{−1}
         for v in values {

@@ -16,8 +16,6 @@
 //! It needs a mass on every DOF (the consistent mass, the HBM-AFT's default): a massless DOF
 //! (the redistributed mass) makes the first-order form singular.
 
-use std::collections::HashMap;
-
 use super::HbmAft;
 use crate::error::{Error, Result};
 use crate::harmonic::evaluate;
@@ -34,7 +32,7 @@ pub(super) struct PenaltyStability {
     /// `M, C, K` with the coupling `Wᵀ` (contacts × all DOFs): the set `A` enters as the
     /// compliance `−diag(k_p,c [c ∈ A])`, so that `K_eff = K + W K_A Wᵀ`.
     system: ReducedSystem,
-    sets: HashMap<Vec<bool>, usize>,
+    /// The first-order matrices of the sets met so far.
     pieces: PiecewiseLinearSystems,
 }
 
@@ -79,7 +77,6 @@ impl HbmAft {
             )?;
             self.stability = Some(PenaltyStability {
                 system,
-                sets: HashMap::new(),
                 pieces: PiecewiseLinearSystems::new(),
             });
         }
@@ -110,26 +107,21 @@ impl HbmAft {
             }
             let middle = 0.5 * (a + b);
             let set: Vec<bool> = gaps.iter().map(|g| evaluate(g, middle) < 0.0).collect();
-            let index = match stability.sets.get(&set) {
-                Some(&index) => index,
-                None => {
-                    let compliance: Vec<f64> = (0..ncon * ncon)
-                        .map(|k| {
-                            let (i, j) = (k / ncon, k % ncon);
-                            if i == j && set[i] {
-                                -penalty[i]
-                            } else {
-                                0.0
-                            }
-                        })
-                        .collect();
-                    let index = stability
-                        .pieces
-                        .add(stability.system.state_matrix(&compliance)?);
-                    stability.sets.insert(set, index);
-                    index
-                }
-            };
+            let system = &stability.system;
+            let index = stability.pieces.index_of(&set, || {
+                // the set's springs as a negative compliance: K + Σ_{c∈A} k_p,c w_c w_cᵀ
+                let compliance: Vec<f64> = (0..ncon * ncon)
+                    .map(|k| {
+                        let (i, j) = (k / ncon, k % ncon);
+                        if i == j && set[i] {
+                            -penalty[i]
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect();
+                system.state_matrix(&compliance)
+            })?;
             pieces.push((index, (b - a) / omega));
         }
         let values = stability.pieces.multipliers(&pieces)?;

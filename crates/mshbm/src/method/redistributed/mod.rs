@@ -256,8 +256,7 @@ pub struct RedistributedMsHbm {
     /// The L-system of the Floquet analysis (full or reduced), built on first use.
     stability_system: Option<Rc<ReducedSystem>>,
     /// First-order matrix and its eigendecomposition per active set (stability).
-    stability_sets: std::collections::HashMap<Vec<bool>, usize>,
-    /// The first-order matrices of the active sets in `stability_sets` (T141).
+    /// The first-order matrices of the active sets met so far (T141).
     stability_pieces: stability::PiecewiseLinearSystems,
     /// The memory budget, also of the Floquet analysis.
     limits: Limits,
@@ -370,7 +369,6 @@ impl RedistributedMsHbm {
             frequency: None,
             stability_options: StabilityOptions::default(),
             stability_system: None,
-            stability_sets: std::collections::HashMap::new(),
             stability_pieces: stability::PiecewiseLinearSystems::new(),
             limits: *limits,
             system,
@@ -419,7 +417,6 @@ impl RedistributedMsHbm {
         self.frequency = None;
         self.last_evaluation = None;
         self.preconditioner = Default::default();
-        self.stability_sets.clear();
         self.stability_pieces = stability::PiecewiseLinearSystems::new();
         Ok(())
     }
@@ -597,7 +594,6 @@ impl RedistributedMsHbm {
         if options != self.stability_options {
             self.stability_options = options;
             self.stability_system = None;
-            self.stability_sets.clear();
             self.stability_pieces = stability::PiecewiseLinearSystems::new();
         }
         Ok(())
@@ -1001,17 +997,9 @@ impl PeriodicProblem for RedistributedMsHbm {
         // and their modal forms, once per set
         let mut systems = Vec::with_capacity(integration.groups.len());
         for g in &integration.groups {
-            let index = match self.stability_sets.get(&g.set.closed) {
-                Some(&index) => index,
-                None => {
-                    let compliance = self.contact.compliance(&g.set.closed)?;
-                    let index = self
-                        .stability_pieces
-                        .add(reduced.state_matrix(&compliance)?);
-                    self.stability_sets.insert(g.set.closed.clone(), index);
-                    index
-                }
-            };
+            let index = self.stability_pieces.index_of(&g.set.closed, || {
+                reduced.state_matrix(&self.contact.compliance(&g.set.closed)?)
+            })?;
             systems.push(index);
         }
         let pieces: Vec<(usize, f64)> = integration
