@@ -109,7 +109,8 @@ fn friction_forces_and_multipliers_in_the_json() {
 /// `frf --method mshbm` traces the bar with impacts over 89–91 kHz (H = 3): every point
 /// converged to 1e-10, the contact DOF reaches the support without penetrating, and the
 /// minimum near 90 kHz is that of full-system time integration (−0.23205 mm at H = 10,
-/// tests/general_mshbm.rs) within 3 %.
+/// tests/general_mshbm.rs) within 3 %. (Event-driven, the continuation's last arclength
+/// point may pass the end frequency by a fraction of its step.)
 #[test]
 fn frf_traces_the_bar_with_impacts() {
     let dir = std::env::temp_dir().join(format!("mshbm_general_frf_{}", std::process::id()));
@@ -148,7 +149,8 @@ fn frf_traces_the_bar_with_impacts() {
     assert!(rows.len() >= 5, "{text}");
     let f: Vec<f64> = rows.iter().map(|r| r[col("frequency_hz")]).collect();
     assert_eq!(f[0], 89000.0);
-    assert_eq!(*f.last().unwrap(), 91000.0);
+    let last = *f.last().unwrap();
+    assert!((91000.0..91010.0).contains(&last), "{last}");
     assert!(f.windows(2).all(|w| w[1] > w[0]));
     for r in &rows {
         assert!(r[col("residual_norm")] <= 1e-10);

@@ -30,15 +30,16 @@ pub enum Method {
     /// MS-HBM with redistributed mass: static contact per sample, semi-analytical Jacobian.
     Redistributed,
     /// General MS-HBM (paper Section 2): consistent mass, the contact and friction DOFs
-    /// integrated over one period by Moreau–Jean (impacts with e_N = 0, Coulomb friction),
-    /// finite-difference Jacobian. `--samples` = time steps per period (default
-    /// max(512, 32·(2H+1))). Floquet multipliers from the whole model's period map. With
-    /// impacts Newton converges to 1e-10 where the contact DOF does not chatter after a
-    /// release (the bar at 60 and 90 kHz); near 30 kHz it stalls near 1e-4: use e.g.
-    /// `--tolerance 1e-4` there. The time-stepped residual is piecewise affine at the scale
-    /// of one step, so `frf` steps in frequency past the corners of a branch (a fold there
-    /// is jumped over; the summary counts such points): the friction oscillator's FRD
-    /// completes, the bar with impacts only in pieces (e.g. 89–91 kHz with H = 3).
+    /// integrated over one period. Without friction: event-driven (impacts and releases
+    /// located to round-off, Newton's impact law, a smooth residual with its Jacobian from
+    /// sensitivities; Newton converges to 1e-10, e.g. the bar with impacts at 30 kHz);
+    /// `frf` passes grazing contacts coming from the impacting side but stops where an
+    /// impact starts (a square-root singularity of the period map). With friction:
+    /// Moreau–Jean time stepping with a finite-difference Jacobian; its residual is
+    /// piecewise affine at the scale of one step, so `frf` steps in frequency past the
+    /// corners of a branch (a fold there is jumped over; the summary counts such points).
+    /// `--samples` = DFT samples and time steps per period (default max(512, 32·(2H+1))).
+    /// Floquet multipliers from the whole model's Moreau–Jean period map.
     Mshbm,
     /// Baseline: classical harmonic balance with the alternating frequency–time method and
     /// penalty contact kp·max(0, −g) (the paper's Fig. 11), condensed exactly onto the

@@ -48,9 +48,18 @@ impl GeneralMsHbm {
         let nc = n_coefficients(self.harmonics);
         let mut q = vec![0.0; self.system.n_dofs()];
         let mut v = vec![0.0; self.system.n_dofs()];
-        for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
-            q[d] = x[nc * n + i];
-            v[d] = x[(nc + 1) * n + i] * fd.omega();
+        if self.is_event_driven() {
+            // the unknowns hold the state at the section, not at t = 0
+            let (qn, vn) = self.event_state_at_zero(fd, x)?;
+            for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
+                q[d] = qn[i];
+                v[d] = vn[i];
+            }
+        } else {
+            for (i, &d) in self.system.nonlinear_dofs.iter().enumerate() {
+                q[d] = x[nc * n + i];
+                v[d] = x[(nc + 1) * n + i] * fd.omega();
+            }
         }
         let z = self.linear_part_amplitudes(fd, x)?;
         for (l, &d) in self.system.linear_dofs.iter().enumerate() {

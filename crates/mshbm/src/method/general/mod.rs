@@ -1,8 +1,12 @@
 //! The general MS-HBM (paper Section 2, eqs. 1–13; docs/theory.md §8, (T56)–(T66)): the
 //! linear subsystem in the frequency domain, the nonlinear subsystem — the DOFs the
-//! set-valued laws act on, with their mass — integrated over one period by Moreau–Jean time
-//! stepping with impacts and Coulomb friction ([`crate::integrate`]), and Newton with a
-//! finite-difference Jacobian. The CLI (`--method mshbm`) and the outputs (JSON
+//! set-valued laws act on, with their mass — integrated over one period, and Newton.
+//! Two integrations ([`PeriodIntegration`]): **event-driven** for frictionless contacts
+//! (closed-form flows between impacts and releases located to round-off, a residual smooth
+//! between events, its Jacobian from sensitivities with saltation matrices; (T143)–(T146),
+//! `set_flow.rs`, `event_period.rs`, `event_residual.rs`), and **Moreau–Jean time
+//! stepping** with impacts and Coulomb friction ([`crate::integrate`]) and a
+//! finite-difference Jacobian, described below. The CLI (`--method mshbm`) and the outputs (JSON
 //! `"method": "mshbm"`, [`crate::solution::MethodKind::General`]) call this method `mshbm`.
 //!
 //! **Partition.** `N` = all DOFs of the nodes that carry a contact or a friction DOF
@@ -59,17 +63,22 @@
 //! is meant for.
 //!
 //! **Files**: this one holds the settings, the construction, the linear response and the
-//! [`PeriodicProblem`] implementation; `period.rs` the one-period integration of the
-//! N-subsystem and the residual; `friction.rs` the friction limits and the stuck-friction
+//! [`PeriodicProblem`] implementation; `period.rs` the one-period Moreau–Jean integration
+//! of the N-subsystem and the residual; `set_flow.rs` the flow of one active set,
+//! `event_period.rs` the event-driven period with its sensitivities, `event_residual.rs`
+//! the event-driven residual and Jacobian (the section `t_s`); `friction.rs` the friction limits and the stuck-friction
 //! selection; `floquet.rs` the whole system's initial state and monodromy.
 //!
 //! Measurements and their history (why the position projection and the `q̇/ω` unknowns,
 //! what limits Newton and the FRD on the bar with impacts, what was tried and rejected):
 //! `docs/general-mshbm.md`.
 
+mod event_period;
+mod event_residual;
 mod floquet;
 mod friction;
 mod period;
+mod set_flow;
 
 pub use floquet::MAX_FLOQUET_DOFS;
 pub use period::Trajectory;
@@ -123,6 +132,24 @@ pub struct GeneralOptions {
     /// Relative finite-difference step `ε`: `h_j = ε · max(|x_j|, s_j)` (default 1e-6).
     /// Larger steps (1e-5…1e-4) average over the grid-level discontinuities of impacts.
     pub fd_step: f64,
+    /// How the N-subsystem is integrated over a period (default
+    /// [`PeriodIntegration::Auto`]).
+    pub integration: PeriodIntegration,
+}
+
+/// How the general MS-HBM integrates the N-subsystem over one period.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PeriodIntegration {
+    /// Event-driven for frictionless models, Moreau–Jean time stepping with friction.
+    Auto,
+    /// Event-driven (docs/theory.md (T143)–(T146)): closed-form flows between impacts and
+    /// releases located to round-off, a residual smooth between events and its Jacobian
+    /// from sensitivities. Frictionless contacts only; impacts that accumulate (chatter,
+    /// possible with `e_N > 0`) are refused.
+    EventDriven,
+    /// Moreau–Jean time stepping (T59)–(T63) with a finite-difference Jacobian (T65):
+    /// friction, and accumulating impacts.
+    TimeStepping,
 }
 
 impl GeneralOptions {
@@ -136,6 +163,7 @@ impl GeneralOptions {
             fd_step: 1e-6,
             anticipate_contacts: true,
             project_contacts: true,
+            integration: PeriodIntegration::Auto,
         }
     }
 }
@@ -162,6 +190,10 @@ pub struct GeneralMsHbm {
     frequency: Option<Box<dyn CondensedFrequency>>,
     /// Diagonal of `K_NN` (N numbering).
     stiffness_nn_diagonal: Vec<f64>,
+    /// The N-subsystem, dense, when the period is event-driven (`None`: time stepping).
+    dense: Option<set_flow::DenseSubsystem>,
+    /// The active sets' flows met so far (event-driven).
+    flows: event_period::FlowCache,
 }
 
 impl GeneralMsHbm {
@@ -254,9 +286,44 @@ impl GeneralMsHbm {
             // the subsystem has no linear part
             beta_condensed: 0.0,
         };
+        let event_driven = match options.integration {
+            PeriodIntegration::TimeStepping => false,
+            PeriodIntegration::Auto => model.frictions.is_empty(),
+            PeriodIntegration::EventDriven => {
+                if !model.frictions.is_empty() {
+                    return Err(Error::argument(
+                        "integration",
+                        "event-driven integration handles frictionless contacts only; the model has friction elements (use time stepping)",
+                    ));
+                }
+                true
+            }
+        };
+        let dense = if event_driven {
+            let [k, m, c] = nn.clone().map(|a| a.to_dense());
+            let mass_inv = m.partial_piv_lu().solve(Mat::<f64>::identity(n, n));
+            let mut normals = Mat::<f64>::zeros(n, subsystem.contacts.len());
+            for (j, ct) in subsystem.contacts.iter().enumerate() {
+                for &(i, w) in &ct.w {
+                    normals[(i, j)] += w;
+                }
+            }
+            Some(set_flow::DenseSubsystem {
+                mass: m,
+                damping: c,
+                stiffness: k,
+                mass_inv,
+                normals,
+                gaps: subsystem.contacts.iter().map(|c| c.gap).collect(),
+            })
+        } else {
+            None
+        };
         let condensation =
             ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
         Ok(GeneralMsHbm {
+            dense,
+            flows: Default::default(),
             partition,
             harmonics: h,
             steps,
@@ -318,6 +385,47 @@ impl GeneralMsHbm {
         Ok(())
     }
 
+    /// Whether the period is integrated event-driven ([`PeriodIntegration`]).
+    pub fn is_event_driven(&self) -> bool {
+        self.dense.is_some()
+    }
+
+    /// The event-driven residual, its sensitivity Jacobian, and `∂R/∂ω` by central
+    /// differences of the residual (smooth in ω between events; docs/theory.md (T146)):
+    /// the three evaluations run in parallel.
+    fn event_linearization(&self, x: &[f64], omega: f64) -> Result<Linearization> {
+        let fd = self.frequency.as_deref().expect("prepared");
+        let dw = 1e-6 * omega;
+        let (lo, hi) = (omega - dw, omega + dw);
+        let (point, (below, above)) = rayon::join(
+            || self.event_residual(fd, x, true),
+            || {
+                rayon::join(
+                    || -> Result<Vec<f64>> {
+                        let f = self.frequency_data(lo)?;
+                        Ok(self.event_residual(&*f, x, false)?.residual)
+                    },
+                    || -> Result<Vec<f64>> {
+                        let f = self.frequency_data(hi)?;
+                        Ok(self.event_residual(&*f, x, false)?.residual)
+                    },
+                )
+            },
+        );
+        let point = point?;
+        let (below, above) = (below?, above?);
+        let d_omega = above
+            .iter()
+            .zip(&below)
+            .map(|(a, b)| (a - b) / (hi - lo))
+            .collect();
+        Ok(Linearization {
+            residual: point.residual,
+            jacobian: Jacobian::Dense(point.jacobian.expect("asked for")),
+            d_omega,
+        })
+    }
+
     fn check_x(&self, x: &[f64]) -> Result<()> {
         check_dimension(x, self.dimension())
     }
@@ -342,7 +450,7 @@ impl GeneralMsHbm {
         let fd = self.frequency.as_deref().expect("prepared");
         let n = self.n();
         let nc = n_coefficients(self.harmonics);
-        let mut x = vec![0.0; n * (nc + 2)];
+        let mut x = vec![0.0; self.dimension()];
         for k in 0..=self.harmonics {
             let kw = k as f64 * omega;
             let a = fd.condensed_dynamic_stiffness(k);
@@ -369,6 +477,10 @@ impl GeneralMsHbm {
             x[nc * n + i] = q;
             x[(nc + 1) * n + i] = v / omega;
         }
+        if self.is_event_driven() {
+            // the event-driven unknowns hold the state at the section
+            self.harmonic_section_state(&mut x, omega);
+        }
         Ok(x)
     }
 }
@@ -379,6 +491,19 @@ impl PeriodicProblem for GeneralMsHbm {
     /// staircase of corners ≈ 1e-7 apart in scaled arclength (module docs): the continuation
     /// steps in frequency once the arclength step falls below 1e-4, well above them.
     fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
+        if self.is_event_driven() {
+            // a residual smooth between events with its exact Jacobian; at a grazing impact
+            // the period map has a square-root singularity (docs/theory.md (T146)), where
+            // the arclength corrector fails at every step size: below 1e-6 the
+            // continuation tries frequency steps and otherwise stops there
+            return crate::problem::ContinuationPolicy {
+                newton_contraction: crate::problem::NewtonContraction::Quadratic,
+                where_arclength_fails: crate::problem::ArclengthFallback::StepInFrequency {
+                    min_arclength_step: 1e-6,
+                },
+                signals: self.n(),
+            };
+        }
         crate::problem::ContinuationPolicy {
             newton_contraction: crate::problem::NewtonContraction::Unchecked,
             where_arclength_fails: crate::problem::ArclengthFallback::StepInFrequency {
@@ -404,12 +529,18 @@ impl PeriodicProblem for GeneralMsHbm {
         self.check_x(x)?;
         self.prepare(omega)?;
         let fd = self.frequency.as_deref().expect("prepared");
+        if self.is_event_driven() {
+            return Ok(self.event_residual(fd, x, false)?.residual);
+        }
         Ok(self.residual_with(fd, x)?.0)
     }
 
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
         self.check_x(x)?;
         self.prepare(omega)?;
+        if self.is_event_driven() {
+            return self.event_linearization(x, omega);
+        }
         let this = &*self;
         let fd = this.frequency.as_deref().expect("prepared");
         let dim = this.dimension();
@@ -491,7 +622,14 @@ impl PeriodicProblem for GeneralMsHbm {
         self.check_x(x)?;
         self.prepare(omega)?;
         let fd = self.frequency.as_deref().expect("prepared");
-        let (residual, tr) = self.residual_with(fd, x)?;
+        let (residual, tr) = if self.is_event_driven() {
+            (
+                self.event_residual(fd, x, false)?.residual,
+                self.event_trajectory(fd, x)?,
+            )
+        } else {
+            self.residual_with(fd, x)?
+        };
         let n = self.n();
         let h = self.harmonics;
         let ns = self.steps;

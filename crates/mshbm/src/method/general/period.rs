@@ -34,6 +34,29 @@ fn column(values: &[f64], width: usize, i: usize) -> Vec<f64> {
 }
 
 impl Trajectory {
+    /// A frictionless trajectory from samples on the step grid (rows of `n` displacements
+    /// and of `n_contacts` gaps and forces) and the state at `t = T`.
+    pub(super) fn from_samples(
+        n: usize,
+        displacement: Vec<f64>,
+        gaps: Vec<f64>,
+        contact_forces: Vec<f64>,
+        (end_q, end_v): (Vec<f64>, Vec<f64>),
+    ) -> Self {
+        let steps = displacement.len() / n.max(1);
+        Trajectory {
+            n,
+            n_contacts: gaps.len() / steps.max(1),
+            n_frictions: 0,
+            displacement,
+            gaps,
+            contact_forces,
+            friction_forces: vec![],
+            end_q,
+            end_v,
+        }
+    }
+
     /// Steps per period `N_s`.
     pub fn steps(&self) -> usize {
         self.displacement.len() / self.n.max(1)
@@ -175,6 +198,9 @@ impl GeneralMsHbm {
         self.check_x(x)?;
         self.prepare(omega)?;
         let fd = self.frequency.as_deref().expect("prepared");
+        if self.is_event_driven() {
+            return self.event_trajectory(fd, x);
+        }
         self.integrate(fd, x)
     }
 }

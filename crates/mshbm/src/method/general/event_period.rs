@@ -1,0 +1,673 @@
+//! Event-driven integration of the frictionless N-subsystem over one period, with the
+//! sensitivities of its samples and end state (docs/theory.md (T143)–(T146)).
+//!
+//! Between events the state is the closed-form flow of the active set ([`SetFlow`]):
+//! `s(θ) = s_p(θ) + Re V e^{Λ(θ−θ_a)} c`, the periodic particular part plus modes. Events —
+//! an open contact's gap reaching zero, a closed contact's force reaching zero — are found
+//! by scanning the closed-form gaps and forces on a grid finer than the fastest mode and
+//! the highest harmonic, and located to the last bit by bisection
+//! ([`crate::roots::find_sign_change`]). An impact applies Newton's law (with `e_N = 0` the
+//! plastic impact of (T144), after which the contact stays closed while its force is
+//! non-negative); a release changes the set without a jump.
+//!
+//! Sensitivities `S(θ) = ∂x(θ)/∂p`, `p = (φ, x_0)` (the load's coefficients and the initial
+//! state), follow the same closed form between events and the saltation matrix (T145) at
+//! impacts; at a release the vector fields agree and `S` is continuous.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+use faer::{c64, Mat};
+
+use super::set_flow::{DenseSubsystem, SetFlow};
+use crate::error::{Error, Result};
+use crate::harmonic::n_coefficients;
+use crate::roots::find_sign_change;
+
+/// Events allowed in one period before the integration gives up (impacts with `e_N > 0`
+/// that accumulate: chatter).
+pub(super) const MAX_EVENTS: usize = 10_000;
+
+/// The flows of the active sets met so far (shared by parallel evaluations).
+#[derive(Default)]
+pub(super) struct FlowCache {
+    flows: Mutex<HashMap<Vec<usize>, Arc<SetFlow>>>,
+}
+
+impl FlowCache {
+    fn get(&self, sub: &DenseSubsystem, closed: &[usize]) -> Result<Arc<SetFlow>> {
+        if let Some(f) = self.flows.lock().expect("flow cache").get(closed) {
+            return Ok(f.clone());
+        }
+        let flow = Arc::new(SetFlow::new(sub, closed)?);
+        self.flows
+            .lock()
+            .expect("flow cache")
+            .insert(closed.to_vec(), flow.clone());
+        Ok(flow)
+    }
+}
+
+/// One period of the N-subsystem in the section frame (`θ ∈ [0, T]`).
+pub(super) struct EventPeriod {
+    /// `q(θ_j)` at the samples `θ_j = θ_off + jT/N_s` (rows of `n`).
+    pub samples: Vec<f64>,
+    /// Gaps at the samples (rows of `n_contacts`).
+    pub gaps: Vec<f64>,
+    /// Contact forces at the samples (rows of `n_contacts`; impulses of impacts excluded).
+    pub forces: Vec<f64>,
+    pub end_q: Vec<f64>,
+    pub end_v: Vec<f64>,
+    /// `∂q(θ_j)/∂p` (rows `j·n + i`, `p = (φ, q_0, q̇_0)`), when asked for.
+    pub sample_sensitivity: Option<Mat<f64>>,
+    /// `∂(q, q̇)(T)/∂p` (`2n × p`), when asked for.
+    pub end_sensitivity: Option<Mat<f64>>,
+    /// Number of events (impacts and releases).
+    pub events: usize,
+}
+
+/// What one integration needs.
+pub(super) struct EventProblem<'a> {
+    pub sub: &'a DenseSubsystem,
+    pub flows: &'a FlowCache,
+    pub harmonics: usize,
+    pub omega: f64,
+    /// The load's coefficients `φ` (harmonic-major, `n (2H + 1)`) in the section frame.
+    pub load: &'a [f64],
+    pub restitution: f64,
+    pub steps: usize,
+    /// Offset of the sample grid, in `[0, T/N_s)`.
+    pub sample_offset: f64,
+    /// How long to integrate (`T` for a period; samples after it are not taken).
+    pub duration: f64,
+    /// Gap below which a contact counts as touching (a length ≪ the motion).
+    pub gap_tolerance: f64,
+    pub sensitivities: bool,
+}
+
+/// `e^{ikωθ}`, `k = 0..=H`, by recurrence re-anchored every 16 harmonics.
+fn phases(omega: f64, theta: f64, out: &mut [c64]) {
+    out[0] = c64::new(1.0, 0.0);
+    let (s, c) = (omega * theta).sin_cos();
+    let step = c64::new(c, s);
+    for k in 1..out.len() {
+        out[k] = if k % 16 == 0 {
+            let (s, c) = (k as f64 * omega * theta).sin_cos();
+            c64::new(c, s)
+        } else {
+            out[k - 1] * step
+        };
+    }
+}
+
+/// An active set at this frequency and load.
+struct ActiveSet {
+    flow: Arc<SetFlow>,
+    /// `X_k` (`2m × n`).
+    responses: Vec<Mat<c64>>,
+    /// `X_k F̂_k` (`2m`), `F̂_0 = φ_0 − K q̄`, `F̂_k = φ_{c,k} − i φ_{s,k}`.
+    particular: Vec<Vec<c64>>,
+}
+
+/// The current interval between events.
+struct Interval {
+    set: usize,
+    start: f64,
+    /// `V⁻¹ (s_a − s_p(θ_a))`.
+    coefficients: Vec<c64>,
+    /// `V⁻¹ (Tᵀ S_a − ∂s_p(θ_a)/∂p)` (`2m × p`).
+    sensitivity: Mat<c64>,
+}
+
+struct Integration<'a> {
+    pb: &'a EventProblem<'a>,
+    n: usize,
+    n_params: usize,
+    sets: Vec<ActiveSet>,
+    e: Vec<c64>,
+}
+
+impl<'a> Integration<'a> {
+    fn set_index(&mut self, closed: &[usize]) -> Result<usize> {
+        if let Some(i) = self.sets.iter().position(|s| s.flow.closed == closed) {
+            return Ok(i);
+        }
+        let flow = self.pb.flows.get(self.pb.sub, closed)?;
+        let responses = flow.harmonic_responses(self.pb.omega, self.pb.harmonics)?;
+        let n = self.n;
+        let particular = responses
+            .iter()
+            .enumerate()
+            .map(|(k, x)| {
+                let f: Vec<c64> = (0..n)
+                    .map(|i| {
+                        if k == 0 {
+                            c64::new(self.pb.load[i] - flow.offset_load()[i], 0.0)
+                        } else {
+                            c64::new(
+                                self.pb.load[(2 * k - 1) * n + i],
+                                -self.pb.load[2 * k * n + i],
+                            )
+                        }
+                    })
+                    .collect();
+                (0..x.nrows())
+                    .map(|r| (0..n).map(|j| x[(r, j)] * f[j]).sum())
+                    .collect()
+            })
+            .collect();
+        self.sets.push(ActiveSet {
+            flow,
+            responses,
+            particular,
+        });
+        Ok(self.sets.len() - 1)
+    }
+
+    /// The load `F(θ)` from the phases `self.e`.
+    fn load(&self) -> Vec<f64> {
+        self.load_with(&self.e)
+    }
+
+    /// The load `F(θ)` for the phases `e` of `θ`.
+    fn load_with(&self, e: &[c64]) -> Vec<f64> {
+        let n = self.n;
+        let phi = self.pb.load;
+        let mut f = phi[..n].to_vec();
+        for k in 1..e.len() {
+            let (c, s) = (e[k].re, e[k].im);
+            for (i, fi) in f.iter_mut().enumerate() {
+                *fi += c * phi[(2 * k - 1) * n + i] + s * phi[2 * k * n + i];
+            }
+        }
+        f
+    }
+
+    /// `s_p(θ)` from the phases `self.e`.
+    fn particular(&self, set: usize) -> Vec<f64> {
+        self.particular_with(&self.e, set)
+    }
+
+    /// `s_p(θ)` for the phases `e` of `θ`.
+    fn particular_with(&self, e: &[c64], set: usize) -> Vec<f64> {
+        let p = &self.sets[set].particular;
+        let m2 = self.sets[set].flow.reduced();
+        (0..m2)
+            .map(|i| p.iter().zip(e).map(|(pk, e)| (pk[i] * e).re).sum())
+            .collect()
+    }
+
+    /// `∂s_p(θ)/∂p` (`2m × p`, zero in the initial-state columns) from the phases.
+    fn particular_sensitivity(&self, set: usize) -> Mat<f64> {
+        let n = self.n;
+        let a = &self.sets[set];
+        let m2 = a.flow.reduced();
+        let mut out = Mat::<f64>::zeros(m2, self.n_params);
+        for (k, x) in a.responses.iter().enumerate() {
+            for j in 0..n {
+                for i in 0..m2 {
+                    let v = x[(i, j)] * self.e[k];
+                    if k == 0 {
+                        out[(i, j)] = v.re;
+                    } else {
+                        out[(i, (2 * k - 1) * n + j)] = v.re;
+                        out[(i, 2 * k * n + j)] = v.im;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Set the phases to `θ`.
+    fn at(&mut self, theta: f64) {
+        phases(self.pb.omega, theta, &mut self.e);
+    }
+
+    /// The full state at `θ` (phases already at `θ`).
+    fn state(&self, iv: &Interval, theta: f64) -> (Vec<f64>, Vec<f64>) {
+        self.state_with(&self.e, iv, theta)
+    }
+
+    /// The full state at `θ` for its phases `e`.
+    fn state_with(&self, e: &[c64], iv: &Interval, theta: f64) -> (Vec<f64>, Vec<f64>) {
+        let a = &self.sets[iv.set];
+        let mut s = self.particular_with(e, iv.set);
+        let tau = theta - iv.start;
+        let v = a.flow.modes();
+        let growth: Vec<c64> = a
+            .flow
+            .eigenvalues
+            .iter()
+            .zip(&iv.coefficients)
+            .map(|(l, c)| c * (l * tau).exp())
+            .collect();
+        for (i, si) in s.iter_mut().enumerate() {
+            *si += growth
+                .iter()
+                .enumerate()
+                .map(|(m, g)| (v[(i, m)] * g).re)
+                .sum::<f64>();
+        }
+        let (mut q, mut qd) = (vec![0.0; self.n], vec![0.0; self.n]);
+        a.flow.expand(&s, &mut q, &mut qd);
+        (q, qd)
+    }
+
+    /// The full-state sensitivity at `θ` (`2n × p`; phases already at `θ`).
+    fn sensitivity(&self, iv: &Interval, theta: f64) -> Mat<f64> {
+        let a = &self.sets[iv.set];
+        let mut ds = self.particular_sensitivity(iv.set);
+        let tau = theta - iv.start;
+        let v = a.flow.modes();
+        let m2 = a.flow.reduced();
+        let growth: Vec<c64> = a.flow.eigenvalues.iter().map(|l| (l * tau).exp()).collect();
+        for i in 0..m2 {
+            for j in 0..self.n_params {
+                let mut acc = 0.0;
+                for (m, g) in growth.iter().enumerate() {
+                    acc += (v[(i, m)] * g * iv.sensitivity[(m, j)]).re;
+                }
+                ds[(i, j)] += acc;
+            }
+        }
+        a.flow.expand_rows(&ds)
+    }
+
+    /// Start an interval of set `set` at `θ` from the state `(q, v)` and its sensitivity
+    /// (phases already at `θ`).
+    fn start(&self, set: usize, theta: f64, q: &[f64], v: &[f64], sens: &Mat<f64>) -> Interval {
+        let a = &self.sets[set];
+        let s = a.flow.reduce(q, v);
+        let sp = self.particular(set);
+        let vinv = a.flow.modes_inv();
+        let m2 = a.flow.reduced();
+        let d: Vec<f64> = s.iter().zip(&sp).map(|(a, b)| a - b).collect();
+        let coefficients = (0..m2)
+            .map(|i| (0..m2).map(|j| vinv[(i, j)] * d[j]).sum())
+            .collect();
+        let sensitivity = if self.pb.sensitivities {
+            let ds = a.flow.reduce_rows(sens) - self.particular_sensitivity(set);
+            Mat::<c64>::from_fn(m2, self.n_params, |i, k| {
+                (0..m2).map(|j| vinv[(i, j)] * ds[(j, k)]).sum()
+            })
+        } else {
+            Mat::<c64>::zeros(0, 0)
+        };
+        Interval {
+            set,
+            start: theta,
+            coefficients,
+            sensitivity,
+        }
+    }
+
+    /// The value of contact `c`'s event function in the interval at `θ` (phases `e`): its
+    /// gap when open, its force when closed.
+    fn monitor_with(&self, e: &[c64], iv: &Interval, theta: f64, c: usize) -> f64 {
+        let (q, v) = self.state_with(e, iv, theta);
+        let flow = &self.sets[iv.set].flow;
+        match flow.closed.iter().position(|&k| k == c) {
+            None => self.pb.sub.gap(c, &q),
+            Some(r) => {
+                let f = self.load_with(e);
+                flow.contact_forces(&self.pb.sub.unbalanced_force(&f, &q, &v))[r]
+            }
+        }
+    }
+
+    /// Every contact's event function at `θ` (phases already at `θ`), and the rates of
+    /// the open contacts' gaps (zero for the closed ones).
+    fn monitors(&self, iv: &Interval, theta: f64) -> (Vec<f64>, Vec<f64>) {
+        let (q, v) = self.state(iv, theta);
+        let flow = &self.sets[iv.set].flow;
+        let forces = if flow.closed.is_empty() {
+            vec![]
+        } else {
+            flow.contact_forces(&self.pb.sub.unbalanced_force(&self.load(), &q, &v))
+        };
+        (0..self.pb.sub.n_contacts())
+            .map(|c| match flow.closed.iter().position(|&k| k == c) {
+                None => (self.pb.sub.gap(c, &q), self.pb.sub.normal_velocity(c, &v)),
+                Some(r) => (forces[r], 0.0),
+            })
+            .unzip()
+    }
+
+    /// The rate `w_cᵀ q̇` of open contact `c`'s gap at `θ` (phases `e`).
+    fn gap_rate_with(&self, e: &[c64], iv: &Interval, theta: f64, c: usize) -> f64 {
+        let (_, v) = self.state_with(e, iv, theta);
+        self.pb.sub.normal_velocity(c, &v)
+    }
+
+    /// The largest scan step in set `set`: an eighth of the fastest mode's and of the
+    /// highest harmonic's period.
+    fn scan_step(&self, set: usize) -> f64 {
+        let fastest = self.sets[set]
+            .flow
+            .fastest()
+            .max(self.pb.harmonics as f64 * self.pb.omega);
+        2.0 * std::f64::consts::PI / (8.0 * fastest)
+    }
+
+    /// The closed set after a plastic impact on `set` at state `(q, v⁺)` (phases at the
+    /// event): contacts whose force would pull are released, most negative first.
+    fn settle(&mut self, mut set: Vec<usize>, q: &[f64], v: &[f64]) -> Result<(usize, Vec<usize>)> {
+        let f = self.load();
+        let r = self.pb.sub.unbalanced_force(&f, q, v);
+        let mut released = vec![];
+        loop {
+            let i = self.set_index(&set)?;
+            let lambda = self.sets[i].flow.contact_forces(&r);
+            let worst = (0..lambda.len()).fold(None, |b: Option<usize>, k| {
+                if lambda[k] < 0.0 && b.is_none_or(|b| lambda[k] < lambda[b]) {
+                    Some(k)
+                } else {
+                    b
+                }
+            });
+            match worst {
+                None => return Ok((i, released)),
+                Some(k) => released.push(set.remove(k)),
+            }
+        }
+    }
+}
+
+/// Integrate one period (see the module docs) from `(q0, v0)` at `θ = 0`.
+pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<EventPeriod> {
+    let sub = pb.sub;
+    let n = sub.n();
+    let n_contacts = sub.n_contacts();
+    let n_params = n * n_coefficients(pb.harmonics) + 2 * n;
+    let period = 2.0 * std::f64::consts::PI / pb.omega;
+    let h = period / pb.steps as f64;
+    let mut it = Integration {
+        pb,
+        n,
+        n_params,
+        sets: vec![],
+        e: vec![c64::new(1.0, 0.0); pb.harmonics + 1],
+    };
+    // the initial state: penetrating contacts are projected onto their gaps and their
+    // normal velocities removed (only away from solutions: the section is where the gaps
+    // are largest)
+    let (mut q, mut v) = (q0.to_vec(), v0.to_vec());
+    let mut sens = Mat::<f64>::zeros(2 * n, n_params);
+    for i in 0..2 * n {
+        sens[(i, n_params - 2 * n + i)] = 1.0;
+    }
+    // touching: penetrating, or within the tolerance and not separating (after the
+    // section's impact)
+    let penetrating: Vec<usize> = (0..n_contacts)
+        .filter(|&c| {
+            let g = sub.gap(c, &q);
+            g < 0.0 || (g <= pb.gap_tolerance && sub.normal_velocity(c, &v) <= 0.0)
+        })
+        .collect();
+    it.at(0.0);
+    let first = if penetrating.is_empty() {
+        it.set_index(&[])?
+    } else {
+        let p = sub.impact_projector(&penetrating)?;
+        let w = Mat::<f64>::from_fn(n, penetrating.len(), |i, j| {
+            sub.normals[(i, penetrating[j])]
+        });
+        // q ← q − M⁻¹W (WᵀM⁻¹W)⁻¹ g(q): (I − Π) applied to the point that closes the gaps
+        let g = Mat::<f64>::from_fn(penetrating.len(), 1, |i, _| sub.gap(penetrating[i], &q));
+        let wtw = w.transpose() * &w;
+        let lift = &w * faer::linalg::solvers::Solve::solve(&wtw.partial_piv_lu(), &g);
+        let shift = (Mat::<f64>::identity(n, n) - &p) * &lift;
+        for i in 0..n {
+            q[i] -= shift[(i, 0)];
+        }
+        v = mat_vec(&p, &v);
+        let block = Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| {
+            if (i < n) == (j < n) {
+                p[(i % n, j % n)]
+            } else {
+                0.0
+            }
+        });
+        sens = &block * &sens;
+        it.settle(penetrating, &q, &v)?.0
+    };
+    let mut armed: Vec<bool> = (0..n_contacts)
+        .map(|c| sub.gap(c, &q) > pb.gap_tolerance)
+        .collect();
+    let mut iv = it.start(first, 0.0, &q, &v, &sens);
+    let mut out = EventPeriod {
+        samples: Vec::with_capacity(pb.steps * n),
+        gaps: Vec::with_capacity(pb.steps * n_contacts),
+        forces: Vec::with_capacity(pb.steps * n_contacts),
+        end_q: vec![],
+        end_v: vec![],
+        sample_sensitivity: pb
+            .sensitivities
+            .then(|| Mat::<f64>::zeros(pb.steps * n, n_params)),
+        end_sensitivity: None,
+        events: 0,
+    };
+    let mut theta = 0.0;
+    let mut next_sample = 0usize;
+    let sample_time = |j: usize| pb.sample_offset + j as f64 * h;
+    let (mut values, mut rates) = it.monitors(&iv, theta);
+    let mut step = it.scan_step(iv.set);
+    loop {
+        if next_sample < pb.steps && sample_time(next_sample) <= theta {
+            it.at(theta);
+            record(&it, &iv, theta, next_sample, &mut out);
+            next_sample += 1;
+            continue;
+        }
+        if theta >= pb.duration {
+            break;
+        }
+        let mut target = (theta + step).min(pb.duration);
+        if next_sample < pb.steps {
+            target = target.min(sample_time(next_sample));
+        }
+        it.at(target);
+        let (after, after_rates) = it.monitors(&iv, target);
+        // the earliest contact whose event function crosses zero in (θ, target]
+        let closed = it.sets[iv.set].flow.closed.clone();
+        let mut first: Option<(f64, usize)> = None;
+        for c in 0..n_contacts {
+            let is_closed = closed.contains(&c);
+            let shift = if is_closed || armed[c] {
+                0.0
+            } else {
+                pb.gap_tolerance
+            };
+            let mut e = vec![c64::new(0.0, 0.0); pb.harmonics + 1];
+            // where the gap stays positive at both ends but turns within the scan step, it
+            // may dip below zero in between (near grazing): look at its minimum
+            let mut end = (target, after[c] + shift);
+            if end.1 >= 0.0 && !is_closed && rates[c] < 0.0 && after_rates[c] > 0.0 {
+                let rate = |t: f64| {
+                    phases(pb.omega, t, &mut e);
+                    it.gap_rate_with(&e, &iv, t, c)
+                };
+                let turn = find_sign_change(rate, theta, target, rates[c], after_rates[c]).negative;
+                phases(pb.omega, turn, &mut e);
+                end = (turn, it.monitor_with(&e, &iv, turn, c) + shift);
+            }
+            if end.1 >= 0.0 {
+                continue;
+            }
+            let f = |t: f64| {
+                phases(pb.omega, t, &mut e);
+                it.monitor_with(&e, &iv, t, c) + shift
+            };
+            let left = (values[c] + shift).max(0.0);
+            let root = find_sign_change(f, theta, end.0, left, end.1).non_negative;
+            if first.is_none_or(|(t, _)| root < t) {
+                first = Some((root, c));
+            }
+        }
+        let Some((te, c)) = first else {
+            for k in 0..n_contacts {
+                if after[k] > pb.gap_tolerance {
+                    armed[k] = true;
+                }
+            }
+            theta = target;
+            values = after;
+            rates = after_rates;
+            continue;
+        };
+        // the event at θ_e
+        out.events += 1;
+        if out.events > MAX_EVENTS {
+            return Err(Error::Numerical(format!(
+                "more than {MAX_EVENTS} impacts and releases in one period: the impacts accumulate (chatter); use Moreau–Jean time stepping (events = false)"
+            )));
+        }
+        it.at(te);
+        let (qe, ve) = it.state(&iv, te);
+        let sens_before = if pb.sensitivities {
+            it.sensitivity(&iv, te)
+        } else {
+            Mat::<f64>::zeros(0, 0)
+        };
+        let f = it.load();
+        let accel_before = it.sets[iv.set]
+            .flow
+            .acceleration(&sub.unbalanced_force(&f, &qe, &ve));
+        let (set, v_after, jump) = if closed.contains(&c) {
+            // release: no jump, equal vector fields
+            let set: Vec<usize> = closed.iter().copied().filter(|&k| k != c).collect();
+            armed[c] = false;
+            (it.set_index(&set)?, ve.clone(), None)
+        } else if pb.restitution == 0.0 {
+            let mut set = closed.clone();
+            set.push(c);
+            set.sort_unstable();
+            let p = sub.impact_projector(&set)?;
+            let va = mat_vec(&p, &ve);
+            let (i, released) = it.settle(set, &qe, &va)?;
+            for k in released {
+                armed[k] = false;
+            }
+            (i, va, Some(p))
+        } else {
+            let p1 = sub.impact_projector(&[c])?;
+            let e = pb.restitution;
+            let p = Mat::<f64>::from_fn(n, n, |i, j| {
+                let id = if i == j { 1.0 } else { 0.0 };
+                id - (1.0 + e) * (id - p1[(i, j)])
+            });
+            let va = mat_vec(&p, &ve);
+            armed[c] = false;
+            (iv.set, va, Some(p))
+        };
+        let sens_after = match (&jump, pb.sensitivities) {
+            (Some(p), true) => {
+                let accel_after = it.sets[set]
+                    .flow
+                    .acceleration(&sub.unbalanced_force(&f, &qe, &v_after));
+                saltation(
+                    sub,
+                    c,
+                    p,
+                    &sens_before,
+                    (&ve, &accel_before),
+                    (&v_after, &accel_after),
+                )
+            }
+            (None, true) => sens_before,
+            _ => Mat::<f64>::zeros(0, 0),
+        };
+        iv = it.start(set, te, &qe, &v_after, &sens_after);
+        theta = te;
+        (values, rates) = it.monitors(&iv, te);
+        step = it.scan_step(iv.set);
+    }
+    it.at(pb.duration);
+    let (q, v) = it.state(&iv, pb.duration);
+    out.end_q = q;
+    out.end_v = v;
+    if pb.sensitivities {
+        out.end_sensitivity = Some(it.sensitivity(&iv, pb.duration));
+    }
+    Ok(out)
+}
+
+/// Record sample `j` at `θ` (phases already at `θ`).
+fn record(it: &Integration, iv: &Interval, theta: f64, j: usize, out: &mut EventPeriod) {
+    let (q, v) = it.state(iv, theta);
+    let sub = it.pb.sub;
+    let flow = &it.sets[iv.set].flow;
+    let forces = if flow.closed.is_empty() {
+        vec![]
+    } else {
+        flow.contact_forces(&sub.unbalanced_force(&it.load(), &q, &v))
+    };
+    for c in 0..sub.n_contacts() {
+        out.gaps.push(sub.gap(c, &q));
+        out.forces.push(
+            flow.closed
+                .iter()
+                .position(|&k| k == c)
+                .map_or(0.0, |r| forces[r]),
+        );
+    }
+    out.samples.extend_from_slice(&q);
+    if let Some(s) = out.sample_sensitivity.as_mut() {
+        let full = it.sensitivity(iv, theta);
+        for i in 0..it.n {
+            for k in 0..full.ncols() {
+                s[(j * it.n + i, k)] = full[(i, k)];
+            }
+        }
+    }
+}
+
+/// The saltation matrix of an impact on contact `c` (docs/theory.md (T145)) applied to the
+/// sensitivity before it: `S⁺ = J S⁻ + (f⁺ − J f⁻) (∇g_c S⁻)/(∇g_c f⁻)`, with the jump
+/// `J = diag(I, P)` (`P` the velocity map of the impact) and `f = (q̇, q̈)` the vector
+/// fields before and after.
+fn saltation(
+    sub: &DenseSubsystem,
+    c: usize,
+    p: &Mat<f64>,
+    before: &Mat<f64>,
+    (v0, a0): (&[f64], &[f64]),
+    (v1, a1): (&[f64], &[f64]),
+) -> Mat<f64> {
+    let n = sub.n();
+    let cols = before.ncols();
+    let mut after = Mat::<f64>::zeros(2 * n, cols);
+    for j in 0..cols {
+        for i in 0..n {
+            after[(i, j)] = before[(i, j)];
+            after[(n + i, j)] = (0..n).map(|k| p[(i, k)] * before[(n + k, j)]).sum();
+        }
+    }
+    let rate = sub.normal_velocity(c, v0);
+    if rate == 0.0 {
+        return after;
+    }
+    let pa0 = mat_vec(p, a0);
+    // f⁺ − J f⁻ = (v⁺ − v⁻, a⁺ − P a⁻)
+    let jump: Vec<f64> = (0..n)
+        .map(|i| v1[i] - v0[i])
+        .chain((0..n).map(|i| a1[i] - pa0[i]))
+        .collect();
+    for j in 0..cols {
+        let dg = (0..n)
+            .map(|i| sub.normals[(i, c)] * before[(i, j)])
+            .sum::<f64>()
+            / rate;
+        for (i, d) in jump.iter().enumerate() {
+            after[(i, j)] += d * dg;
+        }
+    }
+    after
+}
+
+fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
+    (0..a.nrows())
+        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * x[j]).sum())
+        .collect()
+}
