@@ -102,3 +102,63 @@ fn bar_with_impacts_converges_at_30_khz() {
         out.history
     );
 }
+
+/// Continuation through grazing from the impacting side: NLvib's example 03 with a rigid
+/// stop (H = 21) from Ω = 0.62 upward traces the impacting upper branch, its fold, the
+/// impacting middle branch back to the grazing point, and past it the branch without
+/// contact to Ω = 0.8; every tenth point passes a fresh problem's residual check, and the
+/// branch has both kinds of points (impacts, no contact). (From Ω = 0.8 downward the sweep
+/// still stops where the impacts start: docs/general-mshbm.md §7.)
+#[test]
+fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
+    use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
+    use mshbm::method::settings::MethodSettings;
+    let model = load_model(&common::examples().join("nlvib_03/model.toml"), &[]).unwrap();
+    let options = GeneralOptions::new(21);
+    let settings = FrdSettings::new(0.62 / (2.0 * PI), 0.8 / (2.0 * PI));
+    struct Silent;
+    impl FrdObserver for Silent {}
+    let method = MethodSettings::General(options.clone());
+    let branch = trace_frd_branch(&model, &method, &settings, false, &mut Silent)
+        .unwrap()
+        .branch;
+    eprintln!(
+        "{} points, {} folds, {} frequency steps, stop {:?}",
+        branch.points.len(),
+        branch.folds.len(),
+        branch.frequency_steps,
+        branch.stop
+    );
+    assert!(branch.stop.is_success(), "{:?}", branch.stop);
+    // the fold of the upper branch near Ω = 0.69 (0.110 Hz)
+    assert!(branch
+        .folds
+        .iter()
+        .any(|f| (f.omega / (2.0 * PI) - 0.110).abs() < 1e-3));
+    let mut fresh = GeneralMsHbm::new(&model, &options).unwrap();
+    let scale = fresh.length_scale();
+    let (mut impacting, mut free) = (0, 0);
+    for p in branch.points.iter().step_by(10) {
+        let r = fresh.residual(&p.x, p.omega).unwrap();
+        let norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs())) / scale;
+        assert!(
+            norm <= 1e-9,
+            "{} Hz: residual {norm:.1e}",
+            p.omega / (2.0 * PI)
+        );
+        let tr = fresh.trajectory(&p.x, p.omega).unwrap();
+        let largest = tr
+            .displacement_series(0)
+            .iter()
+            .fold(f64::MIN, |m, &v| m.max(v));
+        if largest > 0.999 {
+            impacting += 1;
+        } else {
+            free += 1;
+        }
+    }
+    assert!(
+        impacting >= 3 && free >= 3,
+        "{impacting} with impacts, {free} without"
+    );
+}
