@@ -34,8 +34,17 @@ pub fn branch_progress() -> BranchObserver {
     let start = Instant::now();
     let last = std::sync::Mutex::new(Duration::ZERO);
     BranchObserver::new(move |hz, points, toward_hz| {
+        // a signal stops the continuation at its next point (nothing is written then)
+        if let Some(signal) = crate::output::interrupt::requested() {
+            return Err(mshbm::Error::InvalidArgument {
+                name: "run".into(),
+                message: format!("interrupted by {signal}"),
+            });
+        }
         let elapsed = start.elapsed();
-        let Ok(mut last) = last.lock() else { return };
+        let Ok(mut last) = last.lock() else {
+            return Ok(());
+        };
         if elapsed >= QUIET_FOR && elapsed - *last >= Duration::from_secs(1) {
             *last = elapsed;
             crate::note!(
@@ -43,6 +52,7 @@ pub fn branch_progress() -> BranchObserver {
                 elapsed.as_secs_f64()
             );
         }
+        Ok(())
     })
 }
 

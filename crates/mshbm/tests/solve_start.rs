@@ -260,7 +260,8 @@ fn the_fallback_continuation_reports_every_point() {
         f,
         &SolveSettings {
             branch_observer: Some(mshbm::solve::BranchObserver::new(move |hz, n, to| {
-                record.lock().unwrap().push((hz, n, to))
+                record.lock().unwrap().push((hz, n, to));
+                Ok(())
             })),
             ..settings(SolveStart::Auto)
         },
@@ -282,4 +283,34 @@ fn the_fallback_continuation_reports_every_point() {
         "{:?}",
         seen[points - 1]
     );
+}
+
+/// An error from the branch observer stops the fallback continuation at once and is what
+/// the solve returns (how the CLI stops a long solve on SIGINT/SIGTERM).
+#[test]
+fn an_observer_error_stops_the_fallback_continuation() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    use std::sync::Arc;
+    let calls = Arc::new(AtomicUsize::new(0));
+    let counted = calls.clone();
+    let result = solve_periodic(
+        &cantilever(),
+        &MethodSettings::redistributed(5),
+        900.0,
+        &SolveSettings {
+            branch_observer: Some(mshbm::solve::BranchObserver::new(move |_, n, _| {
+                counted.fetch_add(1, Ordering::SeqCst);
+                if n >= 3 {
+                    return Err(mshbm::Error::argument("run", "interrupted by a test"));
+                }
+                Ok(())
+            })),
+            ..settings(SolveStart::Auto)
+        },
+    );
+    let Err(e) = result else {
+        panic!("the solve went on")
+    };
+    assert!(e.to_string().contains("interrupted by a test"), "{e}");
+    assert_eq!(calls.load(Ordering::SeqCst), 3);
 }

@@ -655,6 +655,15 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             OutputKind::Plot,
         )
         .check()?;
+    let solved = solve_periodic(
+        &model,
+        &method,
+        args.frequency,
+        &solve_settings(args, &model)?,
+    );
+    // a signal stops a long fallback continuation (its observer returns an error): report
+    // the interruption, not that error
+    crate::output::interrupt::check("nothing was written")?;
     let Solved {
         solution,
         label,
@@ -662,13 +671,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         stability_error,
         path,
         others,
-    } = solve_periodic(
-        &model,
-        &method,
-        args.frequency,
-        &solve_settings(args, &model)?,
-    )?;
-    crate::output::interrupt::check("nothing was written")?;
+    } = solved?;
     if let Some(e) = stability_error {
         crate::note!("note: stability not computed: {e}");
     }

@@ -48,13 +48,15 @@ fn options(omega_from: f64, omega_to: f64, newton: &NewtonOptions) -> Continuati
 /// Watches the branch a solve traces ([`crate::solve::SolveStart::Auto`]'s fallback and
 /// [`crate::solve::SolveStart::Sweep`]): called at each accepted point with its frequency
 /// [Hz], the number of points so far and the frequency the branch runs to [Hz]. The
-/// library never prints; a caller may show progress from here.
+/// library never prints; a caller may show progress from here. An error it returns stops
+/// the solve at once and is returned (a caller's interruption).
 #[derive(Clone)]
-pub struct BranchObserver(pub std::sync::Arc<dyn Fn(f64, usize, f64) + Send + Sync>);
+#[allow(clippy::type_complexity)]
+pub struct BranchObserver(pub std::sync::Arc<dyn Fn(f64, usize, f64) -> Result<()> + Send + Sync>);
 
 impl BranchObserver {
     /// An observer calling `f(frequency_hz, points, toward_hz)`.
-    pub fn new(f: impl Fn(f64, usize, f64) + Send + Sync + 'static) -> Self {
+    pub fn new(f: impl Fn(f64, usize, f64) -> Result<()> + Send + Sync + 'static) -> Self {
         BranchObserver(std::sync::Arc::new(f))
     }
 }
@@ -84,7 +86,7 @@ fn trace_observed(
             if let Event::Point(p) = event {
                 count += 1;
                 if let Some(o) = observer {
-                    (o.0)(hz(p.omega), count, hz(omega_to));
+                    (o.0)(hz(p.omega), count, hz(omega_to))?;
                 }
                 on_point(p);
             }
