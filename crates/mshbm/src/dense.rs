@@ -10,6 +10,13 @@ use crate::error::{Error, Result};
 
 /// `Σ a_i b_i` with four partial sums (short vectors: a basis row of `2H + 1`
 /// coefficients; one running sum makes each addition wait for the previous one).
+/// `A x` for a dense matrix.
+pub fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
+    (0..a.nrows())
+        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * x[j]).sum())
+        .collect()
+}
+
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);

@@ -130,7 +130,11 @@ fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
         branch.stop
     );
     assert!(branch.stop.is_success(), "{:?}", branch.stop);
-    // the fold of the upper branch near Ω = 0.69 (0.110 Hz)
+    // the fold of the upper branch: above Ω = 0.66, where full-system time integration
+    // settles on an impacting motion (tests/general_mshbm.rs,
+    // nlvib_03_with_a_rigid_stop_agrees_with_time_integration); 0.110 Hz (Ω = 0.691) as
+    // traced when this test was written (a regression value, not a reference)
+    assert!(branch.folds.iter().any(|f| f.omega > 0.66));
     assert!(branch
         .folds
         .iter()

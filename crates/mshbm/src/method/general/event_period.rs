@@ -20,6 +20,7 @@ use std::sync::{Arc, Mutex};
 use faer::{c64, Mat};
 
 use super::set_flow::{DenseSubsystem, SetFlow};
+use crate::dense::mat_vec;
 use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
 use crate::roots::find_sign_change;
@@ -453,6 +454,8 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     let sample_time = |j: usize| pb.sample_offset + j as f64 * h;
     let (mut values, mut rates) = it.monitors(&iv, theta);
     let mut step = it.scan_step(iv.set);
+    // the phases of the root finders' probes (one buffer for the whole period)
+    let mut probe = vec![c64::new(0.0, 0.0); pb.harmonics + 1];
     loop {
         if next_sample < pb.steps && sample_time(next_sample) <= theta {
             it.at(theta);
@@ -472,6 +475,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         // the earliest contact whose event function crosses zero in (θ, target]
         let closed = it.sets[iv.set].flow.closed.clone();
         let mut first: Option<(f64, usize)> = None;
+        let mut e = std::mem::take(&mut probe);
         for c in 0..n_contacts {
             let is_closed = closed.contains(&c);
             let shift = if is_closed || armed[c] {
@@ -479,7 +483,6 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
             } else {
                 pb.gap_tolerance
             };
-            let mut e = vec![c64::new(0.0, 0.0); pb.harmonics + 1];
             // where the gap stays positive at both ends but turns within the scan step, it
             // may dip below zero in between (near grazing): look at its minimum
             let mut end = (target, after[c] + shift);
@@ -505,6 +508,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
                 first = Some((root, c));
             }
         }
+        probe = e;
         let Some((te, c)) = first else {
             for k in 0..n_contacts {
                 if after[k] > pb.gap_tolerance {
@@ -664,10 +668,4 @@ fn saltation(
         }
     }
     after
-}
-
-fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
-    (0..a.nrows())
-        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * x[j]).sum())
-        .collect()
 }

@@ -250,7 +250,7 @@ impl GeneralMsHbm {
 
     /// The state `(q_N, q̇_N/ω)` at the section of the harmonic motion `q̂_N` in `x`
     /// (the initial guess's initial state).
-    pub(super) fn harmonic_section_state(&self, x: &mut [f64], omega: f64) {
+    pub(super) fn harmonic_section_state(&self, x: &mut [f64]) {
         let n = self.n();
         let h = self.harmonics;
         let nq = n * n_coefficients(h);
@@ -265,7 +265,6 @@ impl GeneralMsHbm {
             x[nq + i] = q;
             x[nq + n + i] = v;
         }
-        let _ = omega;
     }
 
     /// The trajectory of the solution `x` on the step grid `t_j = jT/N_s` of absolute time

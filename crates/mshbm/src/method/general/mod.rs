@@ -479,7 +479,7 @@ impl GeneralMsHbm {
         }
         if self.is_event_driven() {
             // the event-driven unknowns hold the state at the section
-            self.harmonic_section_state(&mut x, omega);
+            self.harmonic_section_state(&mut x);
         }
         Ok(x)
     }

@@ -7,6 +7,7 @@
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
+use crate::dense::mat_vec;
 use crate::error::{Error, Result};
 
 /// The N-subsystem's matrices (dense, N numbering) and its frictionless contacts.
@@ -321,12 +322,6 @@ impl SetFlow {
     pub fn modes_inv(&self) -> &Mat<c64> {
         &self.modes_inv
     }
-}
-
-fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
-    (0..a.nrows())
-        .map(|i| (0..a.ncols()).map(|j| a[(i, j)] * x[j]).sum())
-        .collect()
 }
 
 /// `A = V Λ V⁻¹`, refused when `V` is too ill-conditioned to reproduce `A` to `1e-9`
