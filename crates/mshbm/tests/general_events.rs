@@ -103,19 +103,22 @@ fn bar_with_impacts_converges_at_30_khz() {
     );
 }
 
-/// Continuation through grazing from the impacting side: NLvib's example 03 with a rigid
-/// stop (H = 21) from Ω = 0.62 upward traces the impacting upper branch, its fold, the
-/// impacting middle branch back to the grazing point, and past it the branch without
-/// contact to Ω = 0.8; every tenth point passes a fresh problem's residual check, and the
-/// branch has both kinds of points (impacts, no contact). (From Ω = 0.8 downward the sweep
-/// still stops where the impacts start: docs/general-mshbm.md §7.)
-#[test]
-fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
+/// NLvib's example 03 with a rigid stop (H = 21) swept from `from` to `to` rad/s; checks that
+/// hold for either direction, returned with the branch for the direction's own checks:
+/// the sweep reaches its end; it passes the fold of the upper branch, above Ω = 0.66 where
+/// full-system time integration settles on an impacting motion
+/// (tests/general_mshbm.rs, `nlvib_03_with_a_rigid_stop_agrees_with_time_integration`), and
+/// the grazing corner where the impacting middle branch meets the branch without contact
+/// (a fold at a kink: both leave it towards higher frequencies); **every** point passes a
+/// fresh problem's residual check to 1e-9 and stays off the stop (no sample of its
+/// trajectory penetrates by more than 1e-9: the critical time's window, docs/theory.md
+/// (T147), hides no impact); points with impacts and points without are both present.
+fn sweep_nlvib_03(from: f64, to: f64) -> mshbm::continuation::arclength::Branch {
     use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
     use mshbm::method::settings::MethodSettings;
     let model = load_model(&common::examples().join("nlvib_03/model.toml"), &[]).unwrap();
     let options = GeneralOptions::new(21);
-    let settings = FrdSettings::new(0.62 / (2.0 * PI), 0.8 / (2.0 * PI));
+    let settings = FrdSettings::new(from / (2.0 * PI), to / (2.0 * PI));
     struct Silent;
     impl FrdObserver for Silent {}
     let method = MethodSettings::General(options.clone());
@@ -123,39 +126,39 @@ fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
         .unwrap()
         .branch;
     eprintln!(
-        "{} points, {} folds, {} frequency steps, stop {:?}",
+        "Ω {from} → {to}: {} points, folds {:?}, {} frequency steps, stop {:?}",
         branch.points.len(),
-        branch.folds.len(),
+        branch
+            .folds
+            .iter()
+            .map(|f| (f.omega, f.at_kink))
+            .collect::<Vec<_>>(),
         branch.frequency_steps,
         branch.stop
     );
     assert!(branch.stop.is_success(), "{:?}", branch.stop);
-    // the fold of the upper branch: above Ω = 0.66, where full-system time integration
-    // settles on an impacting motion (tests/general_mshbm.rs,
-    // nlvib_03_with_a_rigid_stop_agrees_with_time_integration); 0.110 Hz (Ω = 0.691) as
-    // traced when this test was written (a regression value, not a reference)
-    assert!(branch.folds.iter().any(|f| f.omega > 0.66));
-    assert!(branch
-        .folds
-        .iter()
-        .any(|f| (f.omega / (2.0 * PI) - 0.110).abs() < 1e-3));
+    assert!(branch.folds.iter().any(|f| f.omega > 0.66 && !f.at_kink));
+    // the grazing corner: where the branch without contact reaches the stop (its linear
+    // response has amplitude 1 there; `grazing_frequency` below)
+    let grazing = grazing_frequency(&model, (0.62, 0.8));
+    assert!(
+        branch
+            .folds
+            .iter()
+            .any(|f| f.at_kink && (f.omega - grazing).abs() < 1e-6 * grazing),
+        "no kink fold at the grazing frequency {grazing}"
+    );
     let mut fresh = GeneralMsHbm::new(&model, &options).unwrap();
     let scale = fresh.length_scale();
     let (mut impacting, mut free) = (0, 0);
-    for p in branch.points.iter().step_by(10) {
+    for p in &branch.points {
         let r = fresh.residual(&p.x, p.omega).unwrap();
         let norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs())) / scale;
-        assert!(
-            norm <= 1e-9,
-            "{} Hz: residual {norm:.1e}",
-            p.omega / (2.0 * PI)
-        );
+        assert!(norm <= 1e-9, "Ω = {}: residual {norm:.1e}", p.omega);
         let tr = fresh.trajectory(&p.x, p.omega).unwrap();
-        let largest = tr
-            .displacement_series(0)
-            .iter()
-            .fold(f64::MIN, |m, &v| m.max(v));
-        if largest > 0.999 {
+        let gap = tr.gap_series(0).iter().fold(f64::MAX, |m, &v| m.min(v));
+        assert!(gap >= -1e-9, "Ω = {}: penetrates by {:.1e}", p.omega, -gap);
+        if gap < 1e-6 {
             impacting += 1;
         } else {
             free += 1;
@@ -165,4 +168,79 @@ fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
         impacting >= 3 && free >= 3,
         "{impacting} with impacts, {free} without"
     );
+    branch
+}
+
+/// The frequency (rad/s) within `range` at which the linear response of example 03 (no
+/// stop) has amplitude 1 at the first mass: where a branch without contact grazes the
+/// stop. From the model's matrices, by bisection on the 2 × 2 complex dynamic stiffness.
+fn grazing_frequency(model: &Model, range: (f64, f64)) -> f64 {
+    let system = model.system(mshbm::model::MassKind::Consistent).unwrap();
+    let [k, m, d] = [&system.stiffness, &system.mass, &system.damping].map(|a| {
+        let dense = a.to_dense();
+        [
+            [dense[(0, 0)], dense[(0, 1)]],
+            [dense[(1, 0)], dense[(1, 1)]],
+        ]
+    });
+    let amplitude = |w: f64| -> f64 {
+        // (K − w² M + i w D) z = (0, 0.1)
+        let a = |i: usize, j: usize| (k[i][j] - w * w * m[i][j], w * d[i][j]);
+        let mul = |x: (f64, f64), y: (f64, f64)| (x.0 * y.0 - x.1 * y.1, x.0 * y.1 + x.1 * y.0);
+        let det = {
+            let (p, q) = (mul(a(0, 0), a(1, 1)), mul(a(0, 1), a(1, 0)));
+            (p.0 - q.0, p.1 - q.1)
+        };
+        // z_0 = −a01 · 0.1 / det
+        let num = a(0, 1);
+        (num.0.hypot(num.1) * 0.1) / det.0.hypot(det.1)
+    };
+    let (mut lo, mut hi) = range;
+    let above_at_lo = amplitude(lo) > 1.0;
+    assert!(above_at_lo != (amplitude(hi) > 1.0));
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if (amplitude(mid) > 1.0) == above_at_lo {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Continuation through grazing from the side without impacts (issue 19's acceptance):
+/// example 03 from Ω = 0.8 down to 0.5 follows the branch without contact to the grazing
+/// corner, turns there onto the impacting middle branch, passes the upper branch's fold
+/// and goes down the upper branch past its own grazing (Ω ≈ 0.582, where the impacts stop)
+/// to 0.5.
+#[test]
+fn nlvib_03_downward_sweep_passes_grazing_from_the_side_without_impacts() {
+    let branch = sweep_nlvib_03(0.8, 0.5);
+    assert_eq!(branch.frequency_steps, 0);
+    // below the upper branch's grazing the motion stays off the stop, as the linear
+    // response does
+    let model = load_model(&common::examples().join("nlvib_03/model.toml"), &[]).unwrap();
+    let lower = grazing_frequency(&model, (0.5, 0.618));
+    let mut fresh = GeneralMsHbm::new(&model, &GeneralOptions::new(21)).unwrap();
+    let below: Vec<_> = branch
+        .points
+        .iter()
+        .filter(|p| p.omega < lower * (1.0 - 1e-3))
+        .collect();
+    assert!(below.len() >= 3);
+    for p in below {
+        let tr = fresh.trajectory(&p.x, p.omega).unwrap();
+        let gap = tr.gap_series(0).iter().fold(f64::MAX, |m, &v| m.min(v));
+        assert!(gap > 1e-6, "Ω = {}: gap {gap:.1e}", p.omega);
+    }
+}
+
+/// The same branch traced upward from the impacting upper branch at Ω = 0.62: the upper
+/// branch's fold, the middle branch back to the grazing corner, past it the branch without
+/// contact to Ω = 0.8.
+#[test]
+fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
+    let branch = sweep_nlvib_03(0.62, 0.8);
+    assert_eq!(branch.frequency_steps, 0);
 }

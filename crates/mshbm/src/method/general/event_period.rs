@@ -65,6 +65,8 @@ pub(super) struct EventPeriod {
     pub end_sensitivity: Option<Mat<f64>>,
     /// Number of events (impacts and releases).
     pub events: usize,
+    /// Contact 0 at the critical time, when there is one and it was reached.
+    pub critical: Option<CriticalState>,
 }
 
 /// What one integration needs.
@@ -83,7 +85,34 @@ pub(super) struct EventProblem<'a> {
     pub duration: f64,
     /// Gap below which a contact counts as touching (a length ≪ the motion).
     pub gap_tolerance: f64,
+    /// Contact 0's critical time (docs/theory.md (T147)), when the unknowns hold one.
+    pub critical: Option<CriticalTime>,
     pub sensitivities: bool,
+}
+
+/// Contact `0`'s critical time `θ_c` (docs/theory.md (T147)): at `θ_c` its normal velocity
+/// is removed (the plastic impact law applied whatever the gap), and in the window
+/// `[θ_c − w, θ_c]` before it, and after it until its gap is positive again, its impacts are
+/// not located by the scan. The residual's complementarity `min(g, −ġ⁻/ω) = 0` at `θ_c`
+/// then makes `θ_c` the impact time of an orbit that reaches the stop and the time of the
+/// smallest gap of one that does not, with no square root at grazing.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CriticalTime {
+    /// `θ_c` in the section frame, in `(0, T)`.
+    pub time: f64,
+    /// The window `w` before it.
+    pub window: f64,
+}
+
+/// Contact 0's gap and normal velocity just before `θ_c`, with their sensitivities.
+pub(super) struct CriticalState {
+    pub gap: f64,
+    /// `ġ⁻ = w_0ᵀ q̇(θ_c⁻)`.
+    pub rate: f64,
+    /// `∂g/∂p` (the last entry `∂g/∂θ_c = ġ⁻`), when asked for.
+    pub gap_sensitivity: Vec<f64>,
+    /// `∂ġ⁻/∂p` (the last entry `∂ġ⁻/∂θ_c = w_0ᵀ q̈(θ_c⁻)`), when asked for.
+    pub rate_sensitivity: Vec<f64>,
 }
 
 /// `e^{ikωθ}`, `k = 0..=H`, by recurrence re-anchored every 16 harmonics.
@@ -380,7 +409,9 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     let sub = pb.sub;
     let n = sub.n();
     let n_contacts = sub.n_contacts();
-    let n_params = n * n_coefficients(pb.harmonics) + 2 * n;
+    let nq = n * n_coefficients(pb.harmonics);
+    // p = (φ, q_0, q̇_0[, θ_c])
+    let n_params = nq + 2 * n + usize::from(pb.critical.is_some());
     let period = 2.0 * std::f64::consts::PI / pb.omega;
     let h = period / pb.steps as f64;
     let mut it = Integration {
@@ -396,7 +427,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     let (mut q, mut v) = (q0.to_vec(), v0.to_vec());
     let mut sens = Mat::<f64>::zeros(2 * n, n_params);
     for i in 0..2 * n {
-        sens[(i, n_params - 2 * n + i)] = 1.0;
+        sens[(i, nq + i)] = 1.0;
     }
     // touching: penetrating, or within the tolerance and not separating (after the
     // section's impact)
@@ -448,6 +479,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
             .then(|| Mat::<f64>::zeros(pb.steps * n, n_params)),
         end_sensitivity: None,
         events: 0,
+        critical: None,
     };
     let mut theta = 0.0;
     let mut next_sample = 0usize;
@@ -456,11 +488,24 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     let mut step = it.scan_step(iv.set);
     // the phases of the root finders' probes (one buffer for the whole period)
     let mut probe = vec![c64::new(0.0, 0.0); pb.harmonics + 1];
+    // contact 0 around the critical time (docs/theory.md (T147)): held (its impacts not
+    // located) from the window's start to θ_c, and after θ_c until its gap is positive
+    let mut critical_pending = pb.critical.filter(|c| c.time <= pb.duration);
+    let mut held_after = false;
     loop {
         if next_sample < pb.steps && sample_time(next_sample) <= theta {
             it.at(theta);
             record(&it, &iv, theta, next_sample, &mut out);
             next_sample += 1;
+            continue;
+        }
+        if let Some(critical) = critical_pending.filter(|c| theta >= c.time) {
+            critical_pending = None;
+            held_after = true;
+            armed[0] = false;
+            iv = critical_event(&mut it, iv, critical.time, &mut armed, &mut out)?;
+            (values, rates) = it.monitors(&iv, theta);
+            step = it.scan_step(iv.set);
             continue;
         }
         if theta >= pb.duration {
@@ -470,6 +515,16 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         if next_sample < pb.steps {
             target = target.min(sample_time(next_sample));
         }
+        let mut held_before = false;
+        if let Some(critical) = critical_pending {
+            let window_start = (critical.time - critical.window).max(0.0);
+            if theta < window_start {
+                target = target.min(window_start);
+            } else {
+                target = target.min(critical.time);
+                held_before = true;
+            }
+        }
         it.at(target);
         let (after, after_rates) = it.monitors(&iv, target);
         // the earliest contact whose event function crosses zero in (θ, target]
@@ -478,6 +533,9 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         let mut e = std::mem::take(&mut probe);
         for c in 0..n_contacts {
             let is_closed = closed.contains(&c);
+            if c == 0 && !is_closed && (held_before || held_after) {
+                continue;
+            }
             let shift = if is_closed || armed[c] {
                 0.0
             } else {
@@ -514,6 +572,9 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
                 if after[k] > pb.gap_tolerance {
                     armed[k] = true;
                 }
+            }
+            if after[0] > pb.gap_tolerance && !it.sets[iv.set].flow.closed.contains(&0) {
+                held_after = false;
             }
             theta = target;
             values = after;
@@ -595,6 +656,103 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         out.end_sensitivity = Some(it.sensitivity(&iv, pb.duration));
     }
     Ok(out)
+}
+
+/// The critical time's event at `θ_c` (docs/theory.md (T147)): contact 0's gap and normal
+/// velocity are recorded with their sensitivities, and Newton's impact law is applied to it
+/// whatever its gap: with `e_N = 0` the plastic impact map of the closed set with contact 0
+/// added, after which contacts whose force would pull are released (contact 0 among them
+/// where it is not pressed on), with `e_N > 0` its normal velocity reversed and scaled.
+/// The sensitivity jumps by `J` and, in the `θ_c` column, by `J f⁻ − f⁺` (the jump time
+/// moves with `θ_c`). Returns the interval that starts at `θ_c`.
+fn critical_event<'a>(
+    it: &mut Integration<'a>,
+    iv: Interval,
+    tc: f64,
+    armed: &mut [bool],
+    out: &mut EventPeriod,
+) -> Result<Interval> {
+    let pb = it.pb;
+    let sub = pb.sub;
+    let n = it.n;
+    let last = it.n_params - 1;
+    it.at(tc);
+    let (qe, ve) = it.state(&iv, tc);
+    let sens_before = if pb.sensitivities {
+        it.sensitivity(&iv, tc)
+    } else {
+        Mat::<f64>::zeros(0, 0)
+    };
+    let f = it.load();
+    let closed = it.sets[iv.set].flow.closed.clone();
+    let accel_before = it.sets[iv.set]
+        .flow
+        .acceleration(&sub.unbalanced_force(&f, &qe, &ve));
+    let normal_row = |offset: usize, j: usize| -> f64 {
+        (0..n)
+            .map(|i| sub.normals[(i, 0)] * sens_before[(offset + i, j)])
+            .sum()
+    };
+    let (gap, rate) = (sub.gap(0, &qe), sub.normal_velocity(0, &ve));
+    let (mut gap_sensitivity, mut rate_sensitivity) = (vec![], vec![]);
+    if pb.sensitivities {
+        gap_sensitivity = (0..it.n_params).map(|j| normal_row(0, j)).collect();
+        rate_sensitivity = (0..it.n_params).map(|j| normal_row(n, j)).collect();
+        gap_sensitivity[last] = rate;
+        rate_sensitivity[last] = sub.normal_velocity(0, &accel_before);
+    }
+    out.critical = Some(CriticalState {
+        gap,
+        rate,
+        gap_sensitivity,
+        rate_sensitivity,
+    });
+    if closed.contains(&0) {
+        return Ok(iv);
+    }
+    let (p, index) = if pb.restitution == 0.0 {
+        let mut set = closed;
+        set.push(0);
+        set.sort_unstable();
+        let p = sub.impact_projector(&set)?;
+        let va = mat_vec(&p, &ve);
+        let (index, released) = it.settle(set, &qe, &va)?;
+        for k in released {
+            armed[k] = false;
+        }
+        (p, index)
+    } else {
+        // Newton's law on contact 0 alone: its normal velocity reversed and scaled by e_N
+        let p1 = sub.impact_projector(&[0])?;
+        let e = pb.restitution;
+        let p = Mat::<f64>::from_fn(n, n, |i, j| {
+            let id = if i == j { 1.0 } else { 0.0 };
+            id - (1.0 + e) * (id - p1[(i, j)])
+        });
+        (p, iv.set)
+    };
+    let va = mat_vec(&p, &ve);
+    let sens_after = if pb.sensitivities {
+        let accel_after = it.sets[index]
+            .flow
+            .acceleration(&sub.unbalanced_force(&f, &qe, &va));
+        let pa = mat_vec(&p, &accel_before);
+        let mut s = Mat::<f64>::zeros(2 * n, it.n_params);
+        for j in 0..it.n_params {
+            for i in 0..n {
+                s[(i, j)] = sens_before[(i, j)];
+                s[(n + i, j)] = (0..n).map(|k| p[(i, k)] * sens_before[(n + k, j)]).sum();
+            }
+        }
+        for i in 0..n {
+            s[(i, last)] += ve[i] - va[i];
+            s[(n + i, last)] += pa[i] - accel_after[i];
+        }
+        s
+    } else {
+        Mat::<f64>::zeros(0, 0)
+    };
+    Ok(it.start(index, tc, &qe, &va, &sens_after))
 }
 
 /// Record sample `j` at `θ` (phases already at `θ`).

@@ -11,7 +11,7 @@
 
 use faer::Mat;
 
-use super::event_period::{integrate, EventPeriod, EventProblem};
+use super::event_period::{integrate, CriticalTime, EventPeriod, EventProblem};
 use super::period::Trajectory;
 use super::GeneralMsHbm;
 use crate::error::Result;
@@ -81,6 +81,18 @@ impl GeneralMsHbm {
         (b.atan2(a), grad)
     }
 
+    /// Contact 0's critical time `θ_c` (docs/theory.md (T147)) held by the last unknown
+    /// `ℓ ω θ_c` (a phase times the length scale, so that it weighs like a length), kept
+    /// inside the period.
+    fn critical_time(&self, x: &[f64], omega: f64) -> CriticalTime {
+        let period = 2.0 * std::f64::consts::PI / omega;
+        let phase = x[x.len() - 1] / self.partition.length_scale();
+        CriticalTime {
+            time: (phase / omega).clamp(0.02 * period, 0.98 * period),
+            window: 0.25 * period,
+        }
+    }
+
     /// One period from the section state in `x` (see [`EventProblem`]).
     fn event_period(
         &self,
@@ -109,14 +121,16 @@ impl GeneralMsHbm {
             sample_offset,
             duration: duration.unwrap_or(2.0 * std::f64::consts::PI / omega),
             gap_tolerance: 1e-12 * self.partition.length_scale(),
+            critical: Some(self.critical_time(x, omega)),
             sensitivities,
         };
         let v0: Vec<f64> = x[nq + n..nq + 2 * n].iter().map(|v| v * omega).collect();
         integrate(&pb, &x[nq..nq + n], &v0)
     }
 
-    /// The residual (T58) with the event-driven period (T146), and its Jacobian with
-    /// respect to the unknowns when `jacobian`.
+    /// The residual (T58) with the event-driven period (T146) and the critical time's
+    /// complementarity (T147), and its Jacobian with respect to the unknowns when
+    /// `jacobian`.
     pub(super) fn event_residual(
         &self,
         fd: &dyn CondensedFrequency,
@@ -127,7 +141,7 @@ impl GeneralMsHbm {
         let h = self.harmonics;
         let nc = n_coefficients(h);
         let nq = n * nc;
-        let dim = nq + 2 * n;
+        let dim = nq + 2 * n + 1;
         let omega = fd.omega();
         let (tau, grad) = self.section_phase(x);
         let period = self.event_period(fd, x, tau, 0.0, None, jacobian)?;
@@ -142,6 +156,20 @@ impl GeneralMsHbm {
             residual[nq + i] = period.end_q[i] - x[nq + i];
             residual[nq + n + i] = period.end_v[i] / omega - x[nq + n + i];
         }
+        let critical = period
+            .critical
+            .as_ref()
+            .expect("θ_c lies within the period");
+        // (T147): the Fischer–Burmeister function of g and s = −ġ⁻/ω,
+        // g + s − √(g² + s²) = 0 ⇔ g ≥ 0, s ≥ 0, g s = 0
+        let (g, s) = (critical.gap, -critical.rate / omega);
+        let r = g.hypot(s);
+        residual[dim - 1] = g + s - r;
+        let (dg, ds) = if r > 0.0 {
+            (1.0 - g / r, 1.0 - s / r)
+        } else {
+            (1.0, 1.0)
+        };
         if !jacobian {
             return Ok(EventResidual {
                 residual,
@@ -164,35 +192,36 @@ impl GeneralMsHbm {
                 }
             }
         }
-        // ∂φ̃/∂x (nq × dim) = [Rot(τ) L, 0, 0] + (∂Rot/∂τ φ) ∇τᵀ, L the linear part of
-        // (T20)
+        // ∂p/∂x (p × dim): the load's coefficients φ̃ = Rot(τ) (L x + u) through (T20) and
+        // the section phase, ∂φ̃/∂x = [Rot(τ) L, 0, 0, 0] + (∂Rot/∂τ φ) ∇τᵀ; the initial
+        // state q_0 = x_q, q̇_0 = ω x_v; θ_c = x_c / (ℓ ω)
         let mut linear_map = self.load_map(fd);
         rotate_columns(&mut linear_map, n, h, tau);
-        let mut load_map = Mat::<f64>::zeros(nq, dim);
-        load_map.subcols_mut(0, nq).copy_from(&linear_map);
+        let mut params_map = Mat::<f64>::zeros(params, dim);
+        params_map
+            .submatrix_mut(0, 0, nq, nq)
+            .copy_from(&linear_map);
         let mut load_rate = fd.interface_load_coefficients(x);
         rotate(&mut load_rate, n, h, tau, true);
         for &(c, g) in &grad {
             for r in 0..nq {
-                load_map[(r, c)] += load_rate[r] * g;
+                params_map[(r, c)] += load_rate[r] * g;
             }
         }
+        for i in 0..n {
+            params_map[(nq + i, nq + i)] = 1.0;
+            params_map[(nq + n + i, nq + n + i)] = omega;
+        }
+        params_map[(params - 1, dim - 1)] = 1.0 / (self.partition.length_scale() * omega);
         let mut jac = Mat::<f64>::zeros(dim, dim);
         // connectivity rows: I − Rot(−τ) ∂q̃/∂x + (∂Rot(−τ)/∂τ' q̃ at −τ) ∇τᵀ
-        let through_load = dq.subcols(0, nq) * &load_map;
-        let mut dq_u = through_load.clone();
-        for r in 0..nq {
-            for c in 0..n {
-                dq_u[(r, nq + c)] += dq[(r, nq + c)];
-                dq_u[(r, nq + n + c)] += dq[(r, nq + n + c)] * omega;
-            }
-        }
-        rotate_columns(&mut dq_u, n, h, -tau);
+        let mut dq_x = &dq * &params_map;
+        rotate_columns(&mut dq_x, n, h, -tau);
         let mut back_rate = section_dft;
         rotate(&mut back_rate, n, h, -tau, true);
         for r in 0..nq {
             for c in 0..dim {
-                jac[(r, c)] = -dq_u[(r, c)];
+                jac[(r, c)] = -dq_x[(r, c)];
             }
             jac[(r, r)] += 1.0;
             for &(c, g) in &grad {
@@ -201,18 +230,23 @@ impl GeneralMsHbm {
             }
         }
         // periodicity rows
-        let end_load = end.subcols(0, nq) * &load_map;
+        let end_x = end * &params_map;
         for i in 0..2 * n {
             let row = nq + i;
             let scale = if i < n { 1.0 } else { 1.0 / omega };
             for c in 0..dim {
-                jac[(row, c)] = end_load[(i, c)] * scale;
-            }
-            for c in 0..n {
-                jac[(row, nq + c)] += end[(i, nq + c)] * scale;
-                jac[(row, nq + n + c)] += end[(i, nq + n + c)] * omega * scale;
+                jac[(row, c)] = end_x[(i, c)] * scale;
             }
             jac[(row, row)] -= 1.0;
+        }
+        // the critical time's row
+        for c in 0..dim {
+            jac[(dim - 1, c)] = (0..params)
+                .map(|p| {
+                    (dg * critical.gap_sensitivity[p] - ds / omega * critical.rate_sensitivity[p])
+                        * params_map[(p, c)]
+                })
+                .sum::<f64>();
         }
         Ok(EventResidual {
             residual,
@@ -264,6 +298,52 @@ impl GeneralMsHbm {
             }
             x[nq + i] = q;
             x[nq + n + i] = v;
+        }
+        let phase = self.harmonic_critical_phase(x, tau);
+        let last = x.len() - 1;
+        x[last] = phase * self.partition.length_scale();
+    }
+
+    /// The critical phase `ω θ_c` of the harmonic motion `q̂_N` in `x` (section frame,
+    /// section at `τ_s`): where contact 0's gap first reaches zero before its smallest
+    /// value, or the smallest gap when it stays positive — the roots of (T147)'s
+    /// complementarity for the harmonic motion.
+    fn harmonic_critical_phase(&self, x: &[f64], tau_s: f64) -> f64 {
+        let n = self.n();
+        let h = self.harmonics;
+        let sub = self.dense.as_ref().expect("event-driven");
+        let mut q = vec![0.0; n];
+        let mut gap = |phase: f64| -> f64 {
+            let b = basis(h, tau_s + phase);
+            q.iter_mut().for_each(|v| *v = 0.0);
+            for (c, bc) in b.iter().enumerate() {
+                for (i, qi) in q.iter_mut().enumerate() {
+                    *qi += bc * x[c * n + i];
+                }
+            }
+            sub.gap(0, &q)
+        };
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let samples = 64 * n_coefficients(h);
+        let step = two_pi / samples as f64;
+        let (lo, hi) = (samples / 20, samples - samples / 20);
+        let gaps: Vec<(f64, f64)> = (lo..=hi)
+            .map(|j| (j as f64 * step, gap(j as f64 * step)))
+            .collect();
+        let lowest = gaps
+            .iter()
+            .enumerate()
+            .fold(0, |b, (j, p)| if p.1 < gaps[b].1 { j } else { b });
+        if gaps[lowest].1 > 0.0 {
+            return gaps[lowest].0;
+        }
+        // back from the smallest gap to where it was last non-negative
+        match (0..lowest).rev().find(|&j| gaps[j].1 >= 0.0) {
+            Some(j) => {
+                let (a, b) = (gaps[j], gaps[j + 1]);
+                a.0 + (b.0 - a.0) * a.1 / (a.1 - b.1)
+            }
+            None => gaps[lowest].0,
         }
     }
 

@@ -395,7 +395,11 @@ impl GeneralMsHbm {
     /// the three evaluations run in parallel.
     fn event_linearization(&self, x: &[f64], omega: f64) -> Result<Linearization> {
         let fd = self.frequency.as_deref().expect("prepared");
-        let dw = 1e-6 * omega;
+        // a step small against the distance to the corners of (T147) that continuation
+        // passes: a difference across one averages its two pieces and Newton then contracts
+        // only linearly (measured: 1e-6 ω stalled the corrector within 1e-8 of a grazing
+        // corner); the residual is smooth between events, accurate to round-off
+        let dw = 1e-9 * omega;
         let (lo, hi) = (omega - dw, omega + dw);
         let (point, (below, above)) = rayon::join(
             || self.event_residual(fd, x, true),
@@ -493,14 +497,11 @@ impl PeriodicProblem for GeneralMsHbm {
     fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
         if self.is_event_driven() {
             // a residual smooth between events with its exact Jacobian; at a grazing impact
-            // the period map has a square-root singularity (docs/theory.md (T146)), where
-            // the arclength corrector fails at every step size: below 1e-6 the
-            // continuation tries frequency steps and otherwise stops there
+            // the critical time's complementarity (T147) has a corner, where the branch
+            // may turn, as at the redistributed method's grazing contacts
             return crate::problem::ContinuationPolicy {
                 newton_contraction: crate::problem::NewtonContraction::Quadratic,
-                where_arclength_fails: crate::problem::ArclengthFallback::StepInFrequency {
-                    min_arclength_step: 1e-6,
-                },
+                where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
                 signals: self.n(),
             };
         }
@@ -514,7 +515,8 @@ impl PeriodicProblem for GeneralMsHbm {
     }
 
     fn dimension(&self) -> usize {
-        self.n() * (n_coefficients(self.harmonics) + 2)
+        // the event-driven unknowns end with contact 0's critical time (T147)
+        self.n() * (n_coefficients(self.harmonics) + 2) + usize::from(self.is_event_driven())
     }
 
     fn length_scale(&self) -> f64 {
