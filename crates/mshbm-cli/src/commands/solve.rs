@@ -33,8 +33,9 @@ pub enum Method {
     /// integrated over one period. Without friction: event-driven (impacts and releases
     /// located to round-off, Newton's impact law, a smooth residual with its Jacobian from
     /// sensitivities; Newton converges to 1e-10, e.g. the bar with impacts at 30 kHz);
-    /// `frf` passes grazing contacts coming from the impacting side but stops where an
-    /// impact starts (a square-root singularity of the period map). With friction:
+    /// contact 0's impact time is an unknown, so `frf` passes its grazing as a corner, but
+    /// stops where another impact in the period grazes (a square-root singularity of the
+    /// period map). With friction:
     /// Moreau–Jean time stepping with a finite-difference Jacobian; its residual is
     /// piecewise affine at the scale of one step, so `frf` steps in frequency past the
     /// corners of a branch (a fold there is jumped over; the summary counts such points).

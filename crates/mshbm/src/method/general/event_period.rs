@@ -1,5 +1,5 @@
 //! Event-driven integration of the frictionless N-subsystem over one period, with the
-//! sensitivities of its samples and end state (docs/theory.md (T143)–(T146)).
+//! sensitivities of its samples and end state (docs/theory.md (T143)–(T147)).
 //!
 //! Between events the state is the closed-form flow of the active set ([`SetFlow`]):
 //! `s(θ) = s_p(θ) + Re V e^{Λ(θ−θ_a)} c`, the periodic particular part plus modes. Events —
@@ -8,11 +8,14 @@
 //! the highest harmonic, and located to the last bit by bisection
 //! ([`crate::roots::find_sign_change`]). An impact applies Newton's law (with `e_N = 0` the
 //! plastic impact of (T144), after which the contact stays closed while its force is
-//! non-negative); a release changes the set without a jump.
+//! non-negative); a release changes the set without a jump. Contact 0's impact nearest its
+//! critical time `θ_c` ([`CriticalTime`], (T147)) is not located: the law is applied at
+//! `θ_c` itself.
 //!
-//! Sensitivities `S(θ) = ∂x(θ)/∂p`, `p = (φ, x_0)` (the load's coefficients and the initial
-//! state), follow the same closed form between events and the saltation matrix (T145) at
-//! impacts; at a release the vector fields agree and `S` is continuous.
+//! Sensitivities `S(θ) = ∂x(θ)/∂p`, `p = (φ, x_0, θ_c)` (the load's coefficients, the
+//! initial state, the critical time), follow the same closed form between events and the
+//! saltation matrix (T145) at impacts; at a release the vector fields agree and `S` is
+//! continuous; at `θ_c` the jump `J` and the column `J f⁻ − f⁺`.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};

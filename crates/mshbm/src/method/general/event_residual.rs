@@ -8,6 +8,11 @@
 //! impact at the section would make the state there jump). In the section frame
 //! `θ = t − t_s` the load's coefficients are rotated by `τ_s`, and the samples' DFT is
 //! rotated back.
+//!
+//! The last unknown is contact 0's critical time `θ_c` (docs/theory.md (T147)), scaled to
+//! `ℓ ω θ_c`: the integration applies the impact law to contact 0 at `θ_c`, and the last
+//! row of the residual is the Fischer–Burmeister function of its gap and approach velocity
+//! there, so that grazing is a corner of the branch and not a square-root singularity.
 
 use faer::Mat;
 

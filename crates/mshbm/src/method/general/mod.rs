@@ -3,7 +3,8 @@
 //! set-valued laws act on, with their mass — integrated over one period, and Newton.
 //! Two integrations ([`PeriodIntegration`]): **event-driven** for frictionless contacts
 //! (closed-form flows between impacts and releases located to round-off, a residual smooth
-//! between events, its Jacobian from sensitivities with saltation matrices; (T143)–(T146),
+//! between events, its Jacobian from sensitivities with saltation matrices, contact 0's
+//! impact time an unknown so that grazing is a corner; (T143)–(T147),
 //! `set_flow.rs`, `event_period.rs`, `event_residual.rs`), and **Moreau–Jean time
 //! stepping** with impacts and Coulomb friction ([`crate::integrate`]) and a
 //! finite-difference Jacobian, described below. The CLI (`--method mshbm`) and the outputs (JSON
@@ -17,6 +18,8 @@
 //! **Unknowns** (eq. 11, docs/theory.md (T56)): `x = (q̂_N, q_N(0), q̇_N(0)/ω)`,
 //! harmonic-major `q̂_N` (coefficient `c` of N-DOF `i` at `c·n_N + i`), then `n_N`
 //! displacements and `n_N` velocities divided by ω, so that every unknown is a length.
+//! Event-driven, the state is taken at the section and one more unknown follows:
+//! `ℓ ω θ_c`, contact 0's critical time (docs/theory.md (T146), (T147)).
 //!
 //! **Residual** (eq. 12, docs/theory.md (T57), (T58)), per evaluation (`period.rs`):
 //! 1. eq. (6), docs/theory.md (T17): `q̂_L,k = A_k⁻¹ (f_L,k − H_LN,k z_k)` with the complex
