@@ -70,6 +70,8 @@ pub(super) struct EventPeriod {
     pub events: usize,
     /// Contact 0 at the critical time, when there is one and it was reached.
     pub critical: Option<CriticalState>,
+    /// The time of contact 0's first impact located by the scan, if any.
+    pub first_impact: Option<f64>,
 }
 
 /// What one integration needs.
@@ -483,6 +485,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         end_sensitivity: None,
         events: 0,
         critical: None,
+        first_impact: None,
     };
     let mut theta = 0.0;
     let mut next_sample = 0usize;
@@ -586,6 +589,9 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         };
         // the event at θ_e
         out.events += 1;
+        if c == 0 && !closed.contains(&0) && out.first_impact.is_none() {
+            out.first_impact = Some(te);
+        }
         if out.events > MAX_EVENTS {
             return Err(Error::Numerical(format!(
                 "more than {MAX_EVENTS} impacts and releases in one period: the impacts accumulate (chatter); use Moreau–Jean time stepping (events = false)"

@@ -98,7 +98,8 @@ impl GeneralMsHbm {
         }
     }
 
-    /// One period from the section state in `x` (see [`EventProblem`]).
+    /// One period from the section state in `x` (see [`EventProblem`]), with the critical
+    /// time in `x` when the unknowns hold one.
     fn event_period(
         &self,
         fd: &dyn CondensedFrequency,
@@ -106,6 +107,33 @@ impl GeneralMsHbm {
         tau_s: f64,
         sample_offset: f64,
         duration: Option<f64>,
+        sensitivities: bool,
+    ) -> Result<EventPeriod> {
+        let critical = self
+            .with_critical_time
+            .then(|| self.critical_time(x, fd.omega()));
+        self.period_with(
+            fd,
+            x,
+            tau_s,
+            sample_offset,
+            duration,
+            critical,
+            sensitivities,
+        )
+    }
+
+    /// One period from the section state in `x` with the given critical time (`None`:
+    /// every impact located by the scan).
+    #[allow(clippy::too_many_arguments)]
+    fn period_with(
+        &self,
+        fd: &dyn CondensedFrequency,
+        x: &[f64],
+        tau_s: f64,
+        sample_offset: f64,
+        duration: Option<f64>,
+        critical: Option<CriticalTime>,
         sensitivities: bool,
     ) -> Result<EventPeriod> {
         let n = self.n();
@@ -126,7 +154,7 @@ impl GeneralMsHbm {
             sample_offset,
             duration: duration.unwrap_or(2.0 * std::f64::consts::PI / omega),
             gap_tolerance: 1e-12 * self.partition.length_scale(),
-            critical: Some(self.critical_time(x, omega)),
+            critical,
             sensitivities,
         };
         let v0: Vec<f64> = x[nq + n..nq + 2 * n].iter().map(|v| v * omega).collect();
@@ -146,7 +174,8 @@ impl GeneralMsHbm {
         let h = self.harmonics;
         let nc = n_coefficients(h);
         let nq = n * nc;
-        let dim = nq + 2 * n + 1;
+        let with_critical = self.with_critical_time;
+        let dim = nq + 2 * n + usize::from(with_critical);
         let omega = fd.omega();
         let (tau, grad) = self.section_phase(x);
         let period = self.event_period(fd, x, tau, 0.0, None, jacobian)?;
@@ -161,20 +190,21 @@ impl GeneralMsHbm {
             residual[nq + i] = period.end_q[i] - x[nq + i];
             residual[nq + n + i] = period.end_v[i] / omega - x[nq + n + i];
         }
-        let critical = period
-            .critical
-            .as_ref()
-            .expect("θ_c lies within the period");
         // (T147): the Fischer–Burmeister function of g and s = −ġ⁻/ω,
-        // g + s − √(g² + s²) = 0 ⇔ g ≥ 0, s ≥ 0, g s = 0
-        let (g, s) = (critical.gap, -critical.rate / omega);
-        let r = g.hypot(s);
-        residual[dim - 1] = g + s - r;
-        let (dg, ds) = if r > 0.0 {
-            (1.0 - g / r, 1.0 - s / r)
-        } else {
-            (1.0, 1.0)
-        };
+        // g + s − √(g² + s²) = 0 ⇔ g ≥ 0, s ≥ 0, g s = 0, and its gradient
+        let critical = period.critical.as_ref().map(|c| {
+            let (g, s) = (c.gap, -c.rate / omega);
+            let r = g.hypot(s);
+            let gradient = if r > 0.0 {
+                (1.0 - g / r, 1.0 - s / r)
+            } else {
+                (1.0, 1.0)
+            };
+            (c, g + s - r, gradient)
+        });
+        if let Some((_, value, _)) = critical {
+            residual[dim - 1] = value;
+        }
         if !jacobian {
             return Ok(EventResidual {
                 residual,
@@ -217,7 +247,9 @@ impl GeneralMsHbm {
             params_map[(nq + i, nq + i)] = 1.0;
             params_map[(nq + n + i, nq + n + i)] = omega;
         }
-        params_map[(params - 1, dim - 1)] = 1.0 / (self.partition.length_scale() * omega);
+        if with_critical {
+            params_map[(params - 1, dim - 1)] = 1.0 / (self.partition.length_scale() * omega);
+        }
         let mut jac = Mat::<f64>::zeros(dim, dim);
         // connectivity rows: I − Rot(−τ) ∂q̃/∂x + (∂Rot(−τ)/∂τ' q̃ at −τ) ∇τᵀ
         let mut dq_x = &dq * &params_map;
@@ -245,13 +277,16 @@ impl GeneralMsHbm {
             jac[(row, row)] -= 1.0;
         }
         // the critical time's row
-        for c in 0..dim {
-            jac[(dim - 1, c)] = (0..params)
-                .map(|p| {
-                    (dg * critical.gap_sensitivity[p] - ds / omega * critical.rate_sensitivity[p])
-                        * params_map[(p, c)]
-                })
-                .sum::<f64>();
+        if let Some((critical, _, (dg, ds))) = critical {
+            for c in 0..dim {
+                jac[(dim - 1, c)] = (0..params)
+                    .map(|p| {
+                        (dg * critical.gap_sensitivity[p]
+                            - ds / omega * critical.rate_sensitivity[p])
+                            * params_map[(p, c)]
+                    })
+                    .sum::<f64>();
+            }
         }
         Ok(EventResidual {
             residual,
@@ -287,8 +322,33 @@ impl GeneralMsHbm {
         l
     }
 
-    /// The state `(q_N, q̇_N/ω)` at the section of the harmonic motion `q̂_N` in `x`
-    /// (the initial guess's initial state).
+    /// The critical time of a start `x` (its last entry, set here): where the period
+    /// integrated from `x` with every impact located by the scan first meets the stop, or
+    /// where its gap is smallest when it does not — so that the residual there is that of
+    /// the period without a critical time, with (T147) satisfied.
+    pub(super) fn initial_critical_time(
+        &self,
+        fd: &dyn CondensedFrequency,
+        x: &mut [f64],
+    ) -> Result<()> {
+        let omega = fd.omega();
+        let (tau, _) = self.section_phase(x);
+        let period = self.period_with(fd, x, tau, 0.0, None, None, false)?;
+        let time = period.first_impact.unwrap_or_else(|| {
+            let nc = self.dense.as_ref().expect("event-driven").n_contacts();
+            let step = 2.0 * std::f64::consts::PI / omega / self.steps as f64;
+            let lowest = (0..self.steps)
+                .min_by(|&a, &b| period.gaps[a * nc].total_cmp(&period.gaps[b * nc]))
+                .unwrap_or(0);
+            lowest as f64 * step
+        });
+        let last = x.len() - 1;
+        x[last] = omega * time * self.partition.length_scale();
+        Ok(())
+    }
+
+    /// The state `(q_N, q̇_N/ω)` at the section of the harmonic motion `q̂_N` in `x`,
+    /// and, when the unknowns hold one, the critical time of the harmonic motion's gap.
     pub(super) fn harmonic_section_state(&self, x: &mut [f64]) {
         let n = self.n();
         let h = self.harmonics;
@@ -304,9 +364,11 @@ impl GeneralMsHbm {
             x[nq + i] = q;
             x[nq + n + i] = v;
         }
-        let phase = self.harmonic_critical_phase(x, tau);
-        let last = x.len() - 1;
-        x[last] = phase * self.partition.length_scale();
+        if self.with_critical_time {
+            let phase = self.harmonic_critical_phase(x, tau);
+            let last = x.len() - 1;
+            x[last] = phase * self.partition.length_scale();
+        }
     }
 
     /// The critical phase `ω θ_c` of the harmonic motion `q̂_N` in `x` (section frame,

@@ -104,6 +104,14 @@ use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSoluti
 use crate::sparse::SparseMatrix;
 use crate::stability::Floquet;
 
+/// Newton iterations without the critical time that improve the event-driven initial
+/// guess ([`PeriodicProblem::initial_guess`]).
+pub const PRESOLVE_ITERATIONS: usize = 10;
+
+/// Relative residual at which that pre-solve stops: the motion's impacts are in place, and
+/// Newton with the critical time does the rest.
+pub const PRESOLVE_TOLERANCE: f64 = 1e-3;
+
 /// Default steps per period for `H` harmonics: `max(512, 32 (2H + 1))`.
 pub fn default_steps(harmonics: usize) -> usize {
     super::default_resolution(harmonics, 32, 512)
@@ -197,6 +205,9 @@ pub struct GeneralMsHbm {
     dense: Option<set_flow::DenseSubsystem>,
     /// The active sets' flows met so far (event-driven).
     flows: event_period::FlowCache,
+    /// Whether the event-driven unknowns end with contact 0's critical time (T147); off
+    /// only while [`PeriodicProblem::initial_guess`] pre-solves without it.
+    with_critical_time: bool,
 }
 
 impl GeneralMsHbm {
@@ -327,6 +338,7 @@ impl GeneralMsHbm {
         Ok(GeneralMsHbm {
             dense,
             flows: Default::default(),
+            with_critical_time: true,
             partition,
             harmonics: h,
             steps,
@@ -519,15 +531,47 @@ impl PeriodicProblem for GeneralMsHbm {
 
     fn dimension(&self) -> usize {
         // the event-driven unknowns end with contact 0's critical time (T147)
-        self.n() * (n_coefficients(self.harmonics) + 2) + usize::from(self.is_event_driven())
+        self.n() * (n_coefficients(self.harmonics) + 2)
+            + usize::from(self.is_event_driven() && self.with_critical_time)
     }
 
     fn length_scale(&self) -> f64 {
         self.partition.length_scale()
     }
 
+    /// The linear response; event-driven, improved first by at most
+    /// [`PRESOLVE_ITERATIONS`] Newton iterations without the critical time (every impact
+    /// located by the scan, docs/theory.md (T146)) down to [`PRESOLVE_TOLERANCE`], whose
+    /// basin from the linear response is wider where that response penetrates the stop
+    /// deeply, then the critical time set where that motion first meets the stop
+    /// ([`Self::initial_critical_time`]). Those iterations are not counted in the solve's
+    /// Newton iterations.
     fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
-        self.linear_response(omega)
+        if !self.is_event_driven() {
+            return self.linear_response(omega);
+        }
+        self.with_critical_time = false;
+        let presolved = self.linear_response(omega).and_then(|x0| {
+            let options = crate::newton::NewtonOptions {
+                tolerance: PRESOLVE_TOLERANCE,
+                max_iterations: PRESOLVE_ITERATIONS,
+                ..Default::default()
+            };
+            let outcome = crate::newton::solve(self, &x0, omega, &options)?;
+            // the better of the start and Newton's last iterate
+            Ok(if outcome.residual_norm < outcome.history[0] {
+                outcome.x
+            } else {
+                x0
+            })
+        });
+        self.with_critical_time = true;
+        let mut x = presolved?;
+        x.push(0.0);
+        self.prepare(omega)?;
+        let fd = self.frequency.as_deref().expect("prepared");
+        self.initial_critical_time(fd, &mut x)?;
+        Ok(x)
     }
 
     fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
