@@ -409,6 +409,89 @@ impl<'a> Integration<'a> {
     }
 }
 
+/// The state just before an event, with what the event's jump and its sensitivity need.
+struct Before {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    /// `S⁻` (empty without sensitivities).
+    sensitivity: Mat<f64>,
+    load: Vec<f64>,
+    acceleration: Vec<f64>,
+}
+
+impl Integration<'_> {
+    /// The state of interval `iv` just before an event at `θ` (the phases set to `θ`).
+    fn before_event(&mut self, iv: &Interval, theta: f64) -> Before {
+        self.at(theta);
+        let (q, v) = self.state(iv, theta);
+        let sensitivity = if self.pb.sensitivities {
+            self.sensitivity(iv, theta)
+        } else {
+            Mat::<f64>::zeros(0, 0)
+        };
+        let load = self.load();
+        let acceleration = self.sets[iv.set]
+            .flow
+            .acceleration(&self.pb.sub.unbalanced_force(&load, &q, &v));
+        Before {
+            q,
+            v,
+            sensitivity,
+            load,
+            acceleration,
+        }
+    }
+
+    /// Newton's impact law on contact `c` at the state `(q, v⁻)` of the interval of set
+    /// `current` (closed contacts `closed`; phases at the event): with `e_N = 0` the
+    /// plastic impact (T144) on `closed ∪ {c}` followed by the release of contacts whose
+    /// force would pull ([`Integration::settle`]; released contacts disarmed), with
+    /// `e_N > 0` contact `c`'s normal velocity reversed and scaled, the set unchanged.
+    /// Returns the set after the impact and the velocity map `P` (`q̇⁺ = P q̇⁻`).
+    fn impact(
+        &mut self,
+        current: usize,
+        closed: &[usize],
+        c: usize,
+        (q, v): (&[f64], &[f64]),
+        armed: &mut [bool],
+    ) -> Result<(usize, Mat<f64>)> {
+        let sub = self.pb.sub;
+        if self.pb.restitution == 0.0 {
+            let mut set = closed.to_vec();
+            set.push(c);
+            set.sort_unstable();
+            let p = sub.impact_projector(&set)?;
+            let (index, released) = self.settle(set, q, &mat_vec(&p, v))?;
+            for k in released {
+                armed[k] = false;
+            }
+            return Ok((index, p));
+        }
+        let p1 = sub.impact_projector(&[c])?;
+        let e = self.pb.restitution;
+        let p = Mat::<f64>::from_fn(self.n, self.n, |i, j| {
+            let id = if i == j { 1.0 } else { 0.0 };
+            id - (1.0 + e) * (id - p1[(i, j)])
+        });
+        armed[c] = false;
+        Ok((current, p))
+    }
+}
+
+/// The sensitivity after a jump `J = diag(I, P)` at a fixed time: `J S⁻`.
+fn jump_sensitivity(p: &Mat<f64>, before: &Mat<f64>) -> Mat<f64> {
+    let n = p.nrows();
+    let mut after = Mat::<f64>::zeros(2 * n, before.ncols());
+    for j in 0..before.ncols() {
+        for i in 0..n {
+            after[(i, j)] = before[(i, j)];
+            after[(n + i, j)] = (0..n).map(|k| p[(i, k)] * before[(n + k, j)]).sum();
+        }
+    }
+    after
+}
+
 /// Integrate one period (see the module docs) from `(q0, v0)` at `θ = 0`.
 pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<EventPeriod> {
     let sub = pb.sub;
@@ -597,43 +680,21 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
                 "more than {MAX_EVENTS} impacts and releases in one period: the impacts accumulate (chatter); use Moreau–Jean time stepping (events = false)"
             )));
         }
-        it.at(te);
-        let (qe, ve) = it.state(&iv, te);
-        let sens_before = if pb.sensitivities {
-            it.sensitivity(&iv, te)
-        } else {
-            Mat::<f64>::zeros(0, 0)
-        };
-        let f = it.load();
-        let accel_before = it.sets[iv.set]
-            .flow
-            .acceleration(&sub.unbalanced_force(&f, &qe, &ve));
+        let Before {
+            q: qe,
+            v: ve,
+            sensitivity: sens_before,
+            load: f,
+            acceleration: accel_before,
+        } = it.before_event(&iv, te);
         let (set, v_after, jump) = if closed.contains(&c) {
             // release: no jump, equal vector fields
             let set: Vec<usize> = closed.iter().copied().filter(|&k| k != c).collect();
             armed[c] = false;
             (it.set_index(&set)?, ve.clone(), None)
-        } else if pb.restitution == 0.0 {
-            let mut set = closed.clone();
-            set.push(c);
-            set.sort_unstable();
-            let p = sub.impact_projector(&set)?;
-            let va = mat_vec(&p, &ve);
-            let (i, released) = it.settle(set, &qe, &va)?;
-            for k in released {
-                armed[k] = false;
-            }
-            (i, va, Some(p))
         } else {
-            let p1 = sub.impact_projector(&[c])?;
-            let e = pb.restitution;
-            let p = Mat::<f64>::from_fn(n, n, |i, j| {
-                let id = if i == j { 1.0 } else { 0.0 };
-                id - (1.0 + e) * (id - p1[(i, j)])
-            });
-            let va = mat_vec(&p, &ve);
-            armed[c] = false;
-            (iv.set, va, Some(p))
+            let (i, p) = it.impact(iv.set, &closed, c, (&qe, &ve), &mut armed)?;
+            (i, mat_vec(&p, &ve), Some(p))
         };
         let sens_after = match (&jump, pb.sensitivities) {
             (Some(p), true) => {
@@ -685,18 +746,14 @@ fn critical_event<'a>(
     let sub = pb.sub;
     let n = it.n;
     let last = it.n_params - 1;
-    it.at(tc);
-    let (qe, ve) = it.state(&iv, tc);
-    let sens_before = if pb.sensitivities {
-        it.sensitivity(&iv, tc)
-    } else {
-        Mat::<f64>::zeros(0, 0)
-    };
-    let f = it.load();
+    let Before {
+        q: qe,
+        v: ve,
+        sensitivity: sens_before,
+        load: f,
+        acceleration: accel_before,
+    } = it.before_event(&iv, tc);
     let closed = it.sets[iv.set].flow.closed.clone();
-    let accel_before = it.sets[iv.set]
-        .flow
-        .acceleration(&sub.unbalanced_force(&f, &qe, &ve));
     let normal_row = |offset: usize, j: usize| -> f64 {
         (0..n)
             .map(|i| sub.normals[(i, 0)] * sens_before[(offset + i, j)])
@@ -719,40 +776,14 @@ fn critical_event<'a>(
     if closed.contains(&0) {
         return Ok(iv);
     }
-    let (p, index) = if pb.restitution == 0.0 {
-        let mut set = closed;
-        set.push(0);
-        set.sort_unstable();
-        let p = sub.impact_projector(&set)?;
-        let va = mat_vec(&p, &ve);
-        let (index, released) = it.settle(set, &qe, &va)?;
-        for k in released {
-            armed[k] = false;
-        }
-        (p, index)
-    } else {
-        // Newton's law on contact 0 alone: its normal velocity reversed and scaled by e_N
-        let p1 = sub.impact_projector(&[0])?;
-        let e = pb.restitution;
-        let p = Mat::<f64>::from_fn(n, n, |i, j| {
-            let id = if i == j { 1.0 } else { 0.0 };
-            id - (1.0 + e) * (id - p1[(i, j)])
-        });
-        (p, iv.set)
-    };
+    let (index, p) = it.impact(iv.set, &closed, 0, (&qe, &ve), armed)?;
     let va = mat_vec(&p, &ve);
     let sens_after = if pb.sensitivities {
         let accel_after = it.sets[index]
             .flow
             .acceleration(&sub.unbalanced_force(&f, &qe, &va));
         let pa = mat_vec(&p, &accel_before);
-        let mut s = Mat::<f64>::zeros(2 * n, it.n_params);
-        for j in 0..it.n_params {
-            for i in 0..n {
-                s[(i, j)] = sens_before[(i, j)];
-                s[(n + i, j)] = (0..n).map(|k| p[(i, k)] * sens_before[(n + k, j)]).sum();
-            }
-        }
+        let mut s = jump_sensitivity(&p, &sens_before);
         for i in 0..n {
             s[(i, last)] += ve[i] - va[i];
             s[(n + i, last)] += pa[i] - accel_after[i];
@@ -808,13 +839,7 @@ fn saltation(
 ) -> Mat<f64> {
     let n = sub.n();
     let cols = before.ncols();
-    let mut after = Mat::<f64>::zeros(2 * n, cols);
-    for j in 0..cols {
-        for i in 0..n {
-            after[(i, j)] = before[(i, j)];
-            after[(n + i, j)] = (0..n).map(|k| p[(i, k)] * before[(n + k, j)]).sum();
-        }
-    }
+    let mut after = jump_sensitivity(p, before);
     let rate = sub.normal_velocity(c, v0);
     if rate == 0.0 {
         return after;

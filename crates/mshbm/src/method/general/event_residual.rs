@@ -347,8 +347,7 @@ impl GeneralMsHbm {
         Ok(())
     }
 
-    /// The state `(q_N, q̇_N/ω)` at the section of the harmonic motion `q̂_N` in `x`,
-    /// and, when the unknowns hold one, the critical time of the harmonic motion's gap.
+    /// The state `(q_N, q̇_N/ω)` at the section of the harmonic motion `q̂_N` in `x`.
     pub(super) fn harmonic_section_state(&self, x: &mut [f64]) {
         let n = self.n();
         let h = self.harmonics;
@@ -363,54 +362,6 @@ impl GeneralMsHbm {
             }
             x[nq + i] = q;
             x[nq + n + i] = v;
-        }
-        if self.with_critical_time {
-            let phase = self.harmonic_critical_phase(x, tau);
-            let last = x.len() - 1;
-            x[last] = phase * self.partition.length_scale();
-        }
-    }
-
-    /// The critical phase `ω θ_c` of the harmonic motion `q̂_N` in `x` (section frame,
-    /// section at `τ_s`): where contact 0's gap first reaches zero before its smallest
-    /// value, or the smallest gap when it stays positive — the roots of (T147)'s
-    /// complementarity for the harmonic motion.
-    fn harmonic_critical_phase(&self, x: &[f64], tau_s: f64) -> f64 {
-        let n = self.n();
-        let h = self.harmonics;
-        let sub = self.dense.as_ref().expect("event-driven");
-        let mut q = vec![0.0; n];
-        let mut gap = |phase: f64| -> f64 {
-            let b = basis(h, tau_s + phase);
-            q.iter_mut().for_each(|v| *v = 0.0);
-            for (c, bc) in b.iter().enumerate() {
-                for (i, qi) in q.iter_mut().enumerate() {
-                    *qi += bc * x[c * n + i];
-                }
-            }
-            sub.gap(0, &q)
-        };
-        let two_pi = 2.0 * std::f64::consts::PI;
-        let samples = 64 * n_coefficients(h);
-        let step = two_pi / samples as f64;
-        let (lo, hi) = (samples / 20, samples - samples / 20);
-        let gaps: Vec<(f64, f64)> = (lo..=hi)
-            .map(|j| (j as f64 * step, gap(j as f64 * step)))
-            .collect();
-        let lowest = gaps
-            .iter()
-            .enumerate()
-            .fold(0, |b, (j, p)| if p.1 < gaps[b].1 { j } else { b });
-        if gaps[lowest].1 > 0.0 {
-            return gaps[lowest].0;
-        }
-        // back from the smallest gap to where it was last non-negative
-        match (0..lowest).rev().find(|&j| gaps[j].1 >= 0.0) {
-            Some(j) => {
-                let (a, b) = (gaps[j], gaps[j + 1]);
-                a.0 + (b.0 - a.0) * a.1 / (a.1 - b.1)
-            }
-            None => gaps[lowest].0,
         }
     }
 

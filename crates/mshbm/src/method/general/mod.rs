@@ -499,6 +499,10 @@ impl GeneralMsHbm {
         if self.is_event_driven() {
             // the event-driven unknowns hold the state at the section
             self.harmonic_section_state(&mut x);
+            if self.with_critical_time {
+                let fd = self.frequency.as_deref().expect("prepared");
+                self.initial_critical_time(fd, &mut x)?;
+            }
         }
         Ok(x)
     }
