@@ -16,12 +16,11 @@
 
 mod common;
 
-use std::cell::Cell;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
 use std::time::Duration;
 
-use common::{corrector_iteration, hz, median, show, timed};
+use common::{corrector_iteration, hz, median, show, timed, CorrectorStorage};
 use criterion::Criterion;
 use mshbm::continuation::arclength::StopReason;
 use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
@@ -118,7 +117,7 @@ struct Case {
     problem: Box<dyn PeriodicProblem>,
     x: Vec<f64>,
     omega: f64,
-    flip: Cell<bool>,
+    storage: CorrectorStorage,
 }
 
 fn case(label: &str, mut problem: Box<dyn PeriodicProblem>) -> Case {
@@ -140,7 +139,7 @@ fn case(label: &str, mut problem: Box<dyn PeriodicProblem>) -> Case {
         problem,
         x: out.x,
         omega,
-        flip: Cell::new(false),
+        storage: CorrectorStorage::default(),
     }
 }
 
@@ -184,7 +183,7 @@ fn bench_iteration(c: &mut Criterion) {
         group.bench_function(*name, |b| {
             let c = slot.get_or_insert_with(make);
             timed(b, &id, || {
-                corrector_iteration(c.problem.as_mut(), &c.x, c.omega, &c.flip)
+                corrector_iteration(c.problem.as_mut(), &c.x, c.omega, &mut c.storage)
             });
         });
     }

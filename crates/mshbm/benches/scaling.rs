@@ -41,10 +41,11 @@
 
 mod common;
 
-use std::cell::Cell;
 use std::time::Duration;
 
-use common::{corrector_iteration, hz, median, report_growth, timed, CountingAllocator};
+use common::{
+    corrector_iteration, hz, median, report_growth, timed, CorrectorStorage, CountingAllocator,
+};
 use criterion::{BenchmarkId, Criterion};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::{
@@ -78,7 +79,7 @@ struct Case {
     x: Vec<f64>,
     omega: f64,
     /// Alternates the frequency between calls (so each call is at a new frequency).
-    flip: Cell<bool>,
+    storage: CorrectorStorage,
 }
 
 fn bar(overrides: &[&str]) -> Model {
@@ -168,7 +169,7 @@ fn case_with(
         problem,
         x: out.x,
         omega,
-        flip: Cell::new(false),
+        storage: CorrectorStorage::default(),
     }
 }
 
@@ -183,7 +184,7 @@ fn bench_case(
     group.bench_function(BenchmarkId::new(name, parameter), |b| {
         let c = slot.get_or_insert_with(&make);
         timed(b, &id, || {
-            corrector_iteration(&mut c.problem, &c.x, c.omega, &c.flip)
+            corrector_iteration(&mut c.problem, &c.x, c.omega, &mut c.storage)
         });
     });
     id
@@ -380,7 +381,7 @@ fn bench_receptance(c: &mut Criterion) {
                 )
             });
             timed(b, &id, || {
-                corrector_iteration(&mut c.problem, &c.x, c.omega, &c.flip)
+                corrector_iteration(&mut c.problem, &c.x, c.omega, &mut c.storage)
             });
         });
     }

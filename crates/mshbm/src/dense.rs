@@ -8,8 +8,6 @@ use faer::Mat;
 
 use crate::error::{Error, Result};
 
-/// `Σ a_i b_i` with four partial sums (short vectors: a basis row of `2H + 1`
-/// coefficients; one running sum makes each addition wait for the previous one).
 /// `A x` for a dense matrix.
 pub fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
     (0..a.nrows())
@@ -17,6 +15,8 @@ pub fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
         .collect()
 }
 
+/// `Σ a_i b_i` with four partial sums (short vectors: a basis row of `2H + 1`
+/// coefficients; one running sum makes each addition wait for the previous one).
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
@@ -30,6 +30,82 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     }
     let tail: f64 = tail_a.iter().zip(tail_b).map(|(x, y)| x * y).sum();
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
+
+/// Solves of dense square systems by faer's LU with partial pivoting (as
+/// `Mat::partial_piv_lu`, the same arithmetic), in storage kept from one solve to the next:
+/// once it has grown to the size, a solve allocates nothing (Newton's direction at every
+/// corrector iteration).
+pub struct DenseLu {
+    factors: Mat<f64>,
+    forward: Vec<usize>,
+    backward: Vec<usize>,
+    rhs: Mat<f64>,
+    scratch: Option<(usize, faer::dyn_stack::MemBuffer)>,
+}
+
+impl Default for DenseLu {
+    fn default() -> Self {
+        DenseLu {
+            factors: Mat::zeros(0, 0),
+            forward: Vec::new(),
+            backward: Vec::new(),
+            rhs: Mat::zeros(0, 1),
+            scratch: None,
+        }
+    }
+}
+
+impl DenseLu {
+    /// Solve `A y = b`, `b_i = rhs(i)`, into `y`; `false` when the solution is not finite
+    /// (`A` singular).
+    pub fn solve_into(
+        &mut self,
+        a: &Mat<f64>,
+        rhs: impl Fn(usize) -> f64,
+        y: &mut Vec<f64>,
+    ) -> bool {
+        use faer::linalg::lu::partial_pivoting::{factor, solve};
+        let n = a.nrows();
+        let par = faer::get_global_parallelism();
+        if self.scratch.as_ref().is_none_or(|(size, _)| *size != n) {
+            let request = factor::lu_in_place_scratch::<usize, f64>(n, n, par, Default::default())
+                .or(solve::solve_in_place_scratch::<usize, f64>(n, 1, par));
+            self.scratch = Some((n, faer::dyn_stack::MemBuffer::new(request)));
+            self.forward.resize(n, 0);
+            self.backward.resize(n, 0);
+        }
+        let (_, buffer) = self.scratch.as_mut().expect("made above");
+        let stack = faer::dyn_stack::MemStack::new(buffer);
+        if self.factors.nrows() == n && self.factors.ncols() == n {
+            self.factors.copy_from(a);
+        } else {
+            self.factors = a.clone();
+        }
+        let (_, permutation) = factor::lu_in_place(
+            self.factors.as_mut(),
+            &mut self.forward,
+            &mut self.backward,
+            par,
+            stack,
+            Default::default(),
+        );
+        if self.rhs.nrows() != n || self.rhs.ncols() != 1 {
+            self.rhs = Mat::zeros(n, 1);
+        }
+        (0..n).for_each(|i| self.rhs[(i, 0)] = rhs(i));
+        solve::solve_in_place(
+            self.factors.as_ref(),
+            self.factors.as_ref(),
+            permutation,
+            self.rhs.as_mut(),
+            par,
+            stack,
+        );
+        y.clear();
+        y.extend((0..n).map(|i| self.rhs[(i, 0)]));
+        y.iter().all(|v| v.is_finite())
+    }
 }
 
 /// A numerically singular matrix met by [`solve_small_lu`]: the first column whose pivot
@@ -49,10 +125,24 @@ pub fn solve_small_lu(
     b: &[f64],
     rel_tol: f64,
 ) -> std::result::Result<Vec<f64>, SingularPivot> {
+    let mut x = Vec::new();
+    solve_small_lu_into(a, b, rel_tol, &mut x)?;
+    Ok(x)
+}
+
+/// [`solve_small_lu`] into `x` (resized to `n`; for `n ≤ 1` nothing is allocated once `x`
+/// has room).
+pub fn solve_small_lu_into(
+    a: &[f64],
+    b: &[f64],
+    rel_tol: f64,
+    x: &mut Vec<f64>,
+) -> std::result::Result<(), SingularPivot> {
     let n = b.len();
     assert_eq!(a.len(), n * n);
+    x.clear();
     if n == 0 {
-        return Ok(Vec::new());
+        return Ok(());
     }
     let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
     if scale == 0.0 {
@@ -69,15 +159,17 @@ pub fn solve_small_lu(
         if singular(a[0]) {
             return Err(SingularPivot { column: 0 });
         }
-        return Ok(vec![b[0] / a[0]]);
+        x.push(b[0] / a[0]);
+        return Ok(());
     }
     let lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]).partial_piv_lu();
     let u = lu.U();
     if let Some(column) = (0..n).find(|&k| singular(u[(k, k)])) {
         return Err(SingularPivot { column });
     }
-    let x = lu.solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
-    Ok((0..n).map(|i| x[(i, 0)]).collect())
+    let solution = lu.solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
+    x.extend((0..n).map(|i| solution[(i, 0)]));
+    Ok(())
 }
 
 /// Solve `A X = B` for a square `A` (row-major, `n × n`) and the columns of `B` (`n × m`)

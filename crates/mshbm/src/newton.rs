@@ -4,7 +4,7 @@
 //! step).
 
 use crate::error::{Error, Result, SingularSystem};
-use crate::problem::{Jacobian, PeriodicProblem};
+use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 
 /// Newton settings. Norms are max-norms relative to the problem's length scale.
 #[derive(Clone, Debug)]
@@ -131,12 +131,27 @@ pub fn newton_direction(jacobian: &Jacobian, residual: &[f64]) -> Result<Vec<f64
         .ok_or(Error::SingularSystem(SingularSystem::Jacobian))
 }
 
+/// [`newton_direction`] into `direction`, a dense Jacobian factored in `lu`'s storage.
+pub fn newton_direction_into(
+    jacobian: &Jacobian,
+    residual: &[f64],
+    lu: &mut crate::dense::DenseLu,
+    direction: &mut Vec<f64>,
+) -> Result<()> {
+    if jacobian.solve_into(|i| -residual[i], lu, direction) {
+        Ok(())
+    } else {
+        Err(Error::SingularSystem(SingularSystem::Jacobian))
+    }
+}
+
 /// A square system `F(y) = 0` that [`iterate`] solves: the residual at a fixed frequency
 /// ([`solve`]), or the continuation's bordered systems (its corrector).
 pub(crate) trait NewtonSystem {
-    /// The Jacobian `∂F/∂y` and `F(y)`, or `None` where the system cannot be evaluated
-    /// (Newton then stops, [`Iterated::Stopped`]).
-    fn linearize(&mut self, y: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>>;
+    /// The Jacobian `∂F/∂y` and `F(y)` into `jacobian` and `f` (their storage reused where
+    /// it can be), or `false` where the system cannot be evaluated (Newton then stops,
+    /// [`Iterated::Stopped`]).
+    fn linearize(&mut self, y: &[f64], jacobian: &mut Jacobian, f: &mut Vec<f64>) -> Result<bool>;
     /// Whether `y`, with `F(y) = f`, is converged after `iterations` iterations.
     fn converged(&mut self, y: &[f64], f: &[f64], iterations: usize) -> bool;
     /// The next iterate from `y` along the Newton direction `d` (`J d = −F`): a line search,
@@ -164,29 +179,57 @@ pub(crate) enum Iterated {
     Stopped,
 }
 
+/// The storage of [`iterate`]: the Newton system's Jacobian and value, the factors and
+/// the direction. Kept from one solve to the next (the continuation keeps one for its
+/// corrector), an iteration allocates nothing in it once grown.
+pub(crate) struct NewtonStorage {
+    jacobian: Jacobian,
+    f: Vec<f64>,
+    lu: crate::dense::DenseLu,
+    direction: Vec<f64>,
+}
+
+impl Default for NewtonStorage {
+    fn default() -> Self {
+        NewtonStorage {
+            jacobian: Jacobian::Dense(faer::Mat::zeros(0, 0)),
+            f: Vec::new(),
+            lu: Default::default(),
+            direction: Vec::new(),
+        }
+    }
+}
+
 /// Newton's method (paper eq. 13): from `y`, linearize, stop when converged, else solve
-/// `J d = −F` and advance, at most `max_iterations` times. The one Newton loop of the
-/// library: [`solve`] and the continuation's corrector differ only in their
+/// `J d = −F` and advance, at most `max_iterations` times, in `storage`. The one Newton
+/// loop of the library: [`solve`] and the continuation's corrector differ only in their
 /// [`NewtonSystem`].
 pub(crate) fn iterate(
     system: &mut impl NewtonSystem,
     mut y: Vec<f64>,
     max_iterations: usize,
+    storage: &mut NewtonStorage,
 ) -> Result<Iterated> {
     for iterations in 0..=max_iterations {
-        let Some((jacobian, f)) = system.linearize(&y)? else {
+        let NewtonStorage {
+            jacobian,
+            f,
+            lu,
+            direction,
+        } = storage;
+        if !system.linearize(&y, jacobian, f)? {
             return Ok(Iterated::Stopped);
-        };
-        if system.converged(&y, &f, iterations) {
+        }
+        if system.converged(&y, f, iterations) {
             return Ok(Iterated::Converged { y, iterations });
         }
         if iterations == max_iterations {
             return Ok(Iterated::IterationLimit { y, iterations });
         }
-        let Some(d) = jacobian.solve(|i| -f[i]) else {
+        if !jacobian.solve_into(|i| -f[i], lu, direction) {
             return Ok(Iterated::SingularJacobian { y, iterations });
-        };
-        match system.advance(y, &f, &d)? {
+        }
+        match system.advance(y, f, direction)? {
             Some(next) => y = next,
             None => return Ok(Iterated::Stopped),
         }
@@ -203,12 +246,17 @@ struct AtFrequency<'a, P: PeriodicProblem + ?Sized> {
     /// `‖R‖_∞ / scale` at each iterate.
     history: Vec<f64>,
     observer: Option<&'a NewtonObserver>,
+    /// The problem's linearization (its storage swapped with Newton's).
+    linearization: Linearization,
 }
 
 impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
-    fn linearize(&mut self, x: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>> {
-        let lin = self.problem.linearize(x, self.omega)?;
-        Ok(Some((lin.jacobian, lin.residual)))
+    fn linearize(&mut self, x: &[f64], jacobian: &mut Jacobian, f: &mut Vec<f64>) -> Result<bool> {
+        let lin = &mut self.linearization;
+        self.problem.linearize_into(x, self.omega, lin)?;
+        std::mem::swap(jacobian, &mut lin.jacobian);
+        std::mem::swap(f, &mut lin.residual);
+        Ok(true)
     }
 
     fn converged(&mut self, _x: &[f64], residual: &[f64], _iterations: usize) -> bool {
@@ -267,8 +315,14 @@ pub fn solve_observed<P: PeriodicProblem + ?Sized>(
         options,
         history: Vec::new(),
         observer,
+        linearization: Linearization::empty(),
     };
-    let end = iterate(&mut system, x0.to_vec(), options.max_iterations)?;
+    let end = iterate(
+        &mut system,
+        x0.to_vec(),
+        options.max_iterations,
+        &mut NewtonStorage::default(),
+    )?;
     let history = system.history;
     let norm = *history.last().expect("at least the start is evaluated");
     let (x, iterations, reason) = match end {

@@ -4,6 +4,7 @@
 
 use faer::Mat;
 
+use crate::dense::DenseLu;
 use crate::error::Result;
 use crate::solution::{DiagramPoint, PeriodicSolution};
 use crate::stability::Floquet;
@@ -15,6 +16,23 @@ pub struct Linearization {
     pub jacobian: Jacobian,
     /// `∂R/∂ω` (ω in rad/s).
     pub d_omega: Vec<f64>,
+}
+
+impl Default for Linearization {
+    fn default() -> Self {
+        Linearization::empty()
+    }
+}
+
+impl Linearization {
+    /// Nothing yet: storage for [`PeriodicProblem::linearize_into`].
+    pub fn empty() -> Self {
+        Linearization {
+            residual: Vec::new(),
+            jacobian: Jacobian::Dense(Mat::zeros(0, 0)),
+            d_omega: Vec::new(),
+        }
+    }
 }
 
 /// The Jacobian of a Newton system: a dense matrix, or an operator that applies it and
@@ -63,6 +81,26 @@ impl Jacobian {
         match self {
             Jacobian::Dense(m) => m.clone(),
             Jacobian::Operator(op) => op.dense(),
+        }
+    }
+
+    /// [`Jacobian::solve`] into `y`, a dense matrix by `lu` (which then allocates nothing
+    /// once grown to the size); `false` when the solution is not finite.
+    pub fn solve_into(
+        &self,
+        rhs: impl Fn(usize) -> f64,
+        lu: &mut DenseLu,
+        y: &mut Vec<f64>,
+    ) -> bool {
+        match self {
+            Jacobian::Dense(m) => lu.solve_into(m, rhs, y),
+            Jacobian::Operator(_) => match self.solve(rhs) {
+                Some(solution) => {
+                    *y = solution;
+                    true
+                }
+                None => false,
+            },
         }
     }
 
@@ -122,12 +160,8 @@ impl Jacobian {
 /// Solve `A y = b` densely (LU with partial pivoting, faer), `b_i = rhs(i)`; `None` when the
 /// solution is not finite (`A` singular).
 fn dense_solve(a: &Mat<f64>, rhs: impl Fn(usize) -> f64) -> Option<Vec<f64>> {
-    use faer::linalg::solvers::Solve;
-    let n = a.nrows();
-    let b = Mat::<f64>::from_fn(n, 1, |i, _| rhs(i));
-    let y = a.partial_piv_lu().solve(&b);
-    let y: Vec<f64> = (0..n).map(|i| y[(i, 0)]).collect();
-    y.iter().all(|v| v.is_finite()).then_some(y)
+    let mut y = Vec::new();
+    DenseLu::default().solve_into(a, rhs, &mut y).then_some(y)
 }
 
 /// What a method's residual lets the pseudo-arclength continuation assume (docs/theory.md §10):
@@ -196,6 +230,13 @@ pub trait PeriodicProblem {
 
     /// `R`, `∂R/∂x` and `∂R/∂ω`.
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization>;
+
+    /// [`PeriodicProblem::linearize`] into `out`, reusing its storage where the method can
+    /// (the redistributed MS-HBM allocates nothing then); by default a new linearization.
+    fn linearize_into(&mut self, x: &[f64], omega: f64, out: &mut Linearization) -> Result<()> {
+        *out = self.linearize(x, omega)?;
+        Ok(())
+    }
 
     /// The periodic solution described by `x` at `ω`, with the time series of the contacts
     /// and of the model DOF `response_dof`. Newton statistics are left at their defaults.

@@ -16,23 +16,53 @@ use criterion::{black_box, Bencher};
 use mshbm::model::file::load_model;
 use mshbm::{MassKind, Model};
 
-/// One corrector iteration of a continuation at a new frequency: `linearize` at `omega` or
-/// at `omega (1 + 1e-7)`, alternating with `flip` (so each call is at a new frequency and
-/// includes the per-frequency work), and the Newton direction.
+/// What [`corrector_iteration`] keeps from one iteration to the next, as a continuation
+/// does: the linearization's and the Newton direction's storage, and the frequency flip.
+pub struct CorrectorStorage {
+    flip: bool,
+    linearization: mshbm::problem::Linearization,
+    lu: mshbm::dense::DenseLu,
+    direction: Vec<f64>,
+}
+
+impl Default for CorrectorStorage {
+    fn default() -> Self {
+        CorrectorStorage {
+            flip: false,
+            linearization: mshbm::problem::Linearization::empty(),
+            lu: Default::default(),
+            direction: Vec::new(),
+        }
+    }
+}
+
+/// One corrector iteration of a continuation at a new frequency: `linearize_into` at
+/// `omega` or at `omega (1 + 1e-7)`, alternating (so each call is at a new frequency and
+/// includes the per-frequency work), and the Newton direction, in `storage`. Returns the
+/// direction's first entry.
 pub fn corrector_iteration(
     problem: &mut dyn mshbm::problem::PeriodicProblem,
     x: &[f64],
     omega: f64,
-    flip: &std::cell::Cell<bool>,
-) -> Vec<f64> {
-    flip.set(!flip.get());
-    let omega = if flip.get() {
+    storage: &mut CorrectorStorage,
+) -> f64 {
+    storage.flip = !storage.flip;
+    let omega = if storage.flip {
         omega * (1.0 + 1e-7)
     } else {
         omega
     };
-    let lin = problem.linearize(x, omega).expect("linearize");
-    mshbm::newton::newton_direction(&lin.jacobian, &lin.residual).expect("direction")
+    problem
+        .linearize_into(x, omega, &mut storage.linearization)
+        .expect("linearize");
+    mshbm::newton::newton_direction_into(
+        &storage.linearization.jacobian,
+        &storage.linearization.residual,
+        &mut storage.lu,
+        &mut storage.direction,
+    )
+    .expect("direction");
+    storage.direction[0]
 }
 
 pub fn examples() -> PathBuf {

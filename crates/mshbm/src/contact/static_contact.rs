@@ -75,33 +75,59 @@ impl ActiveSet {
     /// row-major, row `c` that of [`ActiveSet::indicator_dot`] per coefficient. One product
     /// with the closed contacts' columns, plus the open contacts' own entries.
     pub fn indicator_coefficients(&self, gamma: &[f64], columns: usize) -> Vec<f64> {
+        let mut rows = Vec::new();
+        self.indicator_coefficients_into(gamma, columns, &mut rows);
+        rows
+    }
+
+    /// [`ActiveSet::indicator_coefficients`] into `rows` (resized to `n_c × columns`); up to
+    /// [`DIRECT_INDICATOR_CONTACTS`] contacts by direct loops, allocating nothing once `rows`
+    /// has room.
+    pub fn indicator_coefficients_into(&self, gamma: &[f64], columns: usize, rows: &mut Vec<f64>) {
         let (nc, na) = (self.n_contacts(), self.closed_list.len());
-        let mut out = faer::Mat::<f64>::zeros(nc, columns);
-        if na > 0 {
-            let closed =
-                faer::Mat::<f64>::from_fn(na, columns, |r, m| gamma[m * nc + self.closed_list[r]]);
-            let h = MatRef::from_row_major_slice(&self.restricted, nc, na);
-            faer::linalg::matmul::matmul(
-                out.as_mut(),
-                faer::Accum::Replace,
-                h,
-                &closed,
-                1.0,
-                faer::Par::Seq,
-            );
-        }
-        let mut rows = vec![0.0; nc * columns];
+        rows.clear();
+        rows.resize(nc * columns, 0.0);
         for c in 0..nc {
-            for m in 0..columns {
-                let own = if self.closed[c] {
-                    0.0
-                } else {
-                    gamma[m * nc + c]
-                };
-                rows[c * columns + m] = out[(c, m)] + own;
+            if !self.closed[c] {
+                for m in 0..columns {
+                    rows[c * columns + m] = gamma[m * nc + c];
+                }
             }
         }
-        rows
+        if na == 0 {
+            return;
+        }
+        if nc <= DIRECT_INDICATOR_CONTACTS {
+            for c in 0..nc {
+                let h = &self.restricted[c * na..(c + 1) * na];
+                for m in 0..columns {
+                    let closed = &gamma[m * nc..(m + 1) * nc];
+                    rows[c * columns + m] += h
+                        .iter()
+                        .zip(&self.closed_list)
+                        .map(|(h, &a)| h * closed[a])
+                        .sum::<f64>();
+                }
+            }
+            return;
+        }
+        let mut out = faer::Mat::<f64>::zeros(nc, columns);
+        let closed =
+            faer::Mat::<f64>::from_fn(na, columns, |r, m| gamma[m * nc + self.closed_list[r]]);
+        let h = MatRef::from_row_major_slice(&self.restricted, nc, na);
+        faer::linalg::matmul::matmul(
+            out.as_mut(),
+            faer::Accum::Replace,
+            h,
+            &closed,
+            1.0,
+            faer::Par::Seq,
+        );
+        for c in 0..nc {
+            for m in 0..columns {
+                rows[c * columns + m] += out[(c, m)];
+            }
+        }
     }
 
     /// The force map's row of the closed contact `a` (`∂λ_a/∂γ`): its nonzero columns (the
@@ -152,6 +178,10 @@ impl ActiveSet {
     }
 }
 
+/// Contacts up to which [`ActiveSet::indicator_coefficients_into`] multiplies by direct
+/// loops (above, by faer's product).
+const DIRECT_INDICATOR_CONTACTS: usize = 8;
+
 /// The static contact subsystem with its LCP solver and active-set cache.
 pub struct StaticContact {
     n: usize,
@@ -167,6 +197,8 @@ pub struct StaticContact {
     cache: HashMap<Vec<bool>, Rc<ActiveSet>>,
     /// Bytes the cached sets hold.
     cache_bytes: usize,
+    /// The LCP's active set, copied out of the solver (reused).
+    active_scratch: Vec<bool>,
 }
 
 impl StaticContact {
@@ -219,6 +251,7 @@ impl StaticContact {
             solver,
             cache: HashMap::new(),
             cache_bytes: 0,
+            active_scratch: vec![false; n_contacts],
         })
     }
 
@@ -309,11 +342,17 @@ impl StaticContact {
     /// Solve the LCP for the free gap `γ` (warm-started from the previous call) and return
     /// the active set's data.
     pub fn solve(&mut self, gamma: &[f64]) -> Result<Rc<ActiveSet>> {
-        let sol = self
-            .solver
-            .solve(gamma)
-            .map_err(|e| Error::Numerical(format!("static contact problem: {e}")))?;
-        self.active_set(&sol.active)
+        let mut active = std::mem::take(&mut self.active_scratch);
+        match self.solver.solve_active(gamma) {
+            Ok(set) => active.clone_from_slice(set),
+            Err(e) => {
+                self.active_scratch = active;
+                return Err(Error::Numerical(format!("static contact problem: {e}")));
+            }
+        }
+        let set = self.active_set(&active);
+        self.active_scratch = active;
+        set
     }
 
     /// The static contact problem for the load `b`: `(q_N, λ)`.

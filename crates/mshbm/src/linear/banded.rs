@@ -38,6 +38,22 @@ pub struct BandedLu {
     inverse_re: Vec<f64>,
     inverse_im: Vec<f64>,
     singular: Vec<bool>,
+    /// The factorization's working vectors, kept so that factoring again allocates nothing.
+    scratch: FactorScratch,
+}
+
+/// Working vectors of [`BandedLu::factor_dynamic_stiffness`] (per matrix, and one column's
+/// multipliers and source row).
+#[derive(Clone, Debug, Default)]
+struct FactorScratch {
+    squares: Vec<f64>,
+    reach: Vec<usize>,
+    largest: Vec<f64>,
+    pivot_row: Vec<usize>,
+    multipliers_re: Vec<f64>,
+    multipliers_im: Vec<f64>,
+    f_re: Vec<f64>,
+    f_im: Vec<f64>,
 }
 
 impl BandedLu {
@@ -55,6 +71,7 @@ impl BandedLu {
             inverse_re: vec![0.0; n * lanes],
             inverse_im: vec![0.0; n * lanes],
             singular: vec![false; lanes],
+            scratch: FactorScratch::default(),
         }
     }
 
@@ -92,11 +109,23 @@ impl BandedLu {
         let along_row = leading - 1;
         self.re.fill(0.0);
         self.im.fill(0.0);
-        let squares: Vec<f64> = frequencies.iter().map(|w| w * w).collect();
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let FactorScratch {
+            squares,
+            reach,
+            largest,
+            pivot_row,
+            multipliers_re,
+            multipliers_im,
+            f_re,
+            f_im,
+        } = &mut scratch;
+        squares.clear();
+        squares.extend(frequencies.iter().map(|w| w * w));
         for (e, &p) in positions.iter().enumerate() {
             let (k, m, c) = (stiffness[e], mass[e], damping[e]);
             let at = p * lanes;
-            for (re, w2) in self.re[at..at + lanes].iter_mut().zip(&squares) {
+            for (re, w2) in self.re[at..at + lanes].iter_mut().zip(squares.iter()) {
                 *re += k - w2 * m;
             }
             for (im, w) in self.im[at..at + lanes].iter_mut().zip(frequencies) {
@@ -104,11 +133,12 @@ impl BandedLu {
             }
         }
         self.singular.fill(false);
-        let mut reach = vec![0usize; lanes];
-        let mut largest = vec![0.0f64; lanes];
-        let mut pivot_row = vec![0usize; lanes];
-        let (mut multipliers_re, mut multipliers_im) = (Vec::new(), Vec::new());
-        let (mut f_re, mut f_im) = (Vec::new(), Vec::new());
+        reach.clear();
+        reach.resize(lanes, 0);
+        largest.clear();
+        largest.resize(lanes, 0.0);
+        pivot_row.clear();
+        pivot_row.resize(lanes, 0);
         for j in 0..n {
             let km = kl.min(n - 1 - j);
             let diagonal = kv + j * leading;
@@ -118,7 +148,8 @@ impl BandedLu {
             for r in 0..=km {
                 let at = (diagonal + r) * lanes;
                 let (re, im) = (&self.re[at..at + lanes], &self.im[at..at + lanes]);
-                for (((l, p), x), y) in largest.iter_mut().zip(&mut pivot_row).zip(re).zip(im) {
+                for (((l, p), x), y) in largest.iter_mut().zip(pivot_row.iter_mut()).zip(re).zip(im)
+                {
                     let size = x.abs() + y.abs();
                     let better = size > *l;
                     *l = if better { size } else { *l };
@@ -145,7 +176,7 @@ impl BandedLu {
                         let rows = head[upper..upper + lanes]
                             .iter_mut()
                             .zip(&mut tail[..lanes]);
-                        for ((x, y), &p) in rows.zip(&pivot_row) {
+                        for ((x, y), &p) in rows.zip(pivot_row.iter()) {
                             let swap = p == r;
                             let (a, b) = (*x, *y);
                             *x = if swap { b } else { a };
@@ -210,8 +241,10 @@ impl BandedLu {
                     let targets = self.re[target..target + lanes]
                         .iter_mut()
                         .zip(&mut self.im[target..target + lanes]);
-                    for ((((tr, ti), fr), fi), (lr, li)) in
-                        targets.zip(&f_re).zip(&f_im).zip(lr.iter().zip(li))
+                    for ((((tr, ti), fr), fi), (lr, li)) in targets
+                        .zip(f_re.iter())
+                        .zip(f_im.iter())
+                        .zip(lr.iter().zip(li))
                     {
                         *tr -= lr * fr - li * fi;
                         *ti -= lr * fi + li * fr;
@@ -220,12 +253,18 @@ impl BandedLu {
                 at += along_row;
             }
         }
+        self.scratch = scratch;
         !self.singular.iter().any(|&s| s)
     }
 
     /// Solve `A_m x = b` in place for each `(m, b)` of `systems`, column by column across
     /// them.
     pub fn solve_batch(&self, systems: &mut [(usize, &mut [c64])]) {
+        self.solve_systems(systems);
+    }
+
+    /// [`BandedLu::solve_batch`] for any collection of right-hand sides.
+    pub fn solve_systems<S: BatchSystems + ?Sized>(&self, systems: &mut S) {
         let (n, kl, lanes) = (self.n, self.kl, self.lanes);
         let kv = kl + self.ku;
         let leading = self.leading();
@@ -234,32 +273,61 @@ impl BandedLu {
         };
         for j in 0..n {
             let below = kl.min(n - 1 - j);
-            for (m, b) in systems.iter_mut() {
-                let l = self.pivots[j * lanes + *m];
+            for s in 0..systems.count() {
+                let m = systems.matrix(s);
+                let b = systems.column(s);
+                let l = self.pivots[j * lanes + m];
                 if l != j {
                     b.swap(l, j);
                 }
                 let bj = b[j];
                 for r in 1..=below {
-                    b[j + r] -= entry(kv + r + j * leading, *m) * bj;
+                    b[j + r] -= entry(kv + r + j * leading, m) * bj;
                 }
             }
         }
         for j in (0..n).rev() {
             let first = j.saturating_sub(kv);
             let base = kv + first + j * leading - j;
-            for (m, b) in systems.iter_mut() {
+            for s in 0..systems.count() {
+                let m = systems.matrix(s);
+                let b = systems.column(s);
                 let inverse = c64::new(
-                    self.inverse_re[j * lanes + *m],
-                    self.inverse_im[j * lanes + *m],
+                    self.inverse_re[j * lanes + m],
+                    self.inverse_im[j * lanes + m],
                 );
                 b[j] *= inverse;
                 let bj = b[j];
                 for (i, bi) in b[first..j].iter_mut().enumerate() {
-                    *bi -= entry(base + i, *m) * bj;
+                    *bi -= entry(base + i, m) * bj;
                 }
             }
         }
+    }
+}
+
+/// Right-hand sides that a batch of factored matrices solves in place
+/// ([`BandedLu::solve_systems`]): each a column and the matrix it belongs to.
+pub trait BatchSystems {
+    /// Number of right-hand sides.
+    fn count(&self) -> usize;
+    /// The matrix of right-hand side `s`.
+    fn matrix(&self, s: usize) -> usize;
+    /// Right-hand side `s`.
+    fn column(&mut self, s: usize) -> &mut [c64];
+}
+
+impl BatchSystems for [(usize, &mut [c64])] {
+    fn count(&self) -> usize {
+        self.len()
+    }
+
+    fn matrix(&self, s: usize) -> usize {
+        self[s].0
+    }
+
+    fn column(&mut self, s: usize) -> &mut [c64] {
+        self[s].1
     }
 }
 

@@ -23,7 +23,7 @@ use faer::prelude::{Reborrow, ReborrowMut};
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
 use faer::{c64, Mat};
 
-use super::banded::{band_position, bandwidths, BandedLu};
+use super::banded::{band_position, bandwidths, BandedLu, BatchSystems};
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
 
@@ -161,6 +161,8 @@ enum Factors {
 pub struct HarmonicFactors {
     pub omega: f64,
     factors: Factors,
+    /// `kω` per harmonic (kept, so that factoring again allocates nothing).
+    frequencies: Vec<f64>,
 }
 
 impl LinearPart {
@@ -224,6 +226,7 @@ impl LinearPart {
         let mut factors = HarmonicFactors {
             omega,
             factors: Factors::Sparse(Vec::new()),
+            frequencies: Vec::new(),
         };
         self.factor_into(omega, harmonics, &mut factors)?;
         Ok(factors)
@@ -255,13 +258,16 @@ impl LinearPart {
                     unreachable!("made banded above")
                 };
                 // a zero pivot leaves non-finite solutions, which the solves report
-                let frequencies: Vec<f64> = (0..lanes).map(|k| k as f64 * omega).collect();
+                factors.frequencies.clear();
+                factors
+                    .frequencies
+                    .extend((0..lanes).map(|k| k as f64 * omega));
                 batch.factor_dynamic_stiffness(
                     positions,
                     &self.stiffness_values,
                     &self.mass_values,
                     &self.damping_values,
-                    &frequencies,
+                    &factors.frequencies,
                 );
             }
             Analysis::Sparse(symbolic) => {
@@ -319,17 +325,26 @@ impl HarmonicFactors {
     /// Solve `A_k x = b` in place for each `(k, b)` of `systems` (band factors: in one
     /// pass across the systems, [`BandedLu::solve_batch`]).
     pub fn solve_batch(&self, systems: &mut [(usize, &mut [c64])]) -> Result<()> {
+        self.solve_systems(systems)
+    }
+
+    /// [`HarmonicFactors::solve_batch`] for any collection of right-hand sides (the
+    /// harmonic of each is its matrix).
+    pub fn solve_systems<S: BatchSystems + ?Sized>(&self, systems: &mut S) -> Result<()> {
         match &self.factors {
-            Factors::Banded(batch) => batch.solve_batch(systems),
+            Factors::Banded(batch) => batch.solve_systems(systems),
             Factors::Sparse(lus) => {
-                for (k, b) in systems.iter_mut() {
+                for s in 0..systems.count() {
+                    let k = systems.matrix(s);
+                    let b = systems.column(s);
                     let n = b.len();
-                    lus[*k].solve_in_place(faer::MatMut::from_column_major_slice_mut(b, n, 1));
+                    lus[k].solve_in_place(faer::MatMut::from_column_major_slice_mut(b, n, 1));
                 }
             }
         }
-        for (k, b) in systems.iter() {
-            self.check_finite(*k, b.iter().copied())?;
+        for s in 0..systems.count() {
+            let k = systems.matrix(s);
+            self.check_finite(k, systems.column(s).iter().copied())?;
         }
         Ok(())
     }

@@ -48,6 +48,16 @@ pub fn complex_harmonic(x: &[f64], n: usize, k: usize) -> Vec<c64> {
     }
 }
 
+/// [`complex_harmonic`] into `out` (`n`).
+pub fn complex_harmonic_into(x: &[f64], n: usize, k: usize, out: &mut [c64]) {
+    if k == 0 {
+        (0..n).for_each(|i| out[i] = c64::new(x[i], 0.0));
+    } else {
+        let (ci, si) = ((2 * k - 1) * n, 2 * k * n);
+        (0..n).for_each(|i| out[i] = c64::new(x[ci + i], -x[si + i]));
+    }
+}
+
 /// Write the complex amplitude `v` of harmonic `k` of `n` DOFs into the harmonic-major real
 /// coefficients `out` (`a = Re`, `b = −Im`; the mean takes the real part), the inverse of
 /// [`complex_harmonic`].

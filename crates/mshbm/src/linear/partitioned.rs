@@ -43,6 +43,21 @@ impl PartLoad {
             .any(|&x| x != 0.0)
             .then(|| v.iter().map(|&x| c64::new(x, 0.0)).collect())
     }
+
+    /// [`PartLoad::complex`] into `out` (left as it is when the load is zero); whether it
+    /// is nonzero.
+    pub fn complex_into(&self, k: usize, out: &mut [c64]) -> bool {
+        let Some(v) = self.real(k) else {
+            return false;
+        };
+        if v.iter().all(|&x| x == 0.0) {
+            return false;
+        }
+        out.iter_mut()
+            .zip(v)
+            .for_each(|(o, &x)| *o = c64::new(x, 0.0));
+        true
+    }
 }
 
 /// A structural system `M q̈ + C q̇ + K q = f` split into the linear part `L` and the

@@ -22,6 +22,7 @@ use std::sync::Arc;
 
 use faer::{c64, Mat, MatRef};
 
+use super::banded::BatchSystems;
 use super::dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
 use super::partitioned::PartLoad;
 use super::ZERO;
@@ -131,6 +132,28 @@ pub trait ReceptanceAtFrequency: Send + Sync {
     /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)`, or without the load (`with_load = false`:
     /// `∂R_k/∂ω λ̂_k`).
     fn frequency_derivative(&self, k: usize, force: &[c64], with_load: bool) -> Result<Vec<c64>>;
+
+    /// [`ReceptanceAtFrequency::frequency_derivative`] into `out` (`n_c`), with `scratch`
+    /// for its working vectors (so that a receptance that keeps its solved columns
+    /// allocates nothing).
+    fn frequency_derivative_into(
+        &self,
+        k: usize,
+        force: &[c64],
+        with_load: bool,
+        out: &mut [c64],
+        _scratch: &mut Vec<c64>,
+    ) -> Result<()> {
+        out.copy_from_slice(&self.frequency_derivative(k, force, with_load)?);
+        Ok(())
+    }
+
+    /// Redo the per-frequency work at `ω` in this receptance's storage, for the same
+    /// harmonics (no allocation); `false` when this receptance cannot (then ask
+    /// [`Receptance::at`] for a new one). After an error it is not usable.
+    fn refresh(&mut self, _omega: f64) -> Result<bool> {
+        Ok(false)
+    }
 }
 
 /// The exact receptance: the whole dynamic stiffness `A_k` factored (a sparse or a band LU,
@@ -189,57 +212,21 @@ impl Receptance for ExactReceptance {
     fn at(&self, omega: f64, harmonics: usize) -> Result<Box<dyn ReceptanceAtFrequency>> {
         let (n, nc) = (self.n_dofs(), self.n_contacts());
         let parts = &self.shared;
-        let factors = parts.structure.factor(omega, harmonics)?;
         let keep = parts.symmetric
             && n.saturating_mul(nc + 1).saturating_mul(harmonics + 1) <= KEPT_COLUMN_VALUES;
-        // per harmonic, A_k⁻¹ [W | f_k] column-major (n_c + 1 columns of n; the last stays
-        // zero for the harmonics that are not loaded), all solved in one batch
-        let mut columns: Vec<Vec<c64>> = Vec::with_capacity(harmonics + 1);
-        let mut loaded = Vec::with_capacity(harmonics + 1);
-        for k in 0..=harmonics {
-            let mut block = vec![ZERO; n * (nc + 1)];
-            for (c, w) in parts.contacts.w.iter().enumerate() {
-                w.iter()
-                    .for_each(|&(i, v)| block[c * n + i] += c64::new(v, 0.0));
-            }
-            let load = parts.load.complex(k);
-            if let Some(f) = &load {
-                block[nc * n..].copy_from_slice(f);
-            }
-            loaded.push(load.is_some());
-            columns.push(block);
-        }
-        {
-            let mut systems: Vec<(usize, &mut [c64])> = Vec::new();
-            for (k, block) in columns.iter_mut().enumerate() {
-                let solved = if loaded[k] { nc + 1 } else { nc };
-                systems.extend(block[..solved * n].chunks_exact_mut(n).map(|b| (k, b)));
-            }
-            factors.solve_batch(&mut systems)?;
-        }
-        let mut receptance = Vec::with_capacity(harmonics + 1);
-        let mut load_response = Vec::with_capacity(harmonics + 1);
-        let mut gathered = vec![ZERO; nc];
-        for block in &columns {
-            let mut r = vec![ZERO; nc * nc];
-            for (j, column) in block.chunks_exact(n).enumerate() {
-                parts.contacts.gather_into(column, &mut gathered);
-                if j < nc {
-                    (0..nc).for_each(|i| r[i * nc + j] = gathered[i]);
-                } else {
-                    load_response.push(gathered.clone());
-                }
-            }
-            receptance.push(r);
-        }
-        Ok(Box::new(ExactReceptanceAt {
+        let mut at = ExactReceptanceAt {
             omega,
-            factors,
-            receptance,
-            load_response,
-            columns: keep.then_some(columns),
+            factors: parts.structure.factor(omega, harmonics)?,
+            receptance: vec![vec![ZERO; nc * nc]; harmonics + 1],
+            load_response: vec![vec![ZERO; nc]; harmonics + 1],
+            columns: vec![vec![ZERO; n * (nc + 1)]; harmonics + 1],
+            keep,
+            solved: Vec::with_capacity((harmonics + 1) * (nc + 1)),
+            gathered: vec![ZERO; nc],
             parts: Arc::clone(&self.shared),
-        }))
+        };
+        at.solve_columns()?;
+        Ok(Box::new(at))
     }
 }
 
@@ -248,24 +235,91 @@ struct ExactReceptanceAt {
     omega: f64,
     factors: HarmonicFactors,
     receptance: Vec<Vec<c64>>,
+    /// Per harmonic, `Wᵀ A_k⁻¹ f_k` (zero without load).
     load_response: Vec<Vec<c64>>,
-    /// Per harmonic, `[Y | A_k⁻¹ f_k]` (`n × (n_c + 1)`, column-major) when `A_k` is
-    /// complex symmetric.
-    columns: Option<Vec<Vec<c64>>>,
+    /// Per harmonic, `[Y | A_k⁻¹ f_k]` (`n × (n_c + 1)`, column-major; the last column
+    /// zero for a harmonic without load).
+    columns: Vec<Vec<c64>>,
+    /// Whether `A_k` is complex symmetric and the columns are kept for the response and the
+    /// frequency derivative (docs/theory.md (T139)).
+    keep: bool,
+    /// `(harmonic, column)` of the columns solved (reused).
+    solved: Vec<(usize, usize)>,
+    gathered: Vec<c64>,
     parts: Arc<ExactParts>,
 }
 
+/// The columns `[W | f_k]` of every harmonic that are solved, as one batch
+/// ([`BatchSystems`]).
+struct SolvedColumns<'a> {
+    columns: &'a mut [Vec<c64>],
+    list: &'a [(usize, usize)],
+    n: usize,
+}
+
+impl BatchSystems for SolvedColumns<'_> {
+    fn count(&self) -> usize {
+        self.list.len()
+    }
+
+    fn matrix(&self, s: usize) -> usize {
+        self.list[s].0
+    }
+
+    fn column(&mut self, s: usize) -> &mut [c64] {
+        let (k, j) = self.list[s];
+        &mut self.columns[k][j * self.n..(j + 1) * self.n]
+    }
+}
+
 impl ExactReceptanceAt {
-    /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)` (or `A_k⁻¹ W λ̂_k` without the load) from the kept
-    /// columns.
-    fn combine(columns: &[c64], force: &[c64], with_load: bool) -> Vec<c64> {
+    /// With `factors` at `ω`: `A_k⁻¹ [W | f_k]` per harmonic (the load column only where
+    /// `f_k ≠ 0`), solved in one batch, and `R_k`, `Wᵀ A_k⁻¹ f_k` gathered from them.
+    fn solve_columns(&mut self) -> Result<()> {
+        let parts = &self.parts;
+        let n = parts.structure.n_dofs();
+        let nc = parts.contacts.len();
+        self.solved.clear();
+        for (k, block) in self.columns.iter_mut().enumerate() {
+            block.fill(ZERO);
+            for (c, w) in parts.contacts.w.iter().enumerate() {
+                w.iter()
+                    .for_each(|&(i, v)| block[c * n + i] += c64::new(v, 0.0));
+            }
+            let loaded = parts.load.complex_into(k, &mut block[nc * n..]);
+            let solved = if loaded { nc + 1 } else { nc };
+            self.solved.extend((0..solved).map(|j| (k, j)));
+        }
+        self.factors.solve_systems(&mut SolvedColumns {
+            columns: &mut self.columns,
+            list: &self.solved,
+            n,
+        })?;
+        let blocks = self.columns.iter().zip(&mut self.receptance);
+        for ((block, r), load) in blocks.zip(&mut self.load_response) {
+            for (j, column) in block.chunks_exact(n).enumerate() {
+                if j < nc {
+                    parts.contacts.gather_into(column, &mut self.gathered);
+                    (0..nc).for_each(|i| r[i * nc + j] = self.gathered[i]);
+                } else {
+                    parts.contacts.gather_into(column, load);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)` (or `A_k⁻¹ W λ̂_k` without the load) from the
+    /// columns of harmonic `k`, into `q` (`n`).
+    fn combine_into(&self, k: usize, force: &[c64], with_load: bool, q: &mut [c64]) {
+        let columns = &self.columns[k];
+        let n = q.len();
         let nc = force.len();
-        let n = columns.len() / (nc + 1);
-        let mut q: Vec<c64> = if with_load {
-            columns[nc * n..].to_vec()
+        if with_load {
+            q.copy_from_slice(&columns[nc * n..]);
         } else {
-            vec![ZERO; n]
-        };
+            q.fill(ZERO);
+        }
         for (c, &l) in force.iter().enumerate() {
             if l != ZERO {
                 q.iter_mut()
@@ -273,7 +327,6 @@ impl ExactReceptanceAt {
                     .for_each(|(q, y)| *q += y * l);
             }
         }
-        q
     }
 }
 
@@ -294,52 +347,73 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
         &self.load_response[k]
     }
 
+    fn refresh(&mut self, omega: f64) -> Result<bool> {
+        let harmonics = self.harmonics();
+        self.parts
+            .structure
+            .factor_into(omega, harmonics, &mut self.factors)?;
+        self.omega = omega;
+        self.solve_columns()?;
+        Ok(true)
+    }
+
     fn response(&self, k: usize, force: &[c64]) -> Result<Vec<c64>> {
-        if let Some(columns) = &self.columns {
-            return Ok(Self::combine(&columns[k], force, true));
-        }
         let n = self.parts.structure.n_dofs();
-        let mut rhs = self.parts.load.complex(k).unwrap_or_else(|| vec![ZERO; n]);
-        self.parts.contacts.scatter_add(force, &mut rhs);
-        self.factors.solve(k, &rhs)
+        let mut q = vec![ZERO; n];
+        if self.keep {
+            self.combine_into(k, force, true, &mut q);
+            return Ok(q);
+        }
+        self.parts.load.complex_into(k, &mut q);
+        self.parts.contacts.scatter_add(force, &mut q);
+        self.factors.solve_slice_in_place(k, &mut q)?;
+        Ok(q)
+    }
+
+    fn frequency_derivative_into(
+        &self,
+        k: usize,
+        force: &[c64],
+        with_load: bool,
+        out: &mut [c64],
+        scratch: &mut Vec<c64>,
+    ) -> Result<()> {
+        let n = self.parts.structure.n_dofs();
+        scratch.clear();
+        scratch.resize(2 * n, ZERO);
+        let (q, v) = scratch.split_at_mut(n);
+        if self.keep {
+            self.combine_into(k, force, with_load, q);
+        } else {
+            if with_load {
+                self.parts.load.complex_into(k, q);
+            }
+            self.parts.contacts.scatter_add(force, q);
+            self.factors.solve_slice_in_place(k, q)?;
+        }
+        self.parts
+            .structure
+            .add_derivative_times(k, self.omega, q, v);
+        if self.keep {
+            // Wᵀ A_k⁻¹ v = Yᵀ v (A_k complex symmetric)
+            let columns = &self.columns[k];
+            for (c, o) in out.iter_mut().enumerate() {
+                *o = -columns[c * n..(c + 1) * n]
+                    .iter()
+                    .zip(v.iter())
+                    .fold(ZERO, |s, (y, v)| s + y * v);
+            }
+            return Ok(());
+        }
+        self.factors.solve_slice_in_place(k, v)?;
+        self.parts.contacts.gather_into(v, out);
+        out.iter_mut().for_each(|o| *o = -*o);
+        Ok(())
     }
 
     fn frequency_derivative(&self, k: usize, force: &[c64], with_load: bool) -> Result<Vec<c64>> {
-        let structure = &self.parts.structure.matrices;
-        if let Some(columns) = &self.columns {
-            // Wᵀ A_k⁻¹ v = Yᵀ v (A_k complex symmetric)
-            let columns = &columns[k];
-            let q = Self::combine(columns, force, with_load);
-            let mut v = vec![ZERO; q.len()];
-            self.parts
-                .structure
-                .add_derivative_times(k, self.omega, &q, &mut v);
-            let n = v.len();
-            return Ok((0..force.len())
-                .map(|c| {
-                    -columns[c * n..(c + 1) * n]
-                        .iter()
-                        .zip(&v)
-                        .fold(ZERO, |s, (y, v)| s + y * v)
-                })
-                .collect());
-        }
-        let q = if with_load {
-            self.response(k, force)?
-        } else {
-            let mut rhs = vec![ZERO; structure.nrows()];
-            self.parts.contacts.scatter_add(force, &mut rhs);
-            self.factors.solve(k, &rhs)?
-        };
-        let mut v = vec![ZERO; q.len()];
-        structure.add_derivative_times(k, self.omega, &q, &mut v);
-        let dq = self.factors.solve(k, &v)?;
-        Ok(self
-            .parts
-            .contacts
-            .gather(&dq)
-            .into_iter()
-            .map(|g| -g)
-            .collect())
+        let mut out = vec![ZERO; force.len()];
+        self.frequency_derivative_into(k, force, with_load, &mut out, &mut Vec::new())?;
+        Ok(out)
     }
 }

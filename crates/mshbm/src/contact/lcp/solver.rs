@@ -58,6 +58,8 @@ pub(super) struct Workspace {
     pub(super) contact_force: Vec<f64>,
     /// Gaps `w = D λ + q` of the current active set.
     pub(super) gap: Vec<f64>,
+    /// `λ_A`, the solution of the active block.
+    pub(super) block_force: Vec<f64>,
 }
 
 /// Outcome of evaluating one active set.
@@ -92,6 +94,7 @@ impl LcpSolver {
                 block_rhs: Vec::with_capacity(n),
                 contact_force: vec![0.0; n],
                 gap: vec![0.0; n],
+                block_force: Vec::with_capacity(n),
             },
             matrix,
         }
@@ -111,6 +114,14 @@ impl LcpSolver {
     pub fn solve(&mut self, q: &[f64]) -> Result<LcpSolution, LcpError> {
         self.work.active.clone_from(&self.warm_start);
         self.solve_from_current_guess(q)
+    }
+
+    /// [`LcpSolver::solve`], returning only the active set (nothing is allocated; for
+    /// one contact, or for several once the solver's workspace has grown).
+    pub fn solve_active(&mut self, q: &[f64]) -> Result<&[bool], LcpError> {
+        self.work.active.clone_from(&self.warm_start);
+        self.run_from_current_guess(q)?;
+        Ok(&self.work.active)
     }
 
     /// Solves LCP(D, q) with `active_guess` as the initial active set. On success the final
@@ -139,7 +150,8 @@ impl LcpSolver {
         self.check_q(q)?;
         let mut pivots = 0;
         let iterate = self.murty(q, &mut pivots)?;
-        self.finish(iterate, pivots)
+        self.clamp(iterate);
+        Ok(self.solution(pivots))
     }
 
     /// Validates `q`: panics on a wrong length, reports non-finite entries.
@@ -164,18 +176,37 @@ impl LcpSolver {
 
     /// Active-set iteration from `self.work.active`, then the pivoting fallback if needed.
     fn solve_from_current_guess(&mut self, q: &[f64]) -> Result<LcpSolution, LcpError> {
+        let pivots = self.run_from_current_guess(q)?;
+        Ok(self.solution(pivots))
+    }
+
+    /// [`LcpSolver::solve_from_current_guess`] leaving the clamped solution in the
+    /// workspace; the number of pivots.
+    fn run_from_current_guess(&mut self, q: &[f64]) -> Result<usize, LcpError> {
         self.check_q(q)?;
         let mut pivots = 0;
         let iterate = match self.primal_dual_active_set(q, &mut pivots) {
             Some(iterate) => iterate,
             None => self.murty(q, &mut pivots)?,
         };
-        self.finish(iterate, pivots)
+        self.clamp(iterate);
+        Ok(pivots)
     }
 
-    /// Clamps the accepted iterate to an exactly complementary solution, stores its active
-    /// set as the next warm start and returns it.
-    fn finish(&mut self, iterate: Iterate, pivots: usize) -> Result<LcpSolution, LcpError> {
+    /// The clamped solution in the workspace.
+    fn solution(&self, pivots: usize) -> LcpSolution {
+        let work = &self.work;
+        LcpSolution {
+            lambda: work.contact_force.clone(),
+            w: work.gap.clone(),
+            active: work.active.clone(),
+            pivots,
+        }
+    }
+
+    /// Clamps the accepted iterate to an exactly complementary solution and stores its
+    /// active set as the next warm start.
+    fn clamp(&mut self, iterate: Iterate) {
         debug_assert!(iterate.is_solution());
         let work = &mut self.work;
         for ((force, gap), &is_active) in work
@@ -193,12 +224,6 @@ impl LcpSolver {
             }
         }
         self.warm_start.clone_from(&work.active);
-        Ok(LcpSolution {
-            lambda: work.contact_force.clone(),
-            w: work.gap.clone(),
-            active: work.active.clone(),
-            pivots,
-        })
     }
 }
 
@@ -228,14 +253,18 @@ impl Workspace {
                 .extend(self.active_indices.iter().map(|&j| row[j]));
             self.block_rhs.push(-q[i]);
         }
-        let block_force =
-            crate::dense::solve_small_lu(&self.block, &self.block_rhs, SINGULAR_PIVOT_REL_TOL)
-                .map_err(|singular| LcpError::Singular {
-                    block_size,
-                    contact: self.active_indices[singular.column],
-                })?;
+        crate::dense::solve_small_lu_into(
+            &self.block,
+            &self.block_rhs,
+            SINGULAR_PIVOT_REL_TOL,
+            &mut self.block_force,
+        )
+        .map_err(|singular| LcpError::Singular {
+            block_size,
+            contact: self.active_indices[singular.column],
+        })?;
         self.contact_force.fill(0.0);
-        for (&i, &force) in self.active_indices.iter().zip(&block_force) {
+        for (&i, &force) in self.active_indices.iter().zip(&self.block_force) {
             self.contact_force[i] = force;
         }
         let term_scale = compute_gap(

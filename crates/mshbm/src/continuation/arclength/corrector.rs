@@ -6,9 +6,11 @@
 
 use super::predictor::predict;
 
-use super::scaled::{bordered, difference, dot, max_abs, Scaling};
+use std::cell::RefCell;
+
+use super::scaled::{bordered_into, dot, max_abs, BorderedStorage, Scaling};
 use crate::error::{ErrorKind, Result};
-use crate::newton::{self, Iterated, NewtonOptions, NewtonSystem};
+use crate::newton::{self, Iterated, NewtonOptions, NewtonStorage, NewtonSystem};
 use crate::problem::{Jacobian, NewtonContraction, PeriodicProblem};
 
 /// Largest ratio of two successive updates of a quadratically contracting Newton: each
@@ -22,8 +24,8 @@ const MAX_CORRECTOR_TRAVEL: f64 = 0.5;
 pub(super) trait ClosingEquation {
     /// `g(X)`.
     fn value(&self, xs: &[f64]) -> f64;
-    /// `∂g/∂X`, the border row of the bordered matrix.
-    fn gradient(&self, xs: &[f64]) -> Vec<f64>;
+    /// `∂g/∂X`, the border row of the bordered matrix, into `out`.
+    fn gradient_into(&self, xs: &[f64], out: &mut Vec<f64>);
     /// Largest accepted `|g(X)|`.
     fn tolerance(&self, xs: &[f64]) -> f64;
 }
@@ -37,10 +39,17 @@ pub(super) struct Arclength<'a> {
 
 impl ClosingEquation for Arclength<'_> {
     fn value(&self, xs: &[f64]) -> f64 {
-        dot(self.tangent, &difference(xs, self.start)) - self.ds
+        let moved = xs.iter().zip(self.start).map(|(x, s)| x - s);
+        self.tangent
+            .iter()
+            .zip(moved)
+            .map(|(t, d)| t * d)
+            .sum::<f64>()
+            - self.ds
     }
-    fn gradient(&self, _xs: &[f64]) -> Vec<f64> {
-        self.tangent.to_vec()
+    fn gradient_into(&self, _xs: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend_from_slice(self.tangent);
     }
     /// The arclength equation is linear: after one step it holds to round-off, which is
     /// relative to `|X|`, not to the (possibly tiny) step.
@@ -57,14 +66,12 @@ pub(super) struct Sphere<'a> {
 
 impl ClosingEquation for Sphere<'_> {
     fn value(&self, xs: &[f64]) -> f64 {
-        let d = difference(xs, self.center);
-        dot(&d, &d) - self.radius * self.radius
+        let d = xs.iter().zip(self.center).map(|(x, c)| x - c);
+        d.map(|d| d * d).sum::<f64>() - self.radius * self.radius
     }
-    fn gradient(&self, xs: &[f64]) -> Vec<f64> {
-        difference(xs, self.center)
-            .iter()
-            .map(|d| 2.0 * d)
-            .collect()
+    fn gradient_into(&self, xs: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(xs.iter().zip(self.center).map(|(x, c)| 2.0 * (x - c)));
     }
     fn tolerance(&self, _xs: &[f64]) -> f64 {
         1e-8 * self.radius * self.radius
@@ -91,25 +98,47 @@ struct Bordered<'a, P: PeriodicProblem + ?Sized, G: ClosingEquation> {
     previous_update: f64,
     /// `‖R‖_∞ / ℓ` at the last linearization.
     residual_norm: f64,
+    /// The unscaled unknowns, the border row and the problem's linearization (kept by the
+    /// corrector from one solve to the next).
+    storage: &'a mut BorderedSystemStorage,
+}
+
+/// What the bordered system keeps between iterations and solves.
+#[derive(Default)]
+struct BorderedSystemStorage {
+    x: Vec<f64>,
+    border: Vec<f64>,
+    bordered: BorderedStorage,
 }
 
 impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<'_, P, G> {
     /// `[R_X; ∂g/∂X]` and `[R; g]`; `None` off positive frequencies (a subnormal one, whose
     /// period overflows, included) or where a matrix of the problem is singular.
-    fn linearize(&mut self, xs: &[f64]) -> Result<Option<(Jacobian, Vec<f64>)>> {
-        let (x, omega) = self.sc.unscale(xs);
+    fn linearize(&mut self, xs: &[f64], jacobian: &mut Jacobian, f: &mut Vec<f64>) -> Result<bool> {
+        let storage = &mut *self.storage;
+        let omega = self.sc.unscale_into(xs, &mut storage.x);
         if !(omega.is_normal() && omega > 0.0) {
-            return Ok(None);
+            return Ok(false);
         }
-        let border = self.equation.gradient(xs);
-        let (a, mut f) = match bordered(self.problem, self.sc, &x, omega, &border) {
-            Ok(v) => v,
-            Err(e) if e.kind() == ErrorKind::Singular => return Ok(None),
+        self.equation.gradient_into(xs, &mut storage.border);
+        let linearized = bordered_into(
+            self.problem,
+            self.sc,
+            &storage.x,
+            omega,
+            &storage.border,
+            &mut storage.bordered,
+            jacobian,
+            f,
+        );
+        match linearized {
+            Ok(()) => {}
+            Err(e) if e.kind() == ErrorKind::Singular => return Ok(false),
             Err(e) => return Err(e),
-        };
-        self.residual_norm = max_abs(&f) / self.sc.length;
+        }
+        self.residual_norm = max_abs(f) / self.sc.length;
         f.push(self.equation.value(xs));
-        Ok(Some((a, f)))
+        Ok(true)
     }
 
     fn converged(&mut self, xs: &[f64], f: &[f64], iterations: usize) -> bool {
@@ -141,6 +170,20 @@ impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<
 pub(super) struct Corrector<'a> {
     pub newton: &'a NewtonOptions,
     pub contraction: NewtonContraction,
+    /// Newton's and the bordered system's storage, kept from solve to solve: once the
+    /// first point is solved, a corrector iteration allocates nothing beyond what the
+    /// problem's [`PeriodicProblem::linearize_into`] does.
+    storage: RefCell<(NewtonStorage, BorderedSystemStorage)>,
+}
+
+impl<'a> Corrector<'a> {
+    pub fn new(newton: &'a NewtonOptions, contraction: NewtonContraction) -> Self {
+        Corrector {
+            newton,
+            contraction,
+            storage: Default::default(),
+        }
+    }
 }
 
 impl Corrector<'_> {
@@ -157,6 +200,8 @@ impl Corrector<'_> {
         equation: &impl ClosingEquation,
         min_iterations: usize,
     ) -> Result<Option<Corrected>> {
+        let mut storage = self.storage.borrow_mut();
+        let (newton_storage, system_storage) = &mut *storage;
         let mut system = Bordered {
             problem,
             sc,
@@ -166,9 +211,10 @@ impl Corrector<'_> {
             contraction: self.contraction,
             previous_update: f64::INFINITY,
             residual_norm: f64::NAN,
+            storage: system_storage,
         };
         Ok(
-            match newton::iterate(&mut system, xs, self.newton.max_iterations)? {
+            match newton::iterate(&mut system, xs, self.newton.max_iterations, newton_storage)? {
                 Iterated::Converged { y, iterations } => Some(Corrected {
                     xs: y,
                     iterations,
@@ -244,10 +290,7 @@ mod tests {
     fn a_subnormal_frequency_is_refused_before_the_problem_is_evaluated() {
         let sc = Scaling::new(1.0, 1, 1.0);
         let options = NewtonOptions::default();
-        let corrector = Corrector {
-            newton: &options,
-            contraction: NewtonContraction::Unchecked,
-        };
+        let corrector = Corrector::new(&options, NewtonContraction::Unchecked);
         let subnormal: f64 = 1e-320;
         assert!(subnormal > 0.0 && !subnormal.is_normal() && !(1.0 / subnormal).is_finite());
         let start = sc.to_scaled(&[0.0], subnormal);

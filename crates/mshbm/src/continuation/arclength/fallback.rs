@@ -125,10 +125,7 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
 ) -> Result<Option<BranchPoint>> {
     // Newton on a sphere starts off the branch, on the far side of a corner: its updates
     // are not held to the quadratic contraction of the arclength corrector
-    let corrector = Corrector {
-        newton: corrector.newton,
-        contraction: NewtonContraction::Unchecked,
-    };
+    let corrector = Corrector::new(corrector.newton, NewtonContraction::Unchecked);
     let n = last.x.len();
     let x0 = sc.to_scaled(&last.x, last.omega);
     let t = &last.tangent;

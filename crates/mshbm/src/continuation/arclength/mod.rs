@@ -74,10 +74,7 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
     let policy = problem.continuation_policy();
     let range = Range::new(options);
     let sc = Scaling::new(problem.length_scale(), policy.signals, range.start);
-    let corrector = Corrector {
-        newton: &options.newton,
-        contraction: policy.newton_contraction,
-    };
+    let corrector = Corrector::new(&options.newton, policy.newton_contraction);
     let mut fallback = Fallback::new(policy.where_arclength_fails);
     let mut trace = Trace::new(on_event);
     match first_point(problem, &sc, &range, options)? {

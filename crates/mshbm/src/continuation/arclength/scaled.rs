@@ -6,7 +6,7 @@ use std::cell::RefCell;
 use faer::Mat;
 
 use crate::error::{Error, Result, SingularSystem};
-use crate::problem::{Jacobian, JacobianOperator, PeriodicProblem};
+use crate::problem::{Jacobian, JacobianOperator, Linearization, PeriodicProblem};
 
 pub(super) fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
@@ -59,6 +59,14 @@ impl Scaling {
         s
     }
 
+    /// [`Scaling::unscale`] with `x` into `x`; `ω`.
+    pub fn unscale_into(&self, s: &[f64], x: &mut Vec<f64>) -> f64 {
+        let n = s.len() - 1;
+        x.clear();
+        x.extend(s[..n].iter().map(|v| v * self.unknowns));
+        self.omega * s[n].exp()
+    }
+
     pub fn unscale(&self, s: &[f64]) -> (Vec<f64>, f64) {
         let n = s.len() - 1;
         (
@@ -77,29 +85,104 @@ pub(super) fn bordered<P: PeriodicProblem + ?Sized>(
     omega: f64,
     border: &[f64],
 ) -> Result<(Jacobian, Vec<f64>)> {
-    let lin = problem.linearize(x, omega)?;
+    let mut storage = BorderedStorage::default();
+    let mut jacobian = Jacobian::Dense(Mat::zeros(0, 0));
+    let mut residual = Vec::new();
+    bordered_into(
+        problem,
+        sc,
+        x,
+        omega,
+        border,
+        &mut storage,
+        &mut jacobian,
+        &mut residual,
+    )?;
+    Ok((jacobian, residual))
+}
+
+/// What [`bordered_into`] keeps between calls: the problem's linearization.
+#[derive(Default)]
+pub(super) struct BorderedStorage {
+    linearization: Linearization,
+}
+
+/// [`bordered`] into `jacobian` and `residual`, with the problem's linearization in
+/// `storage`: a dense bordered matrix of the same size is overwritten, so that nothing is
+/// allocated when the problem's [`PeriodicProblem::linearize_into`] allocates nothing.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn bordered_into<P: PeriodicProblem + ?Sized>(
+    problem: &mut P,
+    sc: &Scaling,
+    x: &[f64],
+    omega: f64,
+    border: &[f64],
+    storage: &mut BorderedStorage,
+    jacobian: &mut Jacobian,
+    residual: &mut Vec<f64>,
+) -> Result<()> {
+    let lin = &mut storage.linearization;
+    problem.linearize_into(x, omega, lin)?;
+    residual.clone_from(&lin.residual);
+    let n = lin.d_omega.len();
     // dR / d ln ω
-    let column: Vec<f64> = lin.d_omega.iter().map(|v| v * omega).collect();
-    let jacobian = match lin.jacobian {
-        Jacobian::Dense(j) => Jacobian::Dense(bordered_matrix(&j, sc.unknowns, &column, border)),
-        Jacobian::Operator(inner) => Jacobian::Operator(Box::new(BorderedOperator::new(
-            inner,
-            sc.unknowns,
-            column,
-            border.to_vec(),
-        ))),
+    let column = |i: usize| lin.d_omega[i] * omega;
+    if let Jacobian::Dense(j) = &lin.jacobian {
+        match jacobian {
+            Jacobian::Dense(m) if m.nrows() == n + 1 && m.ncols() == n + 1 => {
+                fill_bordered(m, j, sc.unknowns, column, border)
+            }
+            other => *other = Jacobian::Dense(bordered_matrix(j, sc.unknowns, column, border)),
+        }
+        return Ok(());
+    }
+    let column: Vec<f64> = (0..n).map(column).collect();
+    let Jacobian::Operator(inner) =
+        std::mem::replace(&mut lin.jacobian, Jacobian::Dense(Mat::zeros(0, 0)))
+    else {
+        unreachable!("not dense")
     };
-    Ok((jacobian, lin.residual))
+    *jacobian = Jacobian::Operator(Box::new(BorderedOperator::new(
+        inner,
+        sc.unknowns,
+        column,
+        border.to_vec(),
+    )));
+    Ok(())
 }
 
 /// `[ℓ J, column; borderᵀ]`.
-fn bordered_matrix(j: &Mat<f64>, length: f64, column: &[f64], border: &[f64]) -> Mat<f64> {
-    let n = column.len();
-    Mat::<f64>::from_fn(n + 1, n + 1, |i, k| match (i < n, k < n) {
-        (true, true) => j[(i, k)] * length,
-        (true, false) => column[i],
-        (false, _) => border[k],
-    })
+fn bordered_matrix(
+    j: &Mat<f64>,
+    length: f64,
+    column: impl Fn(usize) -> f64,
+    border: &[f64],
+) -> Mat<f64> {
+    let n = j.nrows();
+    let mut m = Mat::zeros(n + 1, n + 1);
+    fill_bordered(&mut m, j, length, column, border);
+    m
+}
+
+/// [`bordered_matrix`] into `m` (`(n + 1) × (n + 1)`).
+fn fill_bordered(
+    m: &mut Mat<f64>,
+    j: &Mat<f64>,
+    length: f64,
+    column: impl Fn(usize) -> f64,
+    border: &[f64],
+) {
+    let n = j.nrows();
+    for k in 0..n {
+        for i in 0..n {
+            m[(i, k)] = j[(i, k)] * length;
+        }
+        m[(n, k)] = border[k];
+    }
+    for i in 0..n {
+        m[(i, n)] = column(i);
+    }
+    m[(n, n)] = border[n];
 }
 
 /// The bordered matrix `[ℓ J, b; cᵀ, d]` of an operator Jacobian `J` (docs/theory.md §18):
@@ -184,7 +267,12 @@ impl JacobianOperator for BorderedOperator {
     }
 
     fn dense(&self) -> Mat<f64> {
-        bordered_matrix(&self.inner.dense(), self.length, &self.column, &self.border)
+        bordered_matrix(
+            &self.inner.dense(),
+            self.length,
+            |i| self.column[i],
+            &self.border,
+        )
     }
 
     fn refresh_preconditioner(&self) -> bool {
@@ -220,7 +308,7 @@ mod tests {
             "make the inner preconditioner exact"
         );
         let op = BorderedOperator::new(Box::new(inner), length, column.clone(), border.clone());
-        let dense = bordered_matrix(&matrix, length, &column, &border);
+        let dense = bordered_matrix(&matrix, length, |i| column[i], &border);
         let x: Vec<f64> = (0..=n).map(|i| 1.0 + (i as f64 * 0.37).sin()).collect();
         let mut ax = vec![0.0; n + 1];
         op.apply(&x, &mut ax);

@@ -94,27 +94,57 @@ impl FrequencyMatrices {
         scale: &[f64],
         n: usize,
     ) -> Result<Self> {
-        let real = |v: &[f64]| Mat::<c64>::from_fn(n, n, |i, j| c64::new(v[i * n + j], 0.0));
-        let (d, l) = (real(delassus), real(scale));
-        let identity = Mat::<c64>::identity(n, n);
-        let mut maps = Vec::with_capacity(receptance.harmonics() + 1);
-        for k in 0..=receptance.harmonics() {
+        let zeros = || Mat::<c64>::zeros(n, n);
+        let mut maps = FrequencyMatrices::Dense(
+            (0..=receptance.harmonics())
+                .map(|_| [zeros(), zeros(), zeros()])
+                .collect(),
+        );
+        maps.refill_dense(receptance, delassus, scale, n)?;
+        Ok(maps)
+    }
+
+    /// Whether these are dense maps of `n` contacts and `harmonics` harmonics (which
+    /// [`FrequencyMatrices::refill_dense`] can overwrite).
+    pub(super) fn is_dense_of(&self, n: usize, harmonics: usize) -> bool {
+        matches!(self, FrequencyMatrices::Dense(maps)
+            if maps.len() == harmonics + 1 && maps[0][0].nrows() == n)
+    }
+
+    /// The dense maps at the frequency of `receptance`, written over these
+    /// ([`FrequencyMatrices::is_dense_of`] holds): for one contact the maps are numbers and
+    /// nothing is allocated.
+    pub(super) fn refill_dense(
+        &mut self,
+        receptance: &dyn ReceptanceAtFrequency,
+        delassus: &[f64],
+        scale: &[f64],
+        n: usize,
+    ) -> Result<()> {
+        let FrequencyMatrices::Dense(maps) = self else {
+            unreachable!("refill_dense on dense maps only")
+        };
+        for (k, [r_inv, scaled, residual]) in maps.iter_mut().enumerate() {
             if n == 1 {
                 // one contact: the maps are numbers
-                let r_inv = c64::new(1.0, 0.0) / receptance.receptance(k)[0];
-                let one = |v: c64| Mat::<c64>::from_fn(1, 1, |_, _| v);
-                check_finite(&one(r_inv), k, receptance.omega())?;
-                maps.push([one(r_inv), one(r_inv * delassus[0]), one(r_inv * scale[0])]);
+                let inverse = c64::new(1.0, 0.0) / receptance.receptance(k)[0];
+                if !(inverse.re.is_finite() && inverse.im.is_finite()) {
+                    return Err(singular_receptance(k, receptance.omega()));
+                }
+                r_inv[(0, 0)] = inverse;
+                scaled[(0, 0)] = inverse * delassus[0];
+                residual[(0, 0)] = inverse * scale[0];
                 continue;
             }
+            let real = |v: &[f64]| Mat::<c64>::from_fn(n, n, |i, j| c64::new(v[i * n + j], 0.0));
+            let (d, l) = (real(delassus), real(scale));
             let r = MatRef::from_row_major_slice(receptance.receptance(k), n, n);
-            let r_inv = r.partial_piv_lu().solve(&identity);
-            check_finite(&r_inv, k, receptance.omega())?;
-            let scaled = &d * &r_inv;
-            let residual = &l * &r_inv;
-            maps.push([r_inv, scaled, residual]);
+            *r_inv = r.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
+            check_finite(r_inv, k, receptance.omega())?;
+            *scaled = &d * &*r_inv;
+            *residual = &l * &*r_inv;
         }
-        Ok(FrequencyMatrices::Dense(maps))
+        Ok(())
     }
 
     /// The static-plus-low-rank maps at the frequency of `receptance`, whose `X_k` are
@@ -145,10 +175,17 @@ impl FrequencyMatrices {
     /// `P R_k⁻¹ z` per harmonic for harmonic-major real coefficients `z` of `n` contacts
     /// (the real form (T15)).
     pub(super) fn apply(&self, map: Map, n: usize, z: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; z.len()];
+        self.apply_into(map, n, z, &mut out);
+        out
+    }
+
+    /// [`FrequencyMatrices::apply`] into `out` (as long as `z`); the dense maps of up to
+    /// [`DIRECT_PRODUCT_CONTACTS`] contacts allocate nothing.
+    pub(super) fn apply_into(&self, map: Map, n: usize, z: &[f64], out: &mut [f64]) {
         match self {
             FrequencyMatrices::Dense(maps) if n <= DIRECT_PRODUCT_CONTACTS => {
                 // z_k = a − i b per harmonic, read and written in place (no temporaries)
-                let mut out = vec![0.0; z.len()];
                 for (k, m) in maps.iter().enumerate() {
                     let m = &m[map as usize];
                     let (re, im) = if k == 0 {
@@ -168,23 +205,20 @@ impl FrequencyMatrices {
                         }
                     }
                 }
-                out
             }
             FrequencyMatrices::Dense(maps) => {
-                let mut out = vec![0.0; z.len()];
                 for (k, m) in maps.iter().enumerate() {
                     let zk = complex_harmonic(z, n, k);
                     let product = &m[map as usize] * faer::ColRef::from_slice(&zk);
                     let v: Vec<c64> = product.iter().copied().collect();
-                    store_harmonic(&v, n, k, &mut out);
+                    store_harmonic(&v, n, k, out);
                 }
-                out
             }
             FrequencyMatrices::StaticPlusLowRank { parts, corrections } => {
                 let columns = z.len() / n;
                 let m = parts.n_modes();
                 let zm = MatRef::from_column_major_slice(z, n, columns);
-                let mut out = &parts.static_inverse[map as usize] * zm;
+                let mut result = &parts.static_inverse[map as usize] * zm;
                 // Eᵀ z, then Z_k per harmonic, then P E
                 let projected = parts.shapes[Map::Inverse as usize].transpose() * zm;
                 let projected: Vec<f64> = (0..m * columns)
@@ -197,9 +231,11 @@ impl FrequencyMatrices {
                     let v: Vec<c64> = product.iter().copied().collect();
                     store_harmonic(&v, m, k, &mut corrected);
                 }
-                out -= &parts.shapes[map as usize]
+                result -= &parts.shapes[map as usize]
                     * MatRef::from_column_major_slice(&corrected, m, columns);
-                (0..z.len()).map(|q| out[(q % n, q / n)]).collect()
+                for (q, o) in out.iter_mut().enumerate() {
+                    *o = result[(q % n, q / n)];
+                }
             }
         }
     }
@@ -227,12 +263,16 @@ fn check_finite(m: &Mat<c64>, k: usize, omega: f64) -> Result<()> {
     if m.col_iter()
         .any(|c| c.iter().any(|v| !(v.re.is_finite() && v.im.is_finite())))
     {
-        return Err(Error::Singular(format!(
-            "the receptance of the structure at its contacts is singular at harmonic {k} ({:.6} Hz)",
-            k as f64 * omega / (2.0 * std::f64::consts::PI)
-        )));
+        return Err(singular_receptance(k, omega));
     }
     Ok(())
+}
+
+fn singular_receptance(k: usize, omega: f64) -> Error {
+    Error::Singular(format!(
+        "the receptance of the structure at its contacts is singular at harmonic {k} ({:.6} Hz)",
+        k as f64 * omega / (2.0 * std::f64::consts::PI)
+    ))
 }
 
 #[cfg(test)]

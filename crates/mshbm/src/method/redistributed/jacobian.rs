@@ -19,13 +19,34 @@ use super::quadrature::Integration;
 use crate::harmonic::n_coefficients;
 use crate::problem::JacobianOperator;
 
+/// Contacts (closed contacts of a set) up to which the products of this module are direct
+/// loops, which allocate nothing (above, faer's products).
+const DIRECT_CONTACTS: usize = 8;
+
 /// `M z` per coefficient for a real `n_c × n_c` matrix `M` (row-major): one product
 /// `M Z` with `Z` the `n_c × (2H+1)` matrix of the coefficients.
 pub(super) fn times_each_coefficient(n: usize, d: &[f64], z: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; z.len()];
+    times_each_coefficient_into(n, d, z, &mut out);
+    out
+}
+
+/// [`times_each_coefficient`] into `out` (as long as `z`).
+pub(super) fn times_each_coefficient_into(n: usize, d: &[f64], z: &[f64], out: &mut [f64]) {
+    if n <= DIRECT_CONTACTS {
+        for (zc, oc) in z.chunks_exact(n).zip(out.chunks_exact_mut(n)) {
+            for (o, row) in oc.iter_mut().zip(d.chunks_exact(n)) {
+                *o = row.iter().zip(zc).map(|(a, b)| a * b).sum();
+            }
+        }
+        return;
+    }
     let m = faer::MatRef::from_row_major_slice(d, n, n);
     let columns = z.len() / n;
     let product = m * faer::MatRef::from_column_major_slice(z, n, columns);
-    (0..z.len()).map(|q| product[(q % n, q / n)]).collect()
+    for (q, o) in out.iter_mut().enumerate() {
+        *o = product[(q % n, q / n)];
+    }
 }
 
 /// `λ̂ = Σ_A (Γ_A ⊗ F_A) u` (harmonic-major, `n_c` per coefficient; docs/theory.md
@@ -38,31 +59,68 @@ pub(super) fn assemble_forces(
     integration: &Integration,
     u: &[f64],
 ) -> Vec<f64> {
+    let mut forces = vec![0.0; n * n_coefficients(harmonics)];
+    assemble_forces_into(n, harmonics, integration, u, &mut forces, &mut Vec::new());
+    forces
+}
+
+/// [`assemble_forces`] into `forces` (`n (2H+1)`), with `scratch` for `U_A Γ_Aᵀ`: sets of
+/// up to [`DIRECT_CONTACTS`] closed contacts allocate nothing once `scratch` has grown.
+pub(super) fn assemble_forces_into(
+    n: usize,
+    harmonics: usize,
+    integration: &Integration,
+    u: &[f64],
+    forces: &mut [f64],
+    scratch: &mut Vec<f64>,
+) {
     let nc = n_coefficients(harmonics);
-    let mut forces = vec![0.0; n * nc];
-    // F_AA gathered row by row (row-major), reused from set to set
-    let mut force_map = Vec::new();
+    forces.fill(0.0);
     for group in &integration.groups {
         let closed = group.set.closed_contacts();
         let na = closed.len();
         if na == 0 {
             continue;
         }
+        if na <= DIRECT_CONTACTS {
+            // filtered[r][m] = Σ_c U[closed r, c] Γ[m, c]
+            scratch.clear();
+            scratch.resize(na * nc, 0.0);
+            for (r, &a) in closed.iter().enumerate() {
+                for (m, gram_row) in group.gram.chunks_exact(nc).enumerate() {
+                    scratch[r * nc + m] = gram_row
+                        .iter()
+                        .enumerate()
+                        .map(|(c, g)| u[c * n + a] * g)
+                        .sum();
+                }
+            }
+            for &a in closed {
+                let row = group.set.force_row(a).1;
+                for m in 0..nc {
+                    forces[m * n + a] += row
+                        .iter()
+                        .enumerate()
+                        .map(|(q, f)| f * scratch[q * nc + m])
+                        .sum::<f64>();
+                }
+            }
+            continue;
+        }
         let u_closed = Mat::<f64>::from_fn(na, nc, |r, c| u[c * n + closed[r]]);
         let gram = faer::MatRef::from_row_major_slice(&group.gram, nc, nc);
         let filtered = &u_closed * gram.transpose();
-        force_map.clear();
+        scratch.clear();
         for &a in closed {
-            force_map.extend_from_slice(group.set.force_row(a).1);
+            scratch.extend_from_slice(group.set.force_row(a).1);
         }
-        let block = faer::MatRef::from_row_major_slice(&force_map, na, na) * &filtered;
+        let block = faer::MatRef::from_row_major_slice(scratch, na, na) * &filtered;
         for m in 0..nc {
             for (r, &a) in closed.iter().enumerate() {
                 forces[m * n + a] += block[(r, m)];
             }
         }
     }
-    forces
 }
 
 /// The dense `J` of (T129) in the real form (T15), row block by row block

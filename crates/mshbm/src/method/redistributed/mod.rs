@@ -25,6 +25,7 @@
 //! semi-analytical Jacobian (eqs. 32–44 in these coordinates, docs/theory.md (T129)) is
 //! `J = blockdiag(D R_k⁻¹) − (I ⊗ D) Σ_A (Γ_A ⊗ F_A) blockdiag(I − D R_k⁻¹)`.
 
+mod evaluation;
 mod frequency_maps;
 mod interval_signal;
 mod jacobian;
@@ -36,7 +37,7 @@ use std::rc::Rc;
 use faer::Mat;
 
 use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{check_dimension, fixed_response, n_dof_coefficients};
+use super::{fixed_response, n_dof_coefficients};
 use super::{periodic_solution, SolutionParts};
 use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
@@ -52,11 +53,10 @@ use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 use crate::solution::{ContactSeries, DiagramPoint, DofResponse, PeriodicSolution};
 use crate::sparse::SparseMatrix;
 use crate::stability::{self, InterfaceModes, ReducedSystem, StabilityOptions};
-use frequency_maps::{FrequencyMatrices, Map, StaticMaps};
+use evaluation::{Evaluation, EvaluationScratch};
+use frequency_maps::{FrequencyMatrices, StaticMaps};
 use interval_signal::IntervalSignal;
-use jacobian::{
-    assemble_forces, dense_jacobian, times_each_coefficient, ContactJacobian, PreconditionerSlot,
-};
+use jacobian::{dense_jacobian, ContactJacobian, PreconditionerSlot};
 use quadrature::{integrate, signal_with_basis, Integration};
 use small_jacobian::{SmallJacobianWork, SMALL_INTERFACE_CONTACTS};
 
@@ -204,22 +204,6 @@ impl ReceptanceChoice {
     }
 }
 
-/// One evaluation of the residual (T128) at `(v, ω)`, with what linearizations added.
-struct Evaluation {
-    v: Vec<f64>,
-    omega: f64,
-    residual: Vec<f64>,
-    integration: Rc<Integration>,
-    /// The structure's force `φ` (T128).
-    phi: Vec<f64>,
-    /// `λ̂`.
-    forces: Vec<f64>,
-    /// `∂R/∂ω`, once a linearization asked for it.
-    d_omega: Option<Vec<f64>>,
-    /// The dense Jacobian, once a linearization formed it.
-    dense_jacobian: Option<Mat<f64>>,
-}
-
 /// The receptance at one frequency with the matrices of the residual (T128).
 struct Frequency {
     receptance: Box<dyn ReceptanceAtFrequency>,
@@ -264,6 +248,8 @@ pub struct RedistributedMsHbm {
     small_jacobian: SmallJacobianWork,
     /// The last evaluation of the residual.
     last_evaluation: Option<Evaluation>,
+    /// The working storage of the evaluations.
+    scratch: EvaluationScratch,
 }
 
 impl RedistributedMsHbm {
@@ -374,6 +360,7 @@ impl RedistributedMsHbm {
             system,
             small_jacobian: SmallJacobianWork::default(),
             last_evaluation: None,
+            scratch: EvaluationScratch::default(),
         })
     }
 
@@ -435,20 +422,16 @@ impl RedistributedMsHbm {
             return Ok(());
         }
         super::check_frequency(omega)?;
+        // the last frequency's storage is reused where it can be: then nothing is allocated
+        let refreshed = self.refresh_frequency(omega);
+        if refreshed.is_err() {
+            self.frequency = None;
+        }
+        if refreshed? {
+            return Ok(());
+        }
         let receptance = self.receptance.at(omega, self.harmonics)?;
-        let low_rank = match &self.static_maps {
-            Some(parts) => FrequencyMatrices::static_plus_low_rank(receptance.as_ref(), parts)?,
-            None => None,
-        };
-        let matrices = match low_rank {
-            Some(m) => m,
-            None => FrequencyMatrices::dense(
-                receptance.as_ref(),
-                self.contact.delassus(),
-                &self.residual_scale,
-                self.n(),
-            )?,
-        };
+        let matrices = self.frequency_matrices(receptance.as_ref())?;
         self.frequency = Some(Frequency {
             receptance,
             matrices: Rc::new(matrices),
@@ -456,39 +439,58 @@ impl RedistributedMsHbm {
         Ok(())
     }
 
+    /// The maps `P R_k⁻¹` at the frequency of `receptance` (static plus low rank where the
+    /// receptance has that form, else dense).
+    fn frequency_matrices(
+        &self,
+        receptance: &dyn ReceptanceAtFrequency,
+    ) -> Result<FrequencyMatrices> {
+        let low_rank = match &self.static_maps {
+            Some(parts) => FrequencyMatrices::static_plus_low_rank(receptance, parts)?,
+            None => None,
+        };
+        match low_rank {
+            Some(m) => Ok(m),
+            None => FrequencyMatrices::dense(
+                receptance,
+                self.contact.delassus(),
+                &self.residual_scale,
+                self.n(),
+            ),
+        }
+    }
+
+    /// The prepared frequency moved to `ω` in its own storage
+    /// ([`ReceptanceAtFrequency::refresh`], [`FrequencyMatrices::refill_dense`]); `false`
+    /// when there is none or its receptance cannot be refreshed.
+    fn refresh_frequency(&mut self, omega: f64) -> Result<bool> {
+        let (n, harmonics) = (self.n(), self.harmonics);
+        let Some(frequency) = self.frequency.as_mut() else {
+            return Ok(false);
+        };
+        if frequency.receptance.harmonics() != harmonics || !frequency.receptance.refresh(omega)? {
+            return Ok(false);
+        }
+        let dense = self.static_maps.is_none();
+        match Rc::get_mut(&mut frequency.matrices) {
+            Some(maps) if dense && maps.is_dense_of(n, harmonics) => maps.refill_dense(
+                frequency.receptance.as_ref(),
+                self.contact.delassus(),
+                &self.residual_scale,
+                n,
+            )?,
+            _ => {
+                let frequency = self.frequency.as_ref().expect("refreshed above");
+                let matrices = self.frequency_matrices(frequency.receptance.as_ref())?;
+                self.frequency.as_mut().expect("refreshed above").matrices = Rc::new(matrices);
+            }
+        }
+        Ok(true)
+    }
+
     /// The receptance at the prepared frequency.
     fn prepared(&self) -> &Frequency {
         self.frequency.as_ref().expect("prepared")
-    }
-
-    /// `D z` per coefficient.
-    fn delassus_times(&self, z: &[f64]) -> Vec<f64> {
-        times_each_coefficient(self.n(), self.contact.delassus(), z)
-    }
-
-    /// `v − Wᵀ A_k⁻¹ f_k` per harmonic: the displacement the contact forces must make.
-    fn displacement_by_forces(&self, v: &[f64]) -> Vec<f64> {
-        let n = self.n();
-        let f = self.prepared();
-        let mut load = vec![0.0; v.len()];
-        for k in 0..=self.harmonics {
-            store_harmonic(f.receptance.load_response(k), n, k, &mut load);
-        }
-        v.iter().zip(&load).map(|(a, b)| a - b).collect()
-    }
-
-    /// The structure's force `φ = R⁻¹ (v − Wᵀ A⁻¹ f)` and the free gap
-    /// `u = g0 δ_k0 + v − D φ` of the unknowns `v` (T128).
-    fn force_and_free_gap(&self, v: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let by_forces = self.displacement_by_forces(v);
-        let f = self.prepared();
-        let phi = f.matrices.apply(Map::Inverse, self.n(), &by_forces);
-        let d_phi = f.matrices.apply(Map::Scaled, self.n(), &by_forces);
-        let mut u: Vec<f64> = v.iter().zip(&d_phi).map(|(a, b)| a - b).collect();
-        u.iter_mut()
-            .zip(self.contact.initial_gap())
-            .for_each(|(u, g0)| *u += g0);
-        (phi, u)
     }
 
     /// The residual (T128), the period's active-set decomposition and the forces `λ̂`.
@@ -501,70 +503,86 @@ impl RedistributedMsHbm {
         ))
     }
 
-    /// The evaluation at `(v, ω)`: the last one when it was at that point (a continuation
-    /// asks for the residual, the tangent and the diagram point of one converged point, and
-    /// the fold location repeats corrector steps), else a new one.
-    fn evaluation(&mut self, v: &[f64], omega: f64) -> Result<&mut Evaluation> {
-        check_dimension(v, self.dimension())?;
-        // the callers use the prepared frequency too (another may have been prepared since)
-        self.prepare(omega)?;
-        let hit = self
-            .last_evaluation
-            .as_ref()
-            .is_some_and(|e| e.omega.to_bits() == omega.to_bits() && e.v == v);
-        if !hit {
-            self.last_evaluation = None;
-            let (phi, u) = self.force_and_free_gap(v);
-            let integration = integrate(&mut self.contact, &u, &self.sampling, self.quadrature)?;
-            let forces = assemble_forces(self.n(), self.harmonics, &integration, &u);
-            let mismatch: Vec<f64> = phi.iter().zip(&forces).map(|(a, b)| a - b).collect();
-            self.last_evaluation = Some(Evaluation {
-                v: v.to_vec(),
-                omega,
-                residual: times_each_coefficient(self.n(), &self.residual_scale, &mismatch),
-                integration: Rc::new(integration),
-                phi,
-                forces,
-                d_omega: None,
-                dense_jacobian: None,
-            });
+    /// `R`, `∂R/∂ω` and `∂R/∂x` of the evaluation `e` into `out`; `∂R/∂ω` and the dense
+    /// Jacobian are kept in `e` (the tangent and the diagram point of a converged point ask
+    /// again), in the storage of earlier ones.
+    fn linearize_evaluation(&mut self, e: &mut Evaluation, out: &mut Linearization) -> Result<()> {
+        let mut scratch = std::mem::take(&mut self.scratch);
+        if e.d_omega.is_none() {
+            let mut d = scratch.spare_d_omega.take().unwrap_or_default();
+            let computed =
+                self.frequency_derivative_into(&e.phi, &e.integration, &mut d, &mut scratch);
+            if let Err(error) = computed {
+                self.scratch = scratch;
+                return Err(error);
+            }
+            e.d_omega = Some(d);
         }
-        Ok(self.last_evaluation.as_mut().expect("evaluated"))
-    }
-
-    /// `∂R/∂ω` at fixed `v` (docs/theory.md (T129)): with
-    /// `ψ_k = R_k⁻¹ ∂(Wᵀ q̂_k)/∂ω |_φ` (the derivative of (T125) at the structure's force
-    /// `φ`, zero for `k = 0`), `∂φ/∂ω = −ψ`, `∂u/∂ω = D ψ` and
-    /// `∂R/∂ω = −(I ⊗ Λ) (ψ + S (I ⊗ D) ψ)`.
-    fn frequency_derivative(&self, phi: &[f64], integration: &Integration) -> Result<Vec<f64>> {
+        out.residual.clone_from(&e.residual);
+        out.d_omega
+            .clone_from(e.d_omega.as_ref().expect("computed above"));
         let n = self.n();
-        let f = self.prepared();
-        let mut derivative = vec![0.0; phi.len()];
-        for k in 1..=self.harmonics {
-            let dg = f
-                .receptance
-                .frequency_derivative(k, &complex_harmonic(phi, n, k), true)?;
-            store_harmonic(&dg, n, k, &mut derivative);
+        let matrices = Rc::clone(&self.prepared().matrices);
+        if self.operator_jacobian {
+            self.scratch = scratch;
+            out.jacobian = Jacobian::Operator(Box::new(ContactJacobian::new(
+                n,
+                self.harmonics,
+                matrices,
+                Rc::clone(&self.residual_scale),
+                Rc::clone(&e.integration),
+                Rc::clone(&self.preconditioner),
+            )));
+            return Ok(());
         }
-        let psi = f.matrices.apply(Map::Inverse, n, &derivative);
-        let d_psi = self.delassus_times(&psi);
-        let s_d_psi = assemble_forces(n, self.harmonics, integration, &d_psi);
-        let both: Vec<f64> = psi.iter().zip(&s_d_psi).map(|(a, b)| a + b).collect();
-        Ok(times_each_coefficient(n, &self.residual_scale, &both)
-            .iter()
-            .map(|v| -v)
-            .collect())
+        if e.dense_jacobian.is_none() {
+            let jacobian = if n <= SMALL_INTERFACE_CONTACTS {
+                let mut jacobian = scratch
+                    .spare_jacobian
+                    .take()
+                    .unwrap_or_else(|| Mat::zeros(0, 0));
+                small_jacobian::jacobian_into(
+                    n,
+                    self.harmonics,
+                    &matrices,
+                    &self.residual_scale,
+                    &e.integration,
+                    &mut self.small_jacobian,
+                    &mut jacobian,
+                );
+                jacobian
+            } else {
+                dense_jacobian(
+                    n,
+                    self.harmonics,
+                    &matrices,
+                    &self.residual_scale,
+                    &e.integration,
+                )
+            };
+            e.dense_jacobian = Some(jacobian);
+        }
+        self.scratch = scratch;
+        let jacobian = e.dense_jacobian.as_ref().expect("formed above");
+        match &mut out.jacobian {
+            Jacobian::Dense(m)
+                if m.nrows() == jacobian.nrows() && m.ncols() == jacobian.ncols() =>
+            {
+                m.copy_from(jacobian)
+            }
+            other => *other = Jacobian::Dense(jacobian.clone()),
+        }
+        Ok(())
     }
 
     /// The contact-free response at `ω` (the initial guess): `v_k = Wᵀ A_k⁻¹ f_k`.
     pub fn linear_response(&mut self, omega: f64) -> Result<Vec<f64>> {
         self.prepare(omega)?;
         let zero = vec![0.0; self.dimension()];
-        Ok(self
-            .displacement_by_forces(&zero)
-            .iter()
-            .map(|v| -v)
-            .collect())
+        let mut response = Vec::new();
+        self.displacement_by_forces_into(&zero, &mut response);
+        response.iter_mut().for_each(|v| *v = -*v);
+        Ok(response)
     }
 
     /// The harmonics of every DOF of the structure under the forces `λ̂`
@@ -904,62 +922,20 @@ impl PeriodicProblem for RedistributedMsHbm {
     }
 
     fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
-        let e = self.evaluation(x, omega)?;
-        let (residual, integration) = (e.residual.clone(), Rc::clone(&e.integration));
-        let d_omega = match &e.d_omega {
-            Some(d) => d.clone(),
-            None => {
-                let phi = e.phi.clone();
-                let d = self.frequency_derivative(&phi, &integration)?;
-                self.evaluation(x, omega)?.d_omega = Some(d.clone());
-                d
-            }
-        };
-        let n = self.n();
-        let matrices = Rc::clone(&self.prepared().matrices);
-        let jacobian = if self.operator_jacobian {
-            Jacobian::Operator(Box::new(ContactJacobian::new(
-                n,
-                self.harmonics,
-                matrices,
-                Rc::clone(&self.residual_scale),
-                integration,
-                Rc::clone(&self.preconditioner),
-            )))
-        } else if let Some(j) = &self.evaluation(x, omega)?.dense_jacobian {
-            Jacobian::Dense(j.clone())
-        } else {
-            let jacobian = if n <= SMALL_INTERFACE_CONTACTS {
-                let mut jacobian = Mat::zeros(0, 0);
-                small_jacobian::jacobian_into(
-                    n,
-                    self.harmonics,
-                    &matrices,
-                    &self.residual_scale,
-                    &integration,
-                    &mut self.small_jacobian,
-                    &mut jacobian,
-                );
-                jacobian
-            } else {
-                dense_jacobian(
-                    n,
-                    self.harmonics,
-                    &matrices,
-                    &self.residual_scale,
-                    &integration,
-                )
-            };
-            self.evaluation(x, omega)?.dense_jacobian = Some(jacobian.clone());
-            Jacobian::Dense(jacobian)
-        };
-        Ok(Linearization {
-            residual,
-            jacobian,
-            d_omega,
-        })
+        let mut out = Linearization::empty();
+        self.linearize_into(x, omega, &mut out)?;
+        Ok(out)
     }
 
+    /// In `out`'s storage, and in the last evaluation's: at a new frequency and with the
+    /// dense Jacobian of few contacts, nothing is allocated.
+    fn linearize_into(&mut self, x: &[f64], omega: f64, out: &mut Linearization) -> Result<()> {
+        self.evaluation(x, omega)?;
+        let mut e = self.last_evaluation.take().expect("evaluated");
+        let linearized = self.linearize_evaluation(&mut e, out);
+        self.last_evaluation = Some(e);
+        linearized
+    }
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
         self.solution_with(x, omega, response_dof, true)
     }

@@ -74,44 +74,58 @@ pub fn signal_at(
 /// basis row is `basis` (e.g. a grid sample's, from the sampling's table).
 pub fn signal_with_basis(load: &[f64], n: usize, basis: &[f64]) -> Vec<f64> {
     let mut b = vec![0.0; n];
+    signal_with_basis_into(load, n, basis, &mut b);
+    b
+}
+
+/// [`signal_with_basis`] into `b` (`n`).
+pub fn signal_with_basis_into(load: &[f64], n: usize, basis: &[f64], b: &mut [f64]) {
+    b.fill(0.0);
     for (c, &bc) in basis.iter().enumerate() {
         for i in 0..n {
             b[i] += load[c * n + i] * bc;
         }
     }
-    b
 }
 
-struct Groups {
-    index: HashMap<Vec<bool>, usize>,
-    groups: Vec<Group>,
+/// The groups of one integration, by active set. Sets are told apart by their address:
+/// the contact's cache returns one `Rc` per set, and a set met twice under two addresses
+/// (after the cache started over) gives two groups whose sums add up the same.
+struct Groups<'a> {
+    index: &'a mut HashMap<*const ActiveSet, usize>,
+    groups: &'a mut Vec<Group>,
+    /// Gram blocks of an earlier integration, to fill again.
+    spare: &'a mut Vec<Vec<f64>>,
     size: usize,
 }
 
-impl Groups {
+impl Groups<'_> {
     fn of(&mut self, set: &Rc<ActiveSet>) -> usize {
-        if let Some(&g) = self.index.get(&set.closed) {
+        if let Some(&g) = self.index.get(&Rc::as_ptr(set)) {
             return g;
         }
+        let mut gram = self.spare.pop().unwrap_or_default();
+        gram.clear();
+        gram.resize(self.size * self.size, 0.0);
         self.groups.push(Group {
             set: set.clone(),
-            gram: vec![0.0; self.size * self.size],
+            gram,
         });
-        self.index.insert(set.closed.clone(), self.groups.len() - 1);
+        self.index.insert(Rc::as_ptr(set), self.groups.len() - 1);
         self.groups.len() - 1
     }
 }
 
-/// Derivative coefficients of a trigonometric polynomial.
-fn derivative(coef: &[f64]) -> Vec<f64> {
+/// Derivative coefficients of a trigonometric polynomial, into `d`.
+fn derivative_into(coef: &[f64], d: &mut Vec<f64>) {
     let h = (coef.len() - 1) / 2;
-    let mut d = vec![0.0; coef.len()];
+    d.clear();
+    d.resize(coef.len(), 0.0);
     for k in 1..=h {
         let kf = k as f64;
         d[2 * k - 1] = kf * coef[2 * k];
         d[2 * k] = -kf * coef[2 * k - 1];
     }
-    d
 }
 
 /// The first time in `(left, right]` at which the trigonometric polynomial `coef` is
@@ -148,6 +162,8 @@ struct CellScan {
     slopes: Vec<f64>,
     /// `(sub-interval, contact, is a minimum)` of the indicators still to be located.
     candidates: Vec<(usize, usize, bool)>,
+    /// The derivative's coefficients of an indicator with a minimum in a sub-interval.
+    derivative: Vec<f64>,
 }
 
 impl CellScan {
@@ -161,6 +177,7 @@ impl CellScan {
             values: Vec::new(),
             slopes: Vec::new(),
             candidates: Vec::new(),
+            derivative: Vec::new(),
         }
     }
 
@@ -247,7 +264,8 @@ impl CellScan {
                 let coef = &coefs[c * ncoef..(c + 1) * ncoef];
                 let root = if dip {
                     // the minimum in (p[l − 1], p[l]): the root of the derivative
-                    let d = derivative(coef);
+                    let mut d = std::mem::take(&mut self.derivative);
+                    derivative_into(coef, &mut d);
                     let (dprev, dp) = (self.slope(c, l - 1), self.slope(c, l));
                     let tmin = find_sign_change_with_slope(
                         |t| evaluate_with_slope(&d, t),
@@ -257,6 +275,7 @@ impl CellScan {
                         dp,
                     )
                     .midpoint();
+                    self.derivative = d;
                     let value = evaluate(coef, tmin);
                     (value < 0.0).then(|| first_negative_time(coef, p[l - 1], tmin, value))
                 } else {
@@ -297,34 +316,101 @@ pub fn integrate(
     sampling: &Sampling,
     quadrature: Quadrature,
 ) -> Result<Integration> {
-    let ncoef = n_coefficients(sampling.harmonics);
-    let mut groups = Groups {
-        index: HashMap::new(),
+    let mut out = Integration {
         groups: Vec::new(),
+        switches: Vec::new(),
+        intervals: Vec::new(),
+    };
+    integrate_into(
+        contact,
+        gamma,
+        sampling,
+        quadrature,
+        &mut out,
+        &mut QuadratureWorkspace::default(),
+    )?;
+    Ok(out)
+}
+
+/// The working storage of [`integrate_into`], kept between integrations so that one
+/// allocates nothing once it has grown (for one contact: the static problem's solves and
+/// indicators of more contacts allocate).
+#[derive(Default)]
+pub struct QuadratureWorkspace {
+    index: HashMap<*const ActiveSet, usize>,
+    spare_grams: Vec<Vec<f64>>,
+    grid: Option<GridIndicators>,
+    scan: Option<CellScan>,
+    free_gap: Vec<f64>,
+    basis: Vec<f64>,
+    closed: Vec<bool>,
+}
+
+/// [`integrate`] into `out` (its storage reused), with the working storage `workspace`.
+pub fn integrate_into(
+    contact: &mut StaticContact,
+    gamma: &[f64],
+    sampling: &Sampling,
+    quadrature: Quadrature,
+    out: &mut Integration,
+    workspace: &mut QuadratureWorkspace,
+) -> Result<()> {
+    let ncoef = n_coefficients(sampling.harmonics);
+    workspace
+        .spare_grams
+        .extend(out.groups.drain(..).map(|g| g.gram));
+    workspace.index.clear();
+    out.switches.clear();
+    out.intervals.clear();
+    let mut groups = Groups {
+        index: &mut workspace.index,
+        groups: &mut out.groups,
+        spare: &mut workspace.spare_grams,
         size: ncoef,
     };
-    let mut switches = Vec::new();
-    let mut intervals: Vec<(f64, f64, usize)> = Vec::new();
     match quadrature {
         Quadrature::Sampled => {
-            sampled(contact, gamma, sampling, &mut groups, &mut intervals)?;
+            sampled(contact, gamma, sampling, &mut groups, &mut out.intervals)?;
         }
         Quadrature::Exact => {
+            let harmonics = sampling.harmonics;
+            let grid = match &mut workspace.grid {
+                Some(g) if g.ncoef == ncoef => g,
+                slot => slot.insert(GridIndicators::new(ncoef)),
+            };
+            grid.of = None;
+            let scan = match &mut workspace.scan {
+                Some(s) if s.harmonics == harmonics => s,
+                slot => slot.insert(CellScan::new(harmonics)),
+            };
+            let buffers = ExactBuffers {
+                grid,
+                scan,
+                free_gap: &mut workspace.free_gap,
+                basis: &mut workspace.basis,
+                closed: &mut workspace.closed,
+            };
             exact(
                 contact,
                 gamma,
                 sampling,
                 &mut groups,
-                &mut intervals,
-                &mut switches,
+                &mut out.intervals,
+                &mut out.switches,
+                buffers,
             )?;
         }
     }
-    Ok(Integration {
-        groups: groups.groups,
-        switches,
-        intervals,
-    })
+    Ok(())
+}
+
+/// The working storage of [`exact`].
+struct ExactBuffers<'a> {
+    grid: &'a mut GridIndicators,
+    scan: &'a mut CellScan,
+    free_gap: &'a mut Vec<f64>,
+    basis: &'a mut Vec<f64>,
+    closed: &'a mut Vec<bool>,
 }
 
 /// The sampled quadrature: the LCP at every grid sample, whose set holds on its cell.
@@ -392,7 +478,7 @@ impl GridIndicators {
         if self.of.as_ref().is_some_and(|s| Rc::ptr_eq(s, set)) {
             return false;
         }
-        self.coefs = set.indicator_coefficients(gamma, self.ncoef);
+        set.indicator_coefficients_into(gamma, self.ncoef, &mut self.coefs);
         self.curvature.clear();
         self.rounding.clear();
         self.holds_tolerance.clear();
@@ -457,19 +543,27 @@ fn exact(
     groups: &mut Groups,
     intervals: &mut Vec<(f64, f64, usize)>,
     switches: &mut Vec<Switch>,
+    buffers: ExactBuffers<'_>,
 ) -> Result<()> {
     let h = sampling.harmonics;
     let ncoef = n_coefficients(h);
     let nc = contact.n_contacts();
     let ns = sampling.len();
     let two_pi = 2.0 * std::f64::consts::PI;
-    let mut free_gap = vec![0.0; nc];
-    sampling.synthesize_into(0, gamma, nc, &mut free_gap);
-    let mut set = contact.solve(&free_gap)?;
-    let mut grid = GridIndicators::new(ncoef);
+    let ExactBuffers {
+        grid,
+        scan,
+        free_gap,
+        basis,
+        closed,
+    } = buffers;
+    free_gap.clear();
+    free_gap.resize(nc, 0.0);
+    basis.clear();
+    basis.resize(ncoef, 0.0);
+    sampling.synthesize_into(0, gamma, nc, free_gap);
+    let mut set = contact.solve(free_gap)?;
     let mut start_known = false;
-    let mut scan = CellScan::new(h);
-    let mut basis = vec![0.0; ncoef];
     let mut run_start = 0.0;
     for j in 0..ns {
         let mut a = sampling.taus[j];
@@ -486,8 +580,8 @@ fn exact(
         // a set carried over from the previous cell that does not hold at this grid point
         // is replaced by the LCP's there (a double switch was missed)
         if !grid.hold_at_start() {
-            sampling.synthesize_into(j, gamma, nc, &mut free_gap);
-            let solved = contact.solve(&free_gap)?;
+            sampling.synthesize_into(j, gamma, nc, free_gap);
+            let solved = contact.solve(free_gap)?;
             if !Rc::ptr_eq(&solved, &set) {
                 let g = groups.of(&set);
                 add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
@@ -531,14 +625,15 @@ fn exact(
             let same_instant = root - a <= 1e-13 * two_pi;
             if (same_instant && last_flip == Some(component)) || guard > 2 * nc + 4 {
                 let t = root + 1e-9 * (end - root);
-                let g = signal_at(gamma, nc, h, t, &mut basis);
-                set = contact.solve(&g)?;
+                basis_into(h, t, basis);
+                signal_with_basis_into(gamma, nc, basis, free_gap);
+                set = contact.solve(free_gap)?;
                 a = t;
                 last_flip = None;
             } else {
-                let mut closed = set.closed.clone();
+                closed.clone_from(&set.closed);
                 closed[component] = !closed[component];
-                set = contact.active_set(&closed)?;
+                set = contact.active_set(closed)?;
                 a = root;
                 last_flip = Some(component);
             }
