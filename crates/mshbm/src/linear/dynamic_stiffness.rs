@@ -154,7 +154,7 @@ enum Factors {
     /// One sparse LU per harmonic.
     Sparse(Vec<Lu<usize, c64>>),
     /// The band LUs of every harmonic, side by side.
-    Banded(BandedLu),
+    Banded(Box<BandedLu>),
 }
 
 /// The factored `A_k(ω)` for `k = 0..=H`.
@@ -252,7 +252,7 @@ impl LinearPart {
                 let n = self.n_dofs();
                 let lanes = harmonics + 1;
                 if !matches!(&factors.factors, Factors::Banded(b) if b.fits(n, *kl, *ku, lanes)) {
-                    factors.factors = Factors::Banded(BandedLu::new(n, *kl, *ku, lanes));
+                    factors.factors = Factors::Banded(Box::new(BandedLu::new(n, *kl, *ku, lanes)));
                 }
                 let Factors::Banded(batch) = &mut factors.factors else {
                     unreachable!("made banded above")
