@@ -210,23 +210,40 @@ impl Receptance for ExactReceptance {
     }
 
     fn at(&self, omega: f64, harmonics: usize) -> Result<Box<dyn ReceptanceAtFrequency>> {
+        Ok(Box::new(self.at_keeping(
+            omega,
+            harmonics,
+            KEPT_COLUMN_VALUES,
+        )?))
+    }
+}
+
+impl ExactReceptance {
+    /// The receptance at `ω`, keeping the solved columns when `A_k` is complex symmetric
+    /// and they hold at most `kept_values` numbers.
+    fn at_keeping(
+        &self,
+        omega: f64,
+        harmonics: usize,
+        kept_values: usize,
+    ) -> Result<ExactReceptanceAt> {
         let (n, nc) = (self.n_dofs(), self.n_contacts());
         let parts = &self.shared;
         let keep = parts.symmetric
-            && n.saturating_mul(nc + 1).saturating_mul(harmonics + 1) <= KEPT_COLUMN_VALUES;
+            && n.saturating_mul(nc + 1).saturating_mul(harmonics + 1) <= kept_values;
         let mut at = ExactReceptanceAt {
             omega,
             factors: parts.structure.factor(omega, harmonics)?,
             receptance: vec![vec![ZERO; nc * nc]; harmonics + 1],
             load_response: vec![vec![ZERO; nc]; harmonics + 1],
-            columns: vec![vec![ZERO; n * (nc + 1)]; harmonics + 1],
+            columns: Vec::new(),
             keep,
             solved: Vec::with_capacity((harmonics + 1) * (nc + 1)),
             gathered: vec![ZERO; nc],
             parts: Arc::clone(&self.shared),
         };
         at.solve_columns()?;
-        Ok(Box::new(at))
+        Ok(at)
     }
 }
 
@@ -238,7 +255,7 @@ struct ExactReceptanceAt {
     /// Per harmonic, `Wᵀ A_k⁻¹ f_k` (zero without load).
     load_response: Vec<Vec<c64>>,
     /// Per harmonic, `[Y | A_k⁻¹ f_k]` (`n × (n_c + 1)`, column-major; the last column
-    /// zero for a harmonic without load).
+    /// zero for a harmonic without load); empty between solves when not kept.
     columns: Vec<Vec<c64>>,
     /// Whether `A_k` is complex symmetric and the columns are kept for the response and the
     /// frequency derivative (docs/theory.md (T139)).
@@ -279,6 +296,10 @@ impl ExactReceptanceAt {
         let parts = &self.parts;
         let n = parts.structure.n_dofs();
         let nc = parts.contacts.len();
+        let harmonics = self.receptance.len() - 1;
+        // columns that are not kept were released after the last solve
+        self.columns
+            .resize_with(harmonics + 1, || vec![ZERO; n * (nc + 1)]);
         self.solved.clear();
         for (k, block) in self.columns.iter_mut().enumerate() {
             block.fill(ZERO);
@@ -305,6 +326,10 @@ impl ExactReceptanceAt {
                     parts.contacts.gather_into(column, load);
                 }
             }
+        }
+        if !self.keep {
+            // too large to keep (KEPT_COLUMN_VALUES): only the gathered numbers stay
+            self.columns = Vec::new();
         }
         Ok(())
     }
@@ -415,5 +440,68 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
         let mut out = vec![ZERO; force.len()];
         self.frequency_derivative_into(k, force, with_load, &mut out, &mut Vec::new())?;
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::MassKind;
+
+    fn largest(v: &[c64]) -> f64 {
+        v.iter().map(|z| z.norm()).fold(0.0, f64::max)
+    }
+
+    fn distance(a: &[c64], b: &[c64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).norm())
+            .fold(0.0, f64::max)
+    }
+
+    /// The two ways of the exact receptance at one frequency agree: with the solved
+    /// columns kept (response and frequency derivative by products, (T139)) and without
+    /// them (by solves, as for a model too large to keep them), also after `refresh` moved
+    /// both to another frequency in their own storage.
+    #[test]
+    fn kept_columns_and_solves_give_the_same_receptance_and_derivatives() {
+        let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples/clamped_bar.toml");
+        let model =
+            crate::model::file::load_model(&file, &["damping.first_mode_ratio=0.01".to_string()])
+                .unwrap();
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let receptance = ExactReceptance::new(&system).unwrap();
+        let harmonics = 3;
+        let omega = 2.0 * std::f64::consts::PI * 30e3;
+        let mut kept = receptance
+            .at_keeping(omega, harmonics, KEPT_COLUMN_VALUES)
+            .unwrap();
+        let mut solved = receptance.at_keeping(omega, harmonics, 0).unwrap();
+        assert!(kept.keep && !solved.keep && solved.columns.is_empty());
+        let force = [c64::new(0.3, -0.2)];
+        for frequency in [omega, 1.3 * omega] {
+            if frequency != omega {
+                assert!(kept.refresh(frequency).unwrap());
+                assert!(solved.refresh(frequency).unwrap());
+            }
+            for k in 0..=harmonics {
+                let (a, b) = (kept.receptance(k), solved.receptance(k));
+                assert!(distance(a, b) <= 1e-12 * largest(a), "R_{k}");
+                let (a, b) = (
+                    kept.response(k, &force).unwrap(),
+                    solved.response(k, &force).unwrap(),
+                );
+                assert!(distance(&a, &b) <= 1e-10 * largest(&a), "q_{k}");
+                for with_load in [true, false] {
+                    let a = kept.frequency_derivative(k, &force, with_load).unwrap();
+                    let b = solved.frequency_derivative(k, &force, with_load).unwrap();
+                    assert!(
+                        distance(&a, &b) <= 1e-9 * largest(&a).max(1e-300),
+                        "∂/∂ω, k = {k}, load {with_load}: {a:?} vs {b:?}"
+                    );
+                }
+            }
+        }
     }
 }

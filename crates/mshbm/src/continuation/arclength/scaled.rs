@@ -68,11 +68,9 @@ impl Scaling {
     }
 
     pub fn unscale(&self, s: &[f64]) -> (Vec<f64>, f64) {
-        let n = s.len() - 1;
-        (
-            s[..n].iter().map(|v| v * self.unknowns).collect(),
-            self.omega * s[n].exp(),
-        )
+        let mut x = Vec::with_capacity(s.len() - 1);
+        let omega = self.unscale_into(s, &mut x);
+        (x, omega)
     }
 }
 

@@ -124,6 +124,13 @@ impl FrequencyMatrices {
         let FrequencyMatrices::Dense(maps) = self else {
             unreachable!("refill_dense on dense maps only")
         };
+        // D and Λ as complex matrices, for the products of more than one contact
+        let real = |v: &[f64]| Mat::<c64>::from_fn(n, n, |i, j| c64::new(v[i * n + j], 0.0));
+        let (d, l) = if n == 1 {
+            (Mat::zeros(0, 0), Mat::zeros(0, 0))
+        } else {
+            (real(delassus), real(scale))
+        };
         for (k, [r_inv, scaled, residual]) in maps.iter_mut().enumerate() {
             if n == 1 {
                 // one contact: the maps are numbers
@@ -136,8 +143,6 @@ impl FrequencyMatrices {
                 residual[(0, 0)] = inverse * scale[0];
                 continue;
             }
-            let real = |v: &[f64]| Mat::<c64>::from_fn(n, n, |i, j| c64::new(v[i * n + j], 0.0));
-            let (d, l) = (real(delassus), real(scale));
             let r = MatRef::from_row_major_slice(receptance.receptance(k), n, n);
             *r_inv = r.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
             check_finite(r_inv, k, receptance.omega())?;
