@@ -39,7 +39,7 @@ const ZERO_EIGENVALUE: f64 = 1e-11;
 
 /// Dense `n × n` matrices alive at once in the dense path (`K*`, `M_dd`, its factor, the
 /// symmetric product, eigenvectors and the solver's workspace).
-const DENSE_MATRICES: u64 = 6;
+pub(crate) const DENSE_MATRICES: u64 = 6;
 
 /// Blocks of `n × p` values (`p = 2·count`) alive at once in [`lowest_modes`]: the block
 /// Krylov basis of at most `3p` vectors, the Ritz vectors and their products with `K` and
@@ -212,6 +212,9 @@ pub enum ModeSolver {
     BlockKrylov,
     /// Subspace iteration (where the Krylov space did not converge within its size).
     SubspaceIteration,
+    /// Every mode, by the static condensation of the massless DOFs and a dense symmetric
+    /// eigenproblem ([`every_mode`]).
+    Condensed,
 }
 
 /// Relative residual `‖K φ − ω² M φ‖ / ‖ω² M φ‖` at which the block Krylov method of
@@ -254,6 +257,123 @@ pub fn stiffness_factor(stiffness: &SparseMatrix) -> Result<StiffnessFactor> {
         .to_faer()
         .sp_cholesky(Side::Lower)
         .map_err(|_| Error::Singular("the stiffness matrix is not positive definite".into()))
+}
+
+/// Every mode with mass of `K φ = ω² M φ` (mass-normalised, ascending): the massless DOFs
+/// `c` condensed statically (T30), `K* = K_dd − K_cdᵀ K_cc⁻¹ K_cd` on the DOFs with mass `d`,
+/// the dense symmetric eigenproblem in shift-invert form `Lᵀ K*⁻¹ L u = u / ω²` with
+/// `M_dd = L Lᵀ` (the lowest modes accurate relative to themselves), and the shapes
+/// `φ_d = L⁻ᵀ u`, `φ_c = −K_cc⁻¹ K_cd φ_d` (the massless DOFs following statically). Every
+/// product and solve is sequential, so the modes are the same numbers on any number of
+/// threads. Dense: for models of at most a few hundred DOFs with mass.
+pub fn every_mode(mass: &SparseMatrix, stiffness: &SparseMatrix) -> Result<LowestModes> {
+    use faer::linalg::matmul::matmul;
+    use faer::linalg::triangular_solve::solve_upper_triangular_in_place;
+    use faer::Accum;
+    let n = stiffness.nrows();
+    let massless = massless_dofs(mass);
+    let mut is_massless = vec![false; n];
+    massless.iter().for_each(|&i| is_massless[i] = true);
+    let massive: Vec<usize> = (0..n).filter(|&i| !is_massless[i]).collect();
+    if massive.is_empty() {
+        return Err(Error::Singular(
+            "the mass matrix has no positive mass".into(),
+        ));
+    }
+    let mut k_red = stiffness.submatrix(&massive, &massive).to_dense();
+    // K_cc⁻¹ K_cd (massless × massive)
+    let mut follow = Mat::<f64>::zeros(massless.len(), massive.len());
+    if !massless.is_empty() {
+        let k_cc = stiffness.submatrix(&massless, &massless).to_dense();
+        let k_cd = stiffness.submatrix(&massless, &massive).to_dense();
+        let llt = k_cc.llt(Side::Lower).map_err(|_| {
+            Error::Singular(
+                "the stiffness of the massless DOFs (K_cc) is not positive definite: they are not statically determined".into(),
+            )
+        })?;
+        follow.copy_from(&k_cd);
+        solve_lower_triangular_in_place(llt.L(), follow.as_mut(), Par::Seq);
+        solve_upper_triangular_in_place(llt.L().transpose(), follow.as_mut(), Par::Seq);
+        matmul(
+            k_red.as_mut(),
+            Accum::Add,
+            k_cd.transpose(),
+            follow.as_ref(),
+            -1.0,
+            Par::Seq,
+        );
+    }
+    let m_dd = mass.submatrix(&massive, &massive).to_dense();
+    let llt = m_dd.llt(Side::Lower).map_err(|_| {
+        Error::Singular(
+            "the mass matrix is not positive definite on the DOFs that carry mass".into(),
+        )
+    })?;
+    let l = llt.L();
+    // G = Lᵀ K*⁻¹ L, whose eigenvalues are 1/ω²: the shift-invert form keeps the lowest modes,
+    // which carry the response, accurate relative to themselves (the direct L⁻¹ K* L⁻ᵀ
+    // loses eps·ω_max²/ω_j² of ω_j²)
+    let k_llt = k_red.llt(Side::Lower).map_err(|_| {
+        Error::Singular(
+            "the stiffness is not positive definite with the Dirichlet DOFs fixed".into(),
+        )
+    })?;
+    let mut inverse_l = l.to_owned();
+    solve_lower_triangular_in_place(k_llt.L(), inverse_l.as_mut(), Par::Seq);
+    solve_upper_triangular_in_place(k_llt.L().transpose(), inverse_l.as_mut(), Par::Seq);
+    let d = massive.len();
+    let mut g = Mat::<f64>::zeros(d, d);
+    matmul(
+        g.as_mut(),
+        Accum::Replace,
+        l.transpose(),
+        inverse_l.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    let sym = Mat::<f64>::from_fn(d, d, |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
+    let (inverse_eigenvalues, v) = symmetric_eigen(&sym)?;
+    if let Some(j) = inverse_eigenvalues
+        .iter()
+        .position(|&t| t.is_nan() || t <= 0.0)
+    {
+        return Err(Error::Singular(format!(
+            "mode {j} has 1/ω² = {:e}: the stiffness is not positive definite with the Dirichlet DOFs fixed",
+            inverse_eigenvalues[j]
+        )));
+    }
+    // ascending ω² = 1/θ: the eigenvalues θ in reverse
+    let eigenvalues: Vec<f64> = inverse_eigenvalues.iter().rev().map(|t| 1.0 / t).collect();
+    let mut u = Mat::<f64>::from_fn(d, d, |i, j| v[(i, d - 1 - j)]);
+    // ψ = L⁻ᵀ u (mass-normalised: ψᵀ M ψ = uᵀ u = 1)
+    solve_upper_triangular_in_place(l.transpose(), u.as_mut(), Par::Seq);
+    let mut shapes = Mat::<f64>::zeros(n, massive.len());
+    for (r, &i) in massive.iter().enumerate() {
+        for j in 0..massive.len() {
+            shapes[(i, j)] = u[(r, j)];
+        }
+    }
+    if !massless.is_empty() {
+        let mut condensed = Mat::<f64>::zeros(massless.len(), massive.len());
+        matmul(
+            condensed.as_mut(),
+            Accum::Replace,
+            follow.as_ref(),
+            u.as_ref(),
+            -1.0,
+            Par::Seq,
+        );
+        for (r, &i) in massless.iter().enumerate() {
+            for j in 0..massive.len() {
+                shapes[(i, j)] = condensed[(r, j)];
+            }
+        }
+    }
+    Ok(LowestModes {
+        eigenvalues,
+        shapes,
+        solver: ModeSolver::Condensed,
+    })
 }
 
 /// [`lowest_modes`] with a factor of `K` the caller already has (and keeps: on a 3D solid

@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use common::{example_model, hz};
 use mshbm::dense::DenseLu;
-use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+use mshbm::method::redistributed::{ReceptanceChoice, RedistributedMsHbm, RedistributedOptions};
 use mshbm::newton::{newton_direction_into, solve, NewtonOptions};
 use mshbm::problem::{Jacobian, Linearization, PeriodicProblem};
 
@@ -55,11 +55,20 @@ fn relative_difference(a: &[f64], b: &[f64]) -> f64 {
 /// the solution's neighbourhood): `linearize_into` and the Newton direction in kept
 /// storage allocate nothing after the first; and each linearization equals a fresh
 /// problem's at the same point (nothing stale in the reused storage: the receptance
-/// refreshed in place, the integration, the scratch vectors).
+/// refreshed in place, the integration, the scratch vectors). Both receptances that refresh
+/// in place: the one `Auto` picks for the bar (every mode, diagonal modal damping) and the
+/// exact one (band LU of the whole structure).
 #[test]
 fn a_corrector_iteration_at_a_new_frequency_allocates_nothing() {
+    for receptance in [ReceptanceChoice::Auto, ReceptanceChoice::Exact] {
+        corrector_iterations_allocate_nothing(receptance);
+    }
+}
+
+fn corrector_iterations_allocate_nothing(receptance: ReceptanceChoice) {
     let model = example_model("clamped_bar.toml", &["damping.first_mode_ratio=0.01"]);
-    let options = RedistributedOptions::new(10);
+    let mut options = RedistributedOptions::new(10);
+    options.receptance = receptance;
     let mut problem = RedistributedMsHbm::new(&model, &options).unwrap();
     let omega = hz(60e3);
     let x0 = problem.initial_guess(omega).unwrap();
@@ -99,7 +108,10 @@ fn a_corrector_iteration_at_a_new_frequency_allocates_nothing() {
         iterate(x, *w);
     }
     let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;
-    assert_eq!(allocations, 0, "allocations in 11 corrector iterations");
+    assert_eq!(
+        allocations, 0,
+        "allocations in 11 corrector iterations ({receptance:?})"
+    );
     // the last iteration's linearization against a fresh problem's
     let (x, w) = points.last().unwrap();
     let mut fresh = RedistributedMsHbm::new(&model, &options).unwrap();

@@ -56,7 +56,8 @@ fn receptance_difference(
 }
 
 /// (T130) with every mode with mass is exact, for mass-proportional, condensed-stiffness
-/// (diagonal modal damping) and `beta_linear` damping (full modal damping block).
+/// (diagonal modal damping, (T148)) and `beta_linear` damping (full modal damping block),
+/// with the modes of the block Krylov method and of the dense condensed eigenproblem.
 #[test]
 fn with_every_mode_the_modal_receptance_is_the_exact_one() {
     for (label, overrides) in [
@@ -72,17 +73,27 @@ fn with_every_mode_the_modal_receptance_is_the_exact_one() {
         let model = example_model("clamped_bar.toml", &all);
         let system = model.system(MassKind::Redistributed).unwrap();
         let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
-        let modal = ModalReceptance::new(&system, massive).unwrap();
+        // the modes by the block Krylov method, and by condensation and a dense eigensolver
+        let krylov = ModalReceptance::new(&system, massive).unwrap();
+        let condensed = ModalReceptance::every_mode(&system).unwrap();
+        assert_eq!(condensed.n_modes(), massive);
         let exact = ExactReceptance::new(&system).unwrap();
-        for f in [5e3, 30e3, 71e3] {
-            let omega = hz(f);
-            let (a, b) = (
-                modal.at(omega, HARMONICS).unwrap(),
-                exact.at(omega, HARMONICS).unwrap(),
+        for (modes, modal) in [("Krylov", krylov), ("condensed", condensed)] {
+            assert_eq!(
+                modal.diagonalises_damping(),
+                label != "beta_linear",
+                "{label}"
             );
-            let e = receptance_difference(a.as_ref(), b.as_ref(), system.contacts.len());
-            println!("{label}, {f} Hz: modal (all {massive} modes) vs exact {e:.1e}");
-            assert!(e < 1e-9, "{label} at {f} Hz: {e:e}");
+            for f in [5e3, 30e3, 71e3] {
+                let omega = hz(f);
+                let (a, b) = (
+                    modal.at(omega, HARMONICS).unwrap(),
+                    exact.at(omega, HARMONICS).unwrap(),
+                );
+                let e = receptance_difference(a.as_ref(), b.as_ref(), system.contacts.len());
+                println!("{label}, {f} Hz: modal (all {massive} modes, {modes}) vs exact {e:.1e}");
+                assert!(e < 1e-9, "{label} at {f} Hz ({modes}): {e:e}");
+            }
         }
     }
 }
@@ -159,36 +170,88 @@ fn the_truncated_modal_receptance_converges_in_the_number_of_modes() {
 }
 
 /// (T132): the analytic ω-derivative is that of the truncated receptance (Richardson
-/// extrapolated central differences of the modal receptance itself).
+/// extrapolated central differences of the modal receptance itself), for a full modal
+/// damping block (`beta_linear`) and for diagonal modal damping (`alpha + beta_condensed`,
+/// term by term).
 #[test]
 fn the_modal_frequency_derivative_matches_finite_differences() {
-    let model = rayleigh_damped_bar(100);
-    let system = model.system(MassKind::Redistributed).unwrap();
-    let modal = ModalReceptance::new(&system, 12).unwrap();
-    let nc = system.contacts.len();
-    let force = forces(nc);
-    let omega = hz(40e3);
-    let at = modal.at(omega, HARMONICS).unwrap();
-    for k in 1..=HARMONICS {
-        for with_load in [true, false] {
-            let gather = |omega: f64| -> Vec<c64> {
-                let a = modal.at(omega, HARMONICS).unwrap();
-                let mut v = a.receptance(k)[..nc * nc]
-                    .chunks(nc)
-                    .map(|row| row.iter().zip(&force).map(|(r, l)| r * l).sum::<c64>())
-                    .collect::<Vec<_>>();
-                if with_load {
-                    v.iter_mut()
-                        .zip(a.load_response(k))
-                        .for_each(|(x, y)| *x += y);
-                }
-                v
-            };
-            let fd = common::richardson_derivative(gather, omega, 1e-4 * omega);
-            let analytic = at.frequency_derivative(k, &force, with_load).unwrap();
-            let e = rel_diff(&analytic, &fd);
-            println!("harmonic {k} (load {with_load}): ∂(Wᵀq)/∂ω vs differences {e:.1e}");
-            assert!(e < 1e-7, "harmonic {k}, load {with_load}: {e:e}");
+    let diagonal = example_model(
+        "clamped_bar.toml",
+        &[
+            "bar.elements=100",
+            "damping.alpha=3000",
+            "damping.beta_condensed=2e-8",
+        ],
+    );
+    for (model, diagonalised) in [(rayleigh_damped_bar(100), false), (diagonal, true)] {
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let modal = ModalReceptance::new(&system, 12).unwrap();
+        assert_eq!(modal.diagonalises_damping(), diagonalised);
+        let nc = system.contacts.len();
+        let force = forces(nc);
+        let omega = hz(40e3);
+        let at = modal.at(omega, HARMONICS).unwrap();
+        for k in 1..=HARMONICS {
+            for with_load in [true, false] {
+                let gather = |omega: f64| -> Vec<c64> {
+                    let a = modal.at(omega, HARMONICS).unwrap();
+                    let mut v = a.receptance(k)[..nc * nc]
+                        .chunks(nc)
+                        .map(|row| row.iter().zip(&force).map(|(r, l)| r * l).sum::<c64>())
+                        .collect::<Vec<_>>();
+                    if with_load {
+                        v.iter_mut()
+                            .zip(a.load_response(k))
+                            .for_each(|(x, y)| *x += y);
+                    }
+                    v
+                };
+                let fd = common::richardson_derivative(gather, omega, 1e-4 * omega);
+                let analytic = at.frequency_derivative(k, &force, with_load).unwrap();
+                let e = rel_diff(&analytic, &fd);
+                println!(
+                    "diagonal {diagonalised}, harmonic {k} (load {with_load}): ∂(Wᵀq)/∂ω vs differences {e:.1e}"
+                );
+                assert!(e < 1e-7, "harmonic {k}, load {with_load}: {e:e}");
+            }
+        }
+    }
+}
+
+/// With diagonal modal damping the receptance moves to a new frequency in its own storage
+/// (`refresh`) and equals one formed there anew; with a full damping block it declines
+/// (the method then asks for a new one).
+#[test]
+fn a_refreshed_modal_receptance_equals_a_new_one() {
+    for (overrides, diagonalised) in [
+        (vec!["bar.elements=40", "damping.alpha=3000"], true),
+        (vec!["bar.elements=40", "damping.beta_linear=2e-8"], false),
+    ] {
+        let model = example_model("clamped_bar.toml", &overrides);
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let modal = ModalReceptance::new(&system, 10).unwrap();
+        assert_eq!(modal.diagonalises_damping(), diagonalised, "{overrides:?}");
+        let mut moved = modal.at(hz(20e3), HARMONICS).unwrap();
+        // X_k as a matrix, formed at the old frequency, must not survive the move
+        moved.modal_correction(2).unwrap();
+        let refreshed = moved.refresh(hz(55e3)).unwrap();
+        assert_eq!(refreshed, diagonalised, "{overrides:?}");
+        if !refreshed {
+            continue;
+        }
+        let fresh = modal.at(hz(55e3), HARMONICS).unwrap();
+        assert_eq!(moved.omega(), fresh.omega());
+        let e = receptance_difference(moved.as_ref(), fresh.as_ref(), system.contacts.len());
+        assert!(e <= 1e-14, "{e:e}");
+        for k in 0..=HARMONICS {
+            let (a, b) = (
+                moved.modal_correction(k).unwrap(),
+                fresh.modal_correction(k).unwrap(),
+            );
+            assert!(
+                (a - b).norm_max() <= 1e-14 * b.norm_max().max(1e-300),
+                "X_{k}"
+            );
         }
     }
 }
@@ -401,4 +464,60 @@ fn auto_keeps_the_exact_receptance_of_a_slender_model() {
         seen.iter().any(|p| p.starts_with("the exact receptance")),
         "{seen:?}"
     );
+}
+
+/// `ReceptanceChoice::Auto` on a small model: every mode when the modes diagonalise the
+/// damping (the README's bar, 1 % mass-proportional damping), and then the periodic
+/// solution is the exact receptance's (to Newton's tolerance); the exact receptance when
+/// they do not (`beta_linear`, a full modal damping block).
+#[test]
+fn auto_takes_every_mode_of_a_small_model_whose_modes_diagonalise_its_damping() {
+    use mshbm::method::redistributed::EVERY_MODE_DOFS;
+    use mshbm::method::SetupObserver;
+    use std::sync::{Arc, Mutex};
+    for (damping, every_mode) in [
+        ("damping.first_mode_ratio=0.01", true),
+        ("damping.beta_linear=2e-8", false),
+    ] {
+        let model = example_model("clamped_bar.toml", &[damping]);
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
+        assert!(massive <= EVERY_MODE_DOFS);
+        let seen: Arc<Mutex<Vec<String>>> = Arc::default();
+        let record = Arc::clone(&seen);
+        let observer = SetupObserver::new(move |phase| {
+            if let Some(p) = phase {
+                record.lock().unwrap().push(p.to_string());
+            }
+        });
+        RedistributedMsHbm::within_observed(
+            &model,
+            &RedistributedOptions::new(5),
+            &mshbm::limits::Limits::default(),
+            Some(&observer),
+        )
+        .unwrap();
+        let seen = seen.lock().unwrap().clone();
+        assert!(
+            seen.iter()
+                .any(|p| p.starts_with("the modal receptance with every mode")),
+            "{seen:?}"
+        );
+        let exact_phase = seen.iter().any(|p| p.starts_with("the exact receptance"));
+        assert_eq!(exact_phase, !every_mode, "{damping}: {seen:?}");
+        if every_mode {
+            for f in [30e3, 60e3] {
+                let (a, scale) = solve(&model, ReceptanceChoice::Auto, f);
+                let (b, _) = solve(&model, ReceptanceChoice::Exact, f);
+                let e = a
+                    .iter()
+                    .zip(&b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(0.0, f64::max)
+                    / scale;
+                println!("{f} Hz: every mode vs exact {e:.1e}");
+                assert!(e < 1e-9, "{f} Hz: {e:e}");
+            }
+        }
+    }
 }

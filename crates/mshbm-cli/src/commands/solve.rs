@@ -174,7 +174,9 @@ pub struct MethodArgs {
     /// Receptance of the structure at its contacts (redistributed MS-HBM,
     /// docs/theory.md (T125), (T130)): exact (a sparse LU of the whole structure per
     /// harmonic and frequency) or modal (the lowest modes plus the exact static compliance;
-    /// one modal analysis at set-up, then no factorization per frequency). Default: auto.
+    /// one modal analysis at set-up, then no factorization per frequency). Default: auto
+    /// (every mode, which is exact, for up to 200 DOFs with mass when the modes
+    /// diagonalise the damping; else exact, or 200 modes for large 3D models).
     #[arg(long, value_enum, default_value_t = ReceptanceArg::Auto)]
     pub receptance: ReceptanceArg,
 

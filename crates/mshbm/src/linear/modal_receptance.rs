@@ -20,7 +20,12 @@
 //! `Φᵀ C Φ` is diagonal; otherwise its full `m × m` block is kept (a Galerkin projection).
 //!
 //! Per frequency and harmonic the cost is one complex `m × m` inverse and the products
-//! `B X_k Bᵀ` (`n_c m² + n_c² m`); nothing is factored per frequency.
+//! `B X_k Bᵀ` (`n_c m² + n_c² m`); nothing is factored per frequency. When the modes
+//! diagonalise the damping (`Φᵀ C Φ = diag(c_j)` to round-off: mass-proportional damping,
+//! or `α M + β_c (K_LL − K_LN K_NN⁻¹ K_NL)`), `Y_k` and `X_k` are diagonal and each harmonic
+//! costs `m` complex reciprocals and `n_c² m` products ((T148), docs/theory.md
+//! §17 "Diagonal modal damping"); that form also moves to a new frequency in its own
+//! storage ([`ReceptanceAtFrequency::refresh`]) and allocates nothing there.
 //!
 //! The factor of `K` is needed at set-up (the modes, `Wᵀ K⁻¹ W`, `Wᵀ K⁻¹ f_k`) and then only
 //! for the whole structure's response (`K⁻¹ r` in [`ReceptanceAtFrequency::response`]). On a
@@ -62,8 +67,13 @@ struct ModalBasis {
     shapes: Mat<f64>,
     /// `B = Wᵀ Φ` (`n_c × m`).
     contact_shapes: Mat<f64>,
+    /// `B` row-major (`n_c × m`), for the term-by-term sums of diagonal damping.
+    shape_rows: Vec<f64>,
     /// `Φᵀ C Φ` (`m × m`).
     modal_damping: Mat<f64>,
+    /// `c_j`, the diagonal of `Φᵀ C Φ`, when the modes diagonalise the damping
+    /// ([`diagonal_of`]); then every `Y_k`, `X_k` is diagonal.
+    diagonal_damping: Option<Vec<f64>>,
     /// `Wᵀ K⁻¹ W` (`n_c × n_c`).
     static_receptance: Mat<f64>,
     /// Per loaded harmonic `k ≤ 1`: `Wᵀ K⁻¹ f_k` and `Φᵀ f_k` (the loads are real and do
@@ -77,6 +87,38 @@ struct StaticLoad {
     contacts: Vec<f64>,
     /// `Φᵀ f_k` (`m`).
     modal: Mat<f64>,
+}
+
+/// Off-diagonal entries of `Φᵀ C Φ` up to this fraction of its largest diagonal entry are
+/// round-off of damping the modes diagonalise (the modes are `M`-orthonormal to about
+/// `10⁻¹⁴`).
+const DIAGONAL_DAMPING_TOLERANCE: f64 = 1e-11;
+
+/// The diagonal `c_j` of the modal damping `Φᵀ C Φ` if its off-diagonal entries are
+/// round-off ([`DIAGONAL_DAMPING_TOLERANCE`]); `None` otherwise.
+fn diagonal_of(modal_damping: &Mat<f64>) -> Option<Vec<f64>> {
+    let m = modal_damping.nrows();
+    let scale = (0..m)
+        .map(|j| modal_damping[(j, j)].abs())
+        .fold(0.0, f64::max);
+    let coupled = (0..m).any(|j| {
+        (0..m).any(|i| i != j && modal_damping[(i, j)].abs() > DIAGONAL_DAMPING_TOLERANCE * scale)
+    });
+    (!coupled).then(|| (0..m).map(|j| modal_damping[(j, j)]).collect())
+}
+
+/// `A B`, sequentially.
+fn sequential_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    let mut out = Mat::<f64>::zeros(a.nrows(), b.ncols());
+    faer::linalg::matmul::matmul(
+        out.as_mut(),
+        faer::Accum::Replace,
+        a,
+        b,
+        1.0,
+        faer::Par::Seq,
+    );
+    out
 }
 
 /// `A M` for a real `A` and a complex `M` (two real products).
@@ -100,6 +142,14 @@ impl ModalReceptance {
             modes,
         )?;
         Self::with_modes_factored(system, computed, factor)
+    }
+
+    /// The modal receptance of `system` with every mode with mass
+    /// ([`crate::modes::every_mode`], dense and sequential: the same numbers on any number
+    /// of threads); exact (T130).
+    pub fn every_mode(system: &System) -> Result<Self> {
+        let modes = crate::modes::every_mode(&system.mass, &system.stiffness)?;
+        Self::with_modes(system, modes)
     }
 
     /// The modal receptance of `system` with given mass-normalised modes.
@@ -163,7 +213,15 @@ impl ModalReceptance {
             start += width;
         }
         let phi = modes.shapes;
-        let modal_damping = phi.transpose() * (system.damping.to_faer() * &phi);
+        // Φᵀ C Φ term by term (sequential: the same numbers on any number of threads)
+        let mut damped = Mat::<f64>::zeros(n, m);
+        for (i, j, v) in system.damping.iter() {
+            for c in 0..m {
+                damped[(i, c)] += v * phi[(j, c)];
+            }
+        }
+        let modal_damping = sequential_product(phi.transpose(), damped.as_ref());
+        let diagonal_damping = diagonal_of(&modal_damping);
         let contact_shapes = Mat::<f64>::from_fn(nc, m, |c, j| {
             contacts.w[c]
                 .iter()
@@ -179,7 +237,7 @@ impl ModalReceptance {
             let contacts = (0..nc)
                 .map(|c| contacts.w[c].iter().map(|&(d, v)| v * x[(d, 0)]).sum())
                 .collect();
-            let modal = phi.transpose() * faer::ColRef::from_slice(f).as_mat();
+            let modal = sequential_product(phi.transpose(), faer::ColRef::from_slice(f).as_mat());
             Some(StaticLoad { contacts, modal })
         });
         drop(stiffness);
@@ -192,8 +250,12 @@ impl ModalReceptance {
                 n_dofs: n,
                 eigenvalues: modes.eigenvalues,
                 shapes: phi,
+                shape_rows: (0..nc * m)
+                    .map(|e| contact_shapes[(e / m, e % m)])
+                    .collect(),
                 contact_shapes,
                 modal_damping,
+                diagonal_damping,
                 static_receptance,
                 static_load,
             }),
@@ -203,6 +265,12 @@ impl ModalReceptance {
     /// Number of modes `m`.
     pub fn n_modes(&self) -> usize {
         self.basis.eigenvalues.len()
+    }
+
+    /// Whether the modes diagonalise the damping (`Φᵀ C Φ` diagonal to round-off), so that
+    /// each harmonic costs `m` reciprocals (module docs).
+    pub fn diagonalises_damping(&self) -> bool {
+        self.basis.diagonal_damping.is_some()
     }
 
     /// `ω_j²` (rad²/s²) of the modes, ascending.
@@ -229,6 +297,65 @@ impl ModalBasis {
             .collect())
     }
 
+    /// One harmonic `k` at `ω` with diagonal damping `c_j` ((T148)), written
+    /// into its storage: `y_j = 1/(ω_j² − Ω² + iΩ c_j)`, `x_j = y_j − 1/ω_j²` formed as
+    /// `(Ω² − iΩ c_j) y_j / ω_j²` (no cancellation where `Ω ≪ ω_j`),
+    /// `R_k = R_s + Σ_j b_j b_jᵀ x_j` and `Wᵀ A_k⁻¹ f_k = Wᵀ K⁻¹ f_k + Σ_j b_j x_j (Φᵀ f_k)_j`
+    /// (`b_j` the columns of `B`).
+    fn fill_diagonal(
+        &self,
+        damping: &[f64],
+        k: usize,
+        omega: f64,
+        harmonic: &mut ModalHarmonic,
+    ) -> Result<()> {
+        let ModalCompliance::Diagonal {
+            dynamic,
+            correction,
+            receptance,
+            correction_matrix,
+        } = &mut harmonic.compliance
+        else {
+            unreachable!("fill_diagonal on the diagonal form only")
+        };
+        let big = k as f64 * omega;
+        for (j, (&w2, &c)) in self.eigenvalues.iter().zip(damping).enumerate() {
+            let (re, im) = (w2 - big * big, big * c);
+            let norm = re * re + im * im;
+            let y = c64::new(re / norm, -im / norm);
+            if !(y.re.is_finite() && y.im.is_finite()) {
+                return Err(undamped_resonance(k, omega));
+            }
+            dynamic[j] = y;
+            correction[j] = c64::new(big * big, -big * c) * y * (1.0 / w2);
+        }
+        let (nc, m) = (self.contacts.len(), self.eigenvalues.len());
+        for a in 0..nc {
+            let row_a = &self.shape_rows[a * m..(a + 1) * m];
+            for b in a..nc {
+                let row_b = &self.shape_rows[b * m..(b + 1) * m];
+                let sum = (0..m).fold(ZERO, |s, j| s + correction[j] * (row_a[j] * row_b[j]));
+                let r = sum + c64::new(self.static_receptance[(a, b)], 0.0);
+                receptance[a * nc + b] = r;
+                receptance[b * nc + a] = r;
+            }
+        }
+        match self.static_load.get(k).and_then(Option::as_ref) {
+            Some(s) => {
+                for (c, out) in harmonic.load_response.iter_mut().enumerate() {
+                    let row = &self.shape_rows[c * m..(c + 1) * m];
+                    let sum =
+                        (0..m).fold(ZERO, |t, j| t + correction[j] * (row[j] * s.modal[(j, 0)]));
+                    *out = c64::new(s.contacts[c], 0.0) + sum;
+                }
+            }
+            None => harmonic.load_response.fill(ZERO),
+        }
+        // X_k as a matrix is formed again on request
+        correction_matrix.take();
+        Ok(())
+    }
+
     /// `Bᵀ λ` for complex contact forces `λ` (`m × 1`).
     fn project_forces(&self, force: &[c64]) -> Mat<c64> {
         let f = Mat::<c64>::from_fn(force.len(), 1, |i, _| force[i]);
@@ -247,9 +374,24 @@ impl Receptance for ModalReceptance {
 
     fn at(&self, omega: f64, harmonics: usize) -> Result<Box<dyn ReceptanceAtFrequency>> {
         let m = self.n_modes();
+        let nc = self.n_contacts();
         let b = &*self.basis;
         let mut harmonic = Vec::with_capacity(harmonics + 1);
         for k in 0..=harmonics {
+            if let Some(damping) = &b.diagonal_damping {
+                let mut h = ModalHarmonic {
+                    load_response: vec![ZERO; nc],
+                    compliance: ModalCompliance::Diagonal {
+                        dynamic: vec![ZERO; m],
+                        correction: vec![ZERO; m],
+                        receptance: vec![ZERO; nc * nc],
+                        correction_matrix: OnceLock::new(),
+                    },
+                };
+                b.fill_diagonal(damping, k, omega, &mut h)?;
+                harmonic.push(h);
+                continue;
+            }
             let big_omega = k as f64 * omega;
             // Y_k = (diag(ω_j²) − Ω² I + i Ω Φᵀ C Φ)⁻¹
             let a = Mat::<c64>::from_fn(m, m, |i, j| {
@@ -264,10 +406,7 @@ impl Receptance for ModalReceptance {
             if y.col_iter()
                 .any(|c| c.iter().any(|v| !v.re.is_finite() || !v.im.is_finite()))
             {
-                return Err(Error::Singular(format!(
-                    "the modal dynamic stiffness of harmonic {k} at {:.6e} rad/s is singular (an undamped resonance)",
-                    omega
-                )));
+                return Err(undamped_resonance(k, omega));
             }
             let mut x = y.clone();
             (0..m).for_each(|j| x[(j, j)] -= c64::new(1.0 / b.eigenvalues[j], 0.0));
@@ -284,13 +423,15 @@ impl Receptance for ModalReceptance {
                         .map(|(c, &v)| c64::new(v, 0.0) + correction[(c, 0)])
                         .collect()
                 }
-                None => vec![ZERO; self.n_contacts()],
+                None => vec![ZERO; nc],
             };
             harmonic.push(ModalHarmonic {
-                receptance: std::sync::OnceLock::new(),
                 load_response,
-                dynamic_compliance: y,
-                correction: x,
+                compliance: ModalCompliance::Full {
+                    receptance: OnceLock::new(),
+                    dynamic: y,
+                    correction: x,
+                },
             });
         }
         Ok(Box::new(ModalReceptanceAt {
@@ -300,7 +441,13 @@ impl Receptance for ModalReceptance {
         }))
     }
 
+    /// `R_s` and `B`; not offered when the modes diagonalise the damping and there are at
+    /// least as many modes as contacts: then forming `R_k` (`n_c² m`) and its inverse
+    /// (`n_c³`) costs less than the `m × m` inverse of (T136) per harmonic.
     fn static_plus_low_rank(&self) -> Option<StaticPlusLowRank<'_>> {
+        if self.basis.diagonal_damping.is_some() && self.n_modes() >= self.n_contacts() {
+            return None;
+        }
         Some(StaticPlusLowRank {
             static_receptance: self.basis.static_receptance.as_ref(),
             contact_shapes: self.basis.contact_shapes.as_ref(),
@@ -308,15 +455,36 @@ impl Receptance for ModalReceptance {
     }
 }
 
+fn undamped_resonance(k: usize, omega: f64) -> Error {
+    Error::Singular(format!(
+        "the modal dynamic stiffness of harmonic {k} at {omega:.6e} rad/s is singular (an undamped resonance)"
+    ))
+}
+
 /// One harmonic of [`ModalReceptance`] at one frequency.
 struct ModalHarmonic {
-    /// `R_k = Wᵀ K⁻¹ W + B X_k Bᵀ` (row-major), formed on first use: the redistributed
-    /// MS-HBM works with the parts instead (docs/theory.md (T136)).
-    receptance: std::sync::OnceLock<Vec<c64>>,
     load_response: Vec<c64>,
-    /// `Y_k` and `X_k = Y_k − diag(1/ω_j²)`.
-    dynamic_compliance: Mat<c64>,
-    correction: Mat<c64>,
+    compliance: ModalCompliance,
+}
+
+/// `Y_k`, `X_k = Y_k − diag(1/ω_j²)` and `R_k` of one harmonic.
+enum ModalCompliance {
+    /// A full `Φᵀ C Φ`: `Y_k`, `X_k` (`m × m`); `R_k = Wᵀ K⁻¹ W + B X_k Bᵀ` (row-major)
+    /// formed on first use, since the redistributed MS-HBM works with the parts instead
+    /// (docs/theory.md (T136)).
+    Full {
+        receptance: OnceLock<Vec<c64>>,
+        dynamic: Mat<c64>,
+        correction: Mat<c64>,
+    },
+    /// A diagonal `Φᵀ C Φ`: the diagonals of `Y_k` and `X_k`, `R_k` (row-major), and `X_k`
+    /// as a matrix formed on request ([`ReceptanceAtFrequency::modal_correction`]).
+    Diagonal {
+        dynamic: Vec<c64>,
+        correction: Vec<c64>,
+        receptance: Vec<c64>,
+        correction_matrix: OnceLock<Mat<c64>>,
+    },
 }
 
 /// [`ModalReceptance`] at one frequency.
@@ -336,6 +504,16 @@ impl ModalReceptanceAt {
         }
         z
     }
+
+    /// `X_k z` (`m × 1`).
+    fn correction_times(&self, k: usize, z: &Mat<c64>) -> Mat<c64> {
+        match &self.harmonic[k].compliance {
+            ModalCompliance::Full { correction, .. } => correction * z,
+            ModalCompliance::Diagonal { correction, .. } => {
+                Mat::from_fn(z.nrows(), 1, |j, _| correction[j] * z[(j, 0)])
+            }
+        }
+    }
 }
 
 impl ReceptanceAtFrequency for ModalReceptanceAt {
@@ -348,21 +526,27 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
     }
 
     fn receptance(&self, k: usize) -> &[c64] {
-        let h = &self.harmonic[k];
-        h.receptance.get_or_init(|| {
-            let b = &*self.basis;
-            let nc = b.contacts.len();
-            let bx = real_times_complex(b.contact_shapes.as_ref(), &h.correction);
-            let (re, im) = (
-                Mat::<f64>::from_fn(nc, bx.ncols(), |i, j| bx[(i, j)].re),
-                Mat::<f64>::from_fn(nc, bx.ncols(), |i, j| bx[(i, j)].im),
-            );
-            let re = &b.static_receptance + &re * b.contact_shapes.transpose();
-            let im = &im * b.contact_shapes.transpose();
-            (0..nc * nc)
-                .map(|e| c64::new(re[(e / nc, e % nc)], im[(e / nc, e % nc)]))
-                .collect()
-        })
+        match &self.harmonic[k].compliance {
+            ModalCompliance::Diagonal { receptance, .. } => receptance,
+            ModalCompliance::Full {
+                receptance,
+                correction,
+                ..
+            } => receptance.get_or_init(|| {
+                let b = &*self.basis;
+                let nc = b.contacts.len();
+                let bx = real_times_complex(b.contact_shapes.as_ref(), correction);
+                let (re, im) = (
+                    Mat::<f64>::from_fn(nc, bx.ncols(), |i, j| bx[(i, j)].re),
+                    Mat::<f64>::from_fn(nc, bx.ncols(), |i, j| bx[(i, j)].im),
+                );
+                let re = &b.static_receptance + &re * b.contact_shapes.transpose();
+                let im = &im * b.contact_shapes.transpose();
+                (0..nc * nc)
+                    .map(|e| c64::new(re[(e / nc, e % nc)], im[(e / nc, e % nc)]))
+                    .collect()
+            }),
+        }
     }
 
     fn load_response(&self, k: usize) -> &[c64] {
@@ -370,7 +554,17 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
     }
 
     fn modal_correction(&self, k: usize) -> Option<&Mat<c64>> {
-        Some(&self.harmonic[k].correction)
+        Some(match &self.harmonic[k].compliance {
+            ModalCompliance::Full { correction, .. } => correction,
+            ModalCompliance::Diagonal {
+                correction,
+                correction_matrix,
+                ..
+            } => correction_matrix.get_or_init(|| {
+                let m = correction.len();
+                Mat::from_fn(m, m, |i, j| if i == j { correction[i] } else { ZERO })
+            }),
+        })
     }
 
     /// `q̂_k ≈ K⁻¹ r + Φ X_k Φᵀ r` with `r = f_k + W λ̂_k` (T130).
@@ -383,7 +577,7 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
         b.contacts.scatter_add(force, &mut r);
         let z = self.projection(k, force, true);
         let mut q = b.static_solve(&r)?;
-        let modal = real_times_complex(b.shapes.as_ref(), &(&self.harmonic[k].correction * &z));
+        let modal = real_times_complex(b.shapes.as_ref(), &self.correction_times(k, &z));
         q.iter_mut()
             .enumerate()
             .for_each(|(i, v)| *v += modal[(i, 0)]);
@@ -394,19 +588,74 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
     /// derivative of the modal receptance itself (T132), so that Newton's Jacobian is that
     /// of the residual it solves.
     fn frequency_derivative(&self, k: usize, force: &[c64], with_load: bool) -> Result<Vec<c64>> {
+        let mut out = vec![ZERO; force.len()];
+        self.frequency_derivative_into(k, force, with_load, &mut out, &mut Vec::new())?;
+        Ok(out)
+    }
+
+    /// [`ReceptanceAtFrequency::frequency_derivative`]; with diagonal damping term by term (T148),
+    /// `−Σ_j b_j y_j² (−2k²ω + i k c_j) (Φᵀ r)_j`, without allocating.
+    fn frequency_derivative_into(
+        &self,
+        k: usize,
+        force: &[c64],
+        with_load: bool,
+        out: &mut [c64],
+        _scratch: &mut Vec<c64>,
+    ) -> Result<()> {
         let b = &*self.basis;
         let nc = b.contacts.len();
+        out.fill(ZERO);
         if k == 0 {
-            return Ok(vec![ZERO; nc]);
+            return Ok(());
         }
-        let z = self.projection(k, force, with_load);
-        let y = &self.harmonic[k].dynamic_compliance;
         let kf = k as f64;
-        let m = b.modal_damping.nrows();
-        let mut da = Mat::<c64>::from_fn(m, m, |i, j| c64::new(0.0, kf * b.modal_damping[(i, j)]));
-        (0..m).for_each(|j| da[(j, j)] -= c64::new(2.0 * kf * kf * self.omega, 0.0));
-        let dy_z = y * (&da * (y * &z));
-        let out = real_times_complex(b.contact_shapes.as_ref(), &dy_z);
-        Ok((0..nc).map(|c| -out[(c, 0)]).collect())
+        match &self.harmonic[k].compliance {
+            ModalCompliance::Diagonal { dynamic, .. } => {
+                let damping = b.diagonal_damping.as_deref().expect("diagonal damping");
+                let m = dynamic.len();
+                let load = b
+                    .static_load
+                    .get(k)
+                    .and_then(Option::as_ref)
+                    .filter(|_| with_load);
+                for (j, (&y, &c)) in dynamic.iter().zip(damping).enumerate() {
+                    // (Φᵀ r)_j = (Bᵀ λ̂_k)_j (+ (Φᵀ f_k)_j)
+                    let mut z = load.map_or(ZERO, |s| c64::new(s.modal[(j, 0)], 0.0));
+                    for (cf, &l) in force.iter().enumerate() {
+                        z += l * b.shape_rows[cf * m + j];
+                    }
+                    let t = y * y * c64::new(-2.0 * kf * kf * self.omega, kf * c) * z;
+                    for (cf, o) in out.iter_mut().enumerate() {
+                        *o -= t * b.shape_rows[cf * m + j];
+                    }
+                }
+            }
+            ModalCompliance::Full { dynamic: y, .. } => {
+                let z = self.projection(k, force, with_load);
+                let m = b.modal_damping.nrows();
+                let mut da =
+                    Mat::<c64>::from_fn(m, m, |i, j| c64::new(0.0, kf * b.modal_damping[(i, j)]));
+                (0..m).for_each(|j| da[(j, j)] -= c64::new(2.0 * kf * kf * self.omega, 0.0));
+                let dy_z = y * (&da * (y * &z));
+                let product = real_times_complex(b.contact_shapes.as_ref(), &dy_z);
+                (0..nc).for_each(|c| out[c] = -product[(c, 0)]);
+            }
+        }
+        Ok(())
+    }
+
+    /// With diagonal damping every harmonic is formed again in its storage (nothing is
+    /// allocated); a full `Φᵀ C Φ` asks for a new receptance.
+    fn refresh(&mut self, omega: f64) -> Result<bool> {
+        let b = &*self.basis;
+        let Some(damping) = &b.diagonal_damping else {
+            return Ok(false);
+        };
+        for (k, harmonic) in self.harmonic.iter_mut().enumerate() {
+            b.fill_diagonal(damping, k, omega, harmonic)?;
+        }
+        self.omega = omega;
+        Ok(true)
     }
 }

@@ -146,7 +146,10 @@ impl Interface {
 /// complex matrices per harmonic, the static contact problem and its cached active sets,
 /// Gram blocks `(2H+1)²` per active set (at most one per contact plus one), per-sample
 /// contact arrays. The exact receptance's sparse factors are counted with the linear
-/// part; the modal receptance's mode shapes (`n × m` complex) are not.
+/// part; the modal receptance's mode shapes (`n × m` complex) are not, except for models
+/// small enough that the default choice tries every mode
+/// ([`super::redistributed::EVERY_MODE_DOFS`]): then the dense eigenproblem of every mode
+/// ([`crate::modes::every_mode`]) and the shapes and damped shapes the receptance keeps.
 pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> MemoryPlan {
     let mut plan = MemoryPlan::new();
     let nc = coefficients(harmonics);
@@ -165,6 +168,18 @@ pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> Memor
         contacts.checked_mul(nc),
         interface,
     );
+    let massive = (system.n_dofs() - crate::modes::massless_dofs(&system.mass).len()) as u64;
+    if massive as usize <= super::redistributed::EVERY_MODE_DOFS {
+        plan.add_product(
+            format!("the modal receptance with every mode ({massive} modes)"),
+            &[
+                system.n_dofs() as u64,
+                massive,
+                8,
+                crate::modes::DENSE_MATRICES + 2,
+            ],
+        );
+    }
     plan.add(
         "the static contact problem (K_NN⁻¹W, Delassus matrix)",
         mul(&[n_n.saturating_add(contacts), contacts, 8]),

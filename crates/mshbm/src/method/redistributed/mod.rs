@@ -136,10 +136,19 @@ pub const MODAL_RECEPTANCE_FILL: usize = 40;
 /// with mass).
 pub const DEFAULT_RECEPTANCE_MODES: usize = 200;
 
+/// DOFs with mass up to which [`ReceptanceChoice::Auto`] tries every mode: when the modes
+/// diagonalise the damping, the modal receptance with every mode is exact (T130) and costs
+/// `m` complex reciprocals per harmonic and frequency instead of a factorization of the
+/// whole structure (docs/theory.md §17, "Diagonal modal damping"); its set-up is one modal
+/// analysis of at most this many DOFs.
+pub const EVERY_MODE_DOFS: usize = 200;
+
 /// How the receptance at the contacts `R_k = Wᵀ A_k⁻¹ W` is computed (docs/theory.md
 /// (T125), (T130)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ReceptanceChoice {
+    /// Up to [`EVERY_MODE_DOFS`] DOFs with mass and damping the modes diagonalise,
+    /// [`ReceptanceChoice::Modal`] with every mode (exact); otherwise
     /// [`ReceptanceChoice::Exact`] up to [`MODAL_RECEPTANCE_DOFS`] DOFs or
     /// [`MODAL_RECEPTANCE_FILL`] factor values per DOF, above both
     /// [`ReceptanceChoice::Modal`] with [`DEFAULT_RECEPTANCE_MODES`] modes.
@@ -166,6 +175,20 @@ impl ReceptanceChoice {
                 && crate::sparse::cholesky_fill(&system.stiffness)?
                     > MODAL_RECEPTANCE_FILL * system.n_dofs())
         };
+        if self == ReceptanceChoice::Auto && massive <= EVERY_MODE_DOFS && massive > 0 {
+            SetupObserver::phase(observer, || {
+                format!(
+                    "the modal receptance with every mode: the {massive} modes of {} DOFs",
+                    system.n_dofs()
+                )
+            });
+            // exact only if the modes diagonalise the damping; else the exact receptance
+            if let Ok(every) = ModalReceptance::every_mode(system) {
+                if every.diagonalises_damping() {
+                    return Ok(Box::new(every));
+                }
+            }
+        }
         let choice = match self {
             ReceptanceChoice::Auto if costly()? => ReceptanceChoice::Modal {
                 modes: DEFAULT_RECEPTANCE_MODES.min(massive / 2).max(1),
