@@ -521,3 +521,49 @@ fn auto_takes_every_mode_of_a_small_model_whose_modes_diagonalise_its_damping() 
         }
     }
 }
+
+/// `response_rows` (the contact nodes and a response DOF of a diagram point) equals those
+/// rows of the whole response: for the exact receptance (kept columns), for every mode
+/// (`A_k⁻¹ = E + Φ Y_k Φᵀ`, no solve with `K`) with diagonal and with full modal damping,
+/// and for a truncated basis (the whole response).
+#[test]
+fn response_rows_are_rows_of_the_whole_response() {
+    for overrides in [
+        vec!["bar.elements=40", "damping.alpha=3000"],
+        vec!["bar.elements=40", "damping.beta_linear=2e-8"],
+    ] {
+        let model = example_model("clamped_bar.toml", &overrides);
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
+        let receptances: Vec<(&str, Box<dyn Receptance>)> = vec![
+            ("exact", Box::new(ExactReceptance::new(&system).unwrap())),
+            (
+                "every mode",
+                Box::new(ModalReceptance::every_mode(&system).unwrap()),
+            ),
+            (
+                "every mode (Krylov)",
+                Box::new(ModalReceptance::new(&system, massive).unwrap()),
+            ),
+            (
+                "8 modes",
+                Box::new(ModalReceptance::new(&system, 8).unwrap()),
+            ),
+        ];
+        let nc = system.contacts.len();
+        let mut rows = system.nonlinear_dofs.clone();
+        rows.extend([0, system.n_dofs() / 2, system.n_dofs() - 1]);
+        for (name, receptance) in receptances {
+            let at = receptance.at(hz(47e3), HARMONICS).unwrap();
+            for k in 0..=HARMONICS {
+                let force = forces(nc);
+                let whole = at.response(k, &force).unwrap();
+                let mut out = vec![c64::new(f64::NAN, 0.0); rows.len()];
+                at.response_rows(k, &force, &rows, &mut out).unwrap();
+                let expected: Vec<c64> = rows.iter().map(|&r| whole[r]).collect();
+                let e = rel_diff(&out, &expected);
+                assert!(e < 1e-10, "{overrides:?} {name}, k = {k}: {e:e}");
+            }
+        }
+    }
+}

@@ -79,6 +79,51 @@ struct ModalBasis {
     /// Per loaded harmonic `k ≤ 1`: `Wᵀ K⁻¹ f_k` and `Φᵀ f_k` (the loads are real and do
     /// not depend on the frequency).
     static_load: [Option<StaticLoad>; 2],
+    /// The massless block, when `Φ` holds every mode with mass (rows of the response
+    /// without `K⁻¹`).
+    every_mode: Option<MasslessBlock>,
+}
+
+/// With every mode with mass, `K⁻¹ = E + Φ diag(1/ω_j²) Φᵀ` and so
+/// `A_k⁻¹ = E + Φ Y_k Φᵀ` (docs/theory.md §17, (T130)), `E` holding `K_cc⁻¹` on the
+/// massless DOFs `c` and zeros elsewhere: a row of the response costs `m` products and no
+/// solve with `K`.
+struct MasslessBlock {
+    /// Per DOF, its position among the massless DOFs.
+    position: Vec<Option<usize>>,
+    /// `K_cc⁻¹` (row-major, massless × massless).
+    inverse: Vec<f64>,
+    count: usize,
+}
+
+impl MasslessBlock {
+    /// The block of `system` if `m` modes are every mode with mass; `None` otherwise, or if
+    /// `K_cc` is not positive definite.
+    fn of(system: &System, m: usize) -> Option<Self> {
+        let n = system.n_dofs();
+        let massless = crate::modes::massless_dofs(&system.mass);
+        if n - massless.len() != m {
+            return None;
+        }
+        let count = massless.len();
+        let mut position = vec![None; n];
+        massless
+            .iter()
+            .enumerate()
+            .for_each(|(p, &d)| position[d] = Some(p));
+        let k_cc = system.stiffness.submatrix(&massless, &massless).to_dense();
+        let inverse = k_cc
+            .llt(faer::Side::Lower)
+            .ok()?
+            .solve(Mat::<f64>::identity(count, count));
+        Some(MasslessBlock {
+            position,
+            inverse: (0..count * count)
+                .map(|e| inverse[(e / count, e % count)])
+                .collect(),
+            count,
+        })
+    }
 }
 
 /// The frequency-independent parts of the response to one harmonic of the load.
@@ -258,6 +303,7 @@ impl ModalReceptance {
                 diagonal_damping,
                 static_receptance,
                 static_load,
+                every_mode: MasslessBlock::of(system, m),
             }),
         })
     }
@@ -582,6 +628,56 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
             .enumerate()
             .for_each(|(i, v)| *v += modal[(i, 0)]);
         Ok(q)
+    }
+
+    /// With every mode, `q̂_i = (E r)_i + Σ_j φ_ij (Y_k Φᵀ r)_j` (T149) (no solve with `K`;
+    /// [`MasslessBlock`]); otherwise the whole response.
+    fn response_rows(
+        &self,
+        k: usize,
+        force: &[c64],
+        rows: &[usize],
+        out: &mut [c64],
+    ) -> Result<()> {
+        let b = &*self.basis;
+        let Some(block) = &b.every_mode else {
+            let q = self.response(k, force)?;
+            out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
+            return Ok(());
+        };
+        let z = self.projection(k, force, true);
+        let yz = match &self.harmonic[k].compliance {
+            ModalCompliance::Full { dynamic, .. } => dynamic * &z,
+            ModalCompliance::Diagonal { dynamic, .. } => {
+                Mat::from_fn(z.nrows(), 1, |j, _| dynamic[j] * z[(j, 0)])
+            }
+        };
+        // r on the massless DOFs: f_k + W λ̂_k there
+        let mut massless_force = vec![ZERO; block.count];
+        if let Some(f) = b.load.real(k) {
+            for (d, p) in block.position.iter().enumerate() {
+                if let Some(p) = p {
+                    massless_force[*p] += c64::new(f[d], 0.0);
+                }
+            }
+        }
+        for (w, &l) in b.contacts.w.iter().zip(force) {
+            for &(d, v) in w {
+                if let Some(p) = block.position[d] {
+                    massless_force[p] += l * v;
+                }
+            }
+        }
+        for (o, &r) in out.iter_mut().zip(rows) {
+            let modal = (0..yz.nrows()).fold(ZERO, |s, j| s + yz[(j, 0)] * b.shapes[(r, j)]);
+            let massless = block.position[r].map_or(ZERO, |p| {
+                (0..block.count).fold(ZERO, |s, q| {
+                    s + massless_force[q] * block.inverse[p * block.count + q]
+                })
+            });
+            *o = modal + massless;
+        }
+        Ok(())
     }
 
     /// `∂(Wᵀ q̂_k)/∂ω = B ∂Y_k/∂ω Φᵀ r`, `∂Y_k/∂ω = −Y_k (−2k²ω I + i k Φᵀ C Φ) Y_k`: the

@@ -128,6 +128,21 @@ pub trait ReceptanceAtFrequency: Send + Sync {
     /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)`, every DOF of the structure.
     fn response(&self, k: usize, force: &[c64]) -> Result<Vec<c64>>;
 
+    /// The DOFs `rows` of [`ReceptanceAtFrequency::response`] into `out` (`rows.len()`),
+    /// for a caller that needs a few DOFs (the contact nodes of a diagram point). The
+    /// default forms the whole response.
+    fn response_rows(
+        &self,
+        k: usize,
+        force: &[c64],
+        rows: &[usize],
+        out: &mut [c64],
+    ) -> Result<()> {
+        let q = self.response(k, force)?;
+        out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
+        Ok(())
+    }
+
     /// `∂(Wᵀ q̂_k)/∂ω = −Wᵀ A_k⁻¹ ∂A_k/∂ω q̂_k` at fixed forces `λ̂_k` (`n_c`), with
     /// `q̂_k = A_k⁻¹ (f_k + W λ̂_k)`, or without the load (`with_load = false`:
     /// `∂R_k/∂ω λ̂_k`).
@@ -393,6 +408,31 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
         self.parts.contacts.scatter_add(force, &mut q);
         self.factors.solve_slice_in_place(k, &mut q)?;
         Ok(q)
+    }
+
+    /// With the columns kept, each row is `(A_k⁻¹ f_k)_i + Σ_c Y_ic λ̂_c` (T139).
+    fn response_rows(
+        &self,
+        k: usize,
+        force: &[c64],
+        rows: &[usize],
+        out: &mut [c64],
+    ) -> Result<()> {
+        if !self.keep {
+            let q = self.response(k, force)?;
+            out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
+            return Ok(());
+        }
+        let n = self.parts.structure.n_dofs();
+        let columns = &self.columns[k];
+        let load = &columns[force.len() * n..];
+        for (o, &r) in out.iter_mut().zip(rows) {
+            *o = force
+                .iter()
+                .enumerate()
+                .fold(load[r], |s, (c, &l)| s + columns[c * n + r] * l);
+        }
+        Ok(())
     }
 
     fn frequency_derivative_into(

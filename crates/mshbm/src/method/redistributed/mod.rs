@@ -608,16 +608,17 @@ impl RedistributedMsHbm {
         Ok(response)
     }
 
-    /// The harmonics of every DOF of the structure under the forces `λ̂`
-    /// (`q̂_k = A_k⁻¹ (f_k + W λ̂_k)`, harmonic-major, `n_dofs` per coefficient).
-    fn structure_response(&self, forces: &[f64]) -> Result<Vec<f64>> {
+    /// The harmonics of the DOFs `rows` of the structure under the forces `λ̂`
+    /// (`q̂_k = A_k⁻¹ (f_k + W λ̂_k)`, harmonic-major, `rows.len()` per coefficient).
+    fn structure_rows(&self, forces: &[f64], rows: &[usize]) -> Result<Vec<f64>> {
         let n = self.n();
-        let n_dofs = self.system.n_dofs();
         let f = self.prepared();
-        let mut q = vec![0.0; n_dofs * n_coefficients(self.harmonics)];
+        let mut q = vec![0.0; rows.len() * n_coefficients(self.harmonics)];
+        let mut qk = vec![faer::c64::new(0.0, 0.0); rows.len()];
         for k in 0..=self.harmonics {
-            let qk = f.receptance.response(k, &complex_harmonic(forces, n, k))?;
-            store_harmonic(&qk, n_dofs, k, &mut q);
+            f.receptance
+                .response_rows(k, &complex_harmonic(forces, n, k), rows, &mut qk)?;
+            store_harmonic(&qk, rows.len(), k, &mut q);
         }
         Ok(q)
     }
@@ -714,15 +715,20 @@ impl RedistributedMsHbm {
         let n = self.n();
         let h = self.harmonics;
         let ncoef = n_coefficients(h);
-        let n_dofs = self.system.n_dofs();
-        let q = self.structure_response(&forces)?;
-        // the paper's unknowns q̂_N, and the coefficients of the load on the contact nodes,
+        // the paper's unknowns q̂_N (and the response DOF's harmonics, when it is linear),
+        // and the coefficients of the load on the contact nodes,
         // b̂ = f_N − K_NL q̂_L = K_NN q̂_N − W λ̂ (their rows of the whole system)
         let nonlinear = &self.system.nonlinear_dofs;
         let n_n = nonlinear.len();
-        let q_ref = &q;
+        let mut rows = nonlinear.clone();
+        if let DofLocation::Linear(l) = location {
+            rows.push(self.system.linear_dofs[l]);
+        }
+        let q_rows = self.structure_rows(&forces, &rows)?;
+        let q_ref = &q_rows;
+        let width = rows.len();
         let q_n: Vec<f64> = (0..ncoef)
-            .flat_map(|m| nonlinear.iter().map(move |&d| q_ref[m * n_dofs + d]))
+            .flat_map(|m| (0..n_n).map(move |i| q_ref[m * width + i]))
             .collect();
         let mut b = vec![0.0; n_n * ncoef];
         for m in 0..ncoef {
@@ -882,9 +888,8 @@ impl RedistributedMsHbm {
                     min,
                 }
             }
-            DofLocation::Linear(l) => {
-                let d = self.system.linear_dofs[l];
-                let coefficients: Vec<f64> = (0..ncoef).map(|m| q[m * n_dofs + d]).collect();
+            DofLocation::Linear(_) => {
+                let coefficients: Vec<f64> = (0..ncoef).map(|m| q_rows[m * width + n_n]).collect();
                 let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
                 let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
                 let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
