@@ -106,7 +106,7 @@ def test_the_gil_is_released_while_computing(bar):
     t = threading.Thread(target=tick)
     t.start()
     start = time.perf_counter()
-    mshbm.frf(bar, 1000, 100000, [3, 5])
+    mshbm.frf(bar, 1000, 100000, [3, 5, 10])
     end = time.perf_counter()
     done.set()
     t.join()
