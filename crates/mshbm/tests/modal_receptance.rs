@@ -567,3 +567,55 @@ fn response_rows_are_rows_of_the_whole_response() {
         }
     }
 }
+
+/// The README's H = 10 branch (the paper's bar, 1 % mass-proportional damping, 1 → 100 kHz)
+/// traced with the receptance `Auto` picks (every mode, (T148)) is the exact receptance's:
+/// the same points (same count, frequencies and extremes to 1e-8 relative, the same Newton
+/// iterations) and the same 97 folds.
+#[test]
+fn every_mode_traces_the_readme_branch_of_the_exact_receptance() {
+    use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
+    use mshbm::method::settings::MethodSettings;
+    use mshbm::stability::StabilityOptions;
+    struct Quiet;
+    impl FrdObserver for Quiet {}
+    let model = example_model("clamped_bar.toml", &["damping.first_mode_ratio=0.01"]);
+    let trace = |receptance| {
+        let method = MethodSettings::Redistributed {
+            options: RedistributedOptions {
+                receptance,
+                ..RedistributedOptions::new(10)
+            },
+            stability: StabilityOptions::default(),
+        };
+        trace_frd_branch(
+            &model,
+            &method,
+            &FrdSettings::new(1e3, 100e3),
+            false,
+            &mut Quiet,
+        )
+        .unwrap()
+    };
+    let (every, exact) = (
+        trace(ReceptanceChoice::Auto),
+        trace(ReceptanceChoice::Exact),
+    );
+    assert!(every.report.completed && exact.report.completed);
+    assert_eq!(every.folds.len(), 97);
+    assert_eq!(every.folds.len(), exact.folds.len());
+    let (a, b) = (&every.report.points, &exact.report.points);
+    assert_eq!(a.len(), b.len());
+    let close = |x: f64, y: f64, scale: f64| (x - y).abs() <= 1e-8 * scale;
+    for (p, q) in a.iter().zip(b) {
+        assert!(
+            close(p.frequency_hz, q.frequency_hz, q.frequency_hz),
+            "{p:?} vs {q:?}"
+        );
+        assert!(
+            close(p.max_qn, q.max_qn, 0.2) && close(p.min_qn, q.min_qn, 0.2),
+            "{p:?} vs {q:?}"
+        );
+        assert_eq!((p.newton_iterations, p.fold), (q.newton_iterations, q.fold));
+    }
+}
