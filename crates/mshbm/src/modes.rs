@@ -106,25 +106,11 @@ pub fn eigenfrequencies_hz_within(
         &format!("the dense eigenproblem of {} DOFs with mass", massive.len()),
         dense_f64_bytes(massive.len(), massive.len()).and_then(|b| b.checked_mul(DENSE_MATRICES)),
     )?;
-    let mut k_red = stiffness.submatrix(&massive, &massive).to_dense();
-    if !massless.is_empty() {
-        let k_cc = stiffness.submatrix(&massless, &massless).to_dense();
-        let k_cd = stiffness.submatrix(&massless, &massive).to_dense();
-        let lu = k_cc.full_piv_lu();
-        let x = lu.solve(&k_cd);
-        if x.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
-            return Err(Error::Singular(
-                "the stiffness of the massless DOFs (K_cc) is singular: they are not statically determined".into(),
-            ));
-        }
-        k_red -= k_cd.transpose() * &x;
-    }
-    let m_dd = mass.submatrix(&massive, &massive).to_dense();
-    let llt = m_dd.llt(Side::Lower).map_err(|_| {
-        Error::Singular(
-            "the mass matrix is not positive definite on the DOFs that carry mass".into(),
-        )
-    })?;
+    let Condensed {
+        stiffness: k_red,
+        mass_factor: llt,
+        ..
+    } = condense_massless(mass, stiffness, &massless, &massive)?;
     let l = llt.L();
     // A = L⁻¹ K* L⁻ᵀ
     let mut x = k_red;
@@ -259,6 +245,60 @@ pub fn stiffness_factor(stiffness: &SparseMatrix) -> Result<StiffnessFactor> {
         .map_err(|_| Error::Singular("the stiffness matrix is not positive definite".into()))
 }
 
+/// The static condensation of the massless DOFs `c` onto the DOFs with mass `d` (T30).
+struct Condensed {
+    /// `K* = K_dd − K_cdᵀ K_cc⁻¹ K_cd`.
+    stiffness: Mat<f64>,
+    /// `K_cc⁻¹ K_cd` (massless × massive): the massless DOFs follow as `−K_cc⁻¹ K_cd q_d`.
+    follow: Mat<f64>,
+    /// The Cholesky factor of `M_dd`.
+    mass_factor: faer::linalg::solvers::Llt<f64>,
+}
+
+/// [`Condensed`] for the given `massless` and `massive` DOFs, every product sequential
+/// (the same numbers on any number of threads); errors when `K_cc` is singular or `M_dd`
+/// not positive definite.
+fn condense_massless(
+    mass: &SparseMatrix,
+    stiffness: &SparseMatrix,
+    massless: &[usize],
+    massive: &[usize],
+) -> Result<Condensed> {
+    use faer::linalg::matmul::matmul;
+    use faer::Accum;
+    let mut k_red = stiffness.submatrix(massive, massive).to_dense();
+    let mut follow = Mat::<f64>::zeros(massless.len(), massive.len());
+    if !massless.is_empty() {
+        let k_cc = stiffness.submatrix(massless, massless).to_dense();
+        let k_cd = stiffness.submatrix(massless, massive).to_dense();
+        follow = k_cc.full_piv_lu().solve(&k_cd);
+        if follow.col_iter().any(|c| c.iter().any(|v| !v.is_finite())) {
+            return Err(Error::Singular(
+                "the stiffness of the massless DOFs (K_cc) is singular: they are not statically determined".into(),
+            ));
+        }
+        matmul(
+            k_red.as_mut(),
+            Accum::Add,
+            k_cd.transpose(),
+            follow.as_ref(),
+            -1.0,
+            Par::Seq,
+        );
+    }
+    let m_dd = mass.submatrix(massive, massive).to_dense();
+    let mass_factor = m_dd.llt(Side::Lower).map_err(|_| {
+        Error::Singular(
+            "the mass matrix is not positive definite on the DOFs that carry mass".into(),
+        )
+    })?;
+    Ok(Condensed {
+        stiffness: k_red,
+        follow,
+        mass_factor,
+    })
+}
+
 /// Every mode with mass of `K φ = ω² M φ` (mass-normalised, ascending): the massless DOFs
 /// `c` condensed statically (T30), `K* = K_dd − K_cdᵀ K_cc⁻¹ K_cd` on the DOFs with mass `d`,
 /// the dense symmetric eigenproblem in shift-invert form `Lᵀ K*⁻¹ L u = u / ω²` with
@@ -280,35 +320,11 @@ pub fn every_mode(mass: &SparseMatrix, stiffness: &SparseMatrix) -> Result<Lowes
             "the mass matrix has no positive mass".into(),
         ));
     }
-    let mut k_red = stiffness.submatrix(&massive, &massive).to_dense();
-    // K_cc⁻¹ K_cd (massless × massive)
-    let mut follow = Mat::<f64>::zeros(massless.len(), massive.len());
-    if !massless.is_empty() {
-        let k_cc = stiffness.submatrix(&massless, &massless).to_dense();
-        let k_cd = stiffness.submatrix(&massless, &massive).to_dense();
-        let llt = k_cc.llt(Side::Lower).map_err(|_| {
-            Error::Singular(
-                "the stiffness of the massless DOFs (K_cc) is not positive definite: they are not statically determined".into(),
-            )
-        })?;
-        follow.copy_from(&k_cd);
-        solve_lower_triangular_in_place(llt.L(), follow.as_mut(), Par::Seq);
-        solve_upper_triangular_in_place(llt.L().transpose(), follow.as_mut(), Par::Seq);
-        matmul(
-            k_red.as_mut(),
-            Accum::Add,
-            k_cd.transpose(),
-            follow.as_ref(),
-            -1.0,
-            Par::Seq,
-        );
-    }
-    let m_dd = mass.submatrix(&massive, &massive).to_dense();
-    let llt = m_dd.llt(Side::Lower).map_err(|_| {
-        Error::Singular(
-            "the mass matrix is not positive definite on the DOFs that carry mass".into(),
-        )
-    })?;
+    let Condensed {
+        stiffness: k_red,
+        follow,
+        mass_factor: llt,
+    } = condense_massless(mass, stiffness, &massless, &massive)?;
     let l = llt.L();
     // G = Lᵀ K*⁻¹ L, whose eigenvalues are 1/ω²: the shift-invert form keeps the lowest modes,
     // which carry the response, accurate relative to themselves (the direct L⁻¹ K* L⁻ᵀ

@@ -432,8 +432,6 @@ fn the_set_up_reports_its_phases() {
 #[test]
 fn auto_keeps_the_exact_receptance_of_a_slender_model() {
     use mshbm::method::redistributed::{MODAL_RECEPTANCE_DOFS, MODAL_RECEPTANCE_FILL};
-    use mshbm::method::SetupObserver;
-    use std::sync::{Arc, Mutex};
     let model = example_model(
         "clamped_bar.toml",
         &["bar.elements=30000", "damping.first_mode_ratio=0.01"],
@@ -445,21 +443,7 @@ fn auto_keeps_the_exact_receptance_of_a_slender_model() {
         fill <= MODAL_RECEPTANCE_FILL * system.n_dofs(),
         "fill {fill}"
     );
-    let seen: Arc<Mutex<Vec<String>>> = Arc::default();
-    let record = Arc::clone(&seen);
-    let observer = SetupObserver::new(move |phase| {
-        if let Some(p) = phase {
-            record.lock().unwrap().push(p.to_string());
-        }
-    });
-    RedistributedMsHbm::within_observed(
-        &model,
-        &RedistributedOptions::new(3),
-        &mshbm::limits::Limits::default(),
-        Some(&observer),
-    )
-    .unwrap();
-    let seen = seen.lock().unwrap().clone();
+    let seen = setup_phases(&model, 3);
     assert!(
         seen.iter().any(|p| p.starts_with("the exact receptance")),
         "{seen:?}"
@@ -473,8 +457,6 @@ fn auto_keeps_the_exact_receptance_of_a_slender_model() {
 #[test]
 fn auto_takes_every_mode_of_a_small_model_whose_modes_diagonalise_its_damping() {
     use mshbm::method::redistributed::EVERY_MODE_DOFS;
-    use mshbm::method::SetupObserver;
-    use std::sync::{Arc, Mutex};
     for (damping, every_mode) in [
         ("damping.first_mode_ratio=0.01", true),
         ("damping.beta_linear=2e-8", false),
@@ -483,21 +465,7 @@ fn auto_takes_every_mode_of_a_small_model_whose_modes_diagonalise_its_damping() 
         let system = model.system(MassKind::Redistributed).unwrap();
         let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
         assert!(massive <= EVERY_MODE_DOFS);
-        let seen: Arc<Mutex<Vec<String>>> = Arc::default();
-        let record = Arc::clone(&seen);
-        let observer = SetupObserver::new(move |phase| {
-            if let Some(p) = phase {
-                record.lock().unwrap().push(p.to_string());
-            }
-        });
-        RedistributedMsHbm::within_observed(
-            &model,
-            &RedistributedOptions::new(5),
-            &mshbm::limits::Limits::default(),
-            Some(&observer),
-        )
-        .unwrap();
-        let seen = seen.lock().unwrap().clone();
+        let seen = setup_phases(&model, 5);
         assert!(
             seen.iter()
                 .any(|p| p.starts_with("the modal receptance with every mode")),
@@ -618,4 +586,26 @@ fn every_mode_traces_the_readme_branch_of_the_exact_receptance() {
         );
         assert_eq!((p.newton_iterations, p.fold), (q.newton_iterations, q.fold));
     }
+}
+
+/// The phases the redistributed MS-HBM's set-up reports for `model` at `harmonics`.
+fn setup_phases(model: &mshbm::Model, harmonics: usize) -> Vec<String> {
+    use mshbm::method::SetupObserver;
+    use std::sync::{Arc, Mutex};
+    let seen: Arc<Mutex<Vec<String>>> = Arc::default();
+    let record = Arc::clone(&seen);
+    let observer = SetupObserver::new(move |phase| {
+        if let Some(p) = phase {
+            record.lock().unwrap().push(p.to_string());
+        }
+    });
+    RedistributedMsHbm::within_observed(
+        model,
+        &RedistributedOptions::new(harmonics),
+        &mshbm::limits::Limits::default(),
+        Some(&observer),
+    )
+    .unwrap();
+    let seen = seen.lock().unwrap().clone();
+    seen
 }

@@ -641,9 +641,7 @@ impl ReceptanceAtFrequency for ModalReceptanceAt {
     ) -> Result<()> {
         let b = &*self.basis;
         let Some(block) = &b.every_mode else {
-            let q = self.response(k, force)?;
-            out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
-            return Ok(());
+            return super::receptance::rows_of_whole_response(self, k, force, rows, out);
         };
         let z = self.projection(k, force, true);
         let yz = match &self.harmonic[k].compliance {

@@ -138,9 +138,7 @@ pub trait ReceptanceAtFrequency: Send + Sync {
         rows: &[usize],
         out: &mut [c64],
     ) -> Result<()> {
-        let q = self.response(k, force)?;
-        out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
-        Ok(())
+        rows_of_whole_response(self, k, force, rows, out)
     }
 
     /// `∂(Wᵀ q̂_k)/∂ω = −Wᵀ A_k⁻¹ ∂A_k/∂ω q̂_k` at fixed forces `λ̂_k` (`n_c`), with
@@ -169,6 +167,20 @@ pub trait ReceptanceAtFrequency: Send + Sync {
     fn refresh(&mut self, _omega: f64) -> Result<bool> {
         Ok(false)
     }
+}
+
+/// [`ReceptanceAtFrequency::response_rows`] from the whole response (the default, and the
+/// fallback of receptances with a cheaper way for some cases).
+pub(crate) fn rows_of_whole_response<R: ReceptanceAtFrequency + ?Sized>(
+    receptance: &R,
+    k: usize,
+    force: &[c64],
+    rows: &[usize],
+    out: &mut [c64],
+) -> Result<()> {
+    let q = receptance.response(k, force)?;
+    out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
+    Ok(())
 }
 
 /// The exact receptance: the whole dynamic stiffness `A_k` factored (a sparse or a band LU,
@@ -419,9 +431,7 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
         out: &mut [c64],
     ) -> Result<()> {
         if !self.keep {
-            let q = self.response(k, force)?;
-            out.iter_mut().zip(rows).for_each(|(o, &r)| *o = q[r]);
-            return Ok(());
+            return rows_of_whole_response(self, k, force, rows, out);
         }
         let n = self.parts.structure.n_dofs();
         let columns = &self.columns[k];
