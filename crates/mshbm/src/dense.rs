@@ -4,7 +4,7 @@
 //! trigonometric polynomials.
 
 use faer::linalg::solvers::Solve;
-use faer::Mat;
+use faer::{c64, Mat, MatRef};
 
 use crate::error::{Error, Result};
 
@@ -105,6 +105,40 @@ impl DenseLu {
         y.clear();
         y.extend((0..n).map(|i| self.rhs[(i, 0)]));
         y.iter().all(|v| v.is_finite())
+    }
+
+    /// The sign of `det A` of the last [`Self::solve_into`]: the signs of `U`'s diagonal
+    /// times the parity of the row permutation; `None` before any solve or when a pivot is
+    /// zero or not a number.
+    pub fn determinant_sign(&self) -> Option<f64> {
+        let n = self.factors.nrows();
+        if n == 0 || self.forward.len() != n {
+            return None;
+        }
+        let mut sign = 1.0;
+        for i in 0..n {
+            let pivot = self.factors[(i, i)];
+            if pivot == 0.0 || !pivot.is_finite() {
+                return None;
+            }
+            if pivot < 0.0 {
+                sign = -sign;
+            }
+        }
+        // a permutation of n entries with c cycles is a product of n − c transpositions
+        let mut seen = vec![false; n];
+        let mut transpositions = 0;
+        for start in 0..n {
+            let mut i = start;
+            let mut length = 0;
+            while !seen[i] {
+                seen[i] = true;
+                i = self.forward[i];
+                length += 1;
+            }
+            transpositions += length.max(1) - 1;
+        }
+        Some(if transpositions % 2 == 0 { sign } else { -sign })
     }
 }
 
@@ -259,9 +293,104 @@ pub fn expm(a: &Mat<f64>) -> Mat<f64> {
     f
 }
 
+/// `A B`, on the calling thread. The small dense products of the methods (monodromy
+/// factors, modal projections) are done sequentially: their results then do not depend on
+/// the thread count, and a pool's hand-offs cost more than such products.
+pub fn sequential_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
+    let mut out = Mat::<f64>::zeros(a.nrows(), b.ncols());
+    faer::linalg::matmul::matmul(
+        out.as_mut(),
+        faer::Accum::Replace,
+        a,
+        b,
+        1.0,
+        faer::Par::Seq,
+    );
+    out
+}
+
+/// The eigenvalues of a real square matrix (Hessenberg reduction and the multishift QR
+/// algorithm), on the calling thread: the monodromy matrices of the Floquet analysis are a
+/// few hundred wide, where faer's parallel reduction spent more time handing work between
+/// threads than computing (BENCHMARKS.md §12).
+pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<c64>> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{evd_real, evd_scratch, ComputeEigenvectors, EvdParams};
+    let n = a.nrows();
+    if a.ncols() != n {
+        return Err(Error::Numerical(format!(
+            "eigenvalues of a {n} × {} matrix: it is not square",
+            a.ncols()
+        )));
+    }
+    let params: faer::Spec<EvdParams, f64> = Default::default();
+    let mut re = faer::diag::Diag::<f64>::zeros(n);
+    let mut im = faer::diag::Diag::<f64>::zeros(n);
+    let mut mem = MemBuffer::new(evd_scratch::<f64>(
+        n,
+        ComputeEigenvectors::No,
+        ComputeEigenvectors::No,
+        faer::Par::Seq,
+        params,
+    ));
+    evd_real(
+        a,
+        re.as_mut(),
+        im.as_mut(),
+        None,
+        None,
+        faer::Par::Seq,
+        MemStack::new(&mut mem),
+        params,
+    )
+    .map_err(|e| Error::Numerical(format!("eigenvalue solver: {e:?}")))?;
+    Ok((0..n).map(|i| c64::new(re[i], im[i])).collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The sign of the determinant from the LU against the cofactor expansion of 3 × 3
+    /// matrices that need row exchanges (zero leading pivots) and of their row swaps.
+    #[test]
+    fn the_determinant_sign_matches_the_cofactor_expansion() {
+        let det3 = |m: &Mat<f64>| {
+            m[(0, 0)] * (m[(1, 1)] * m[(2, 2)] - m[(1, 2)] * m[(2, 1)])
+                - m[(0, 1)] * (m[(1, 0)] * m[(2, 2)] - m[(1, 2)] * m[(2, 0)])
+                + m[(0, 2)] * (m[(1, 0)] * m[(2, 1)] - m[(1, 1)] * m[(2, 0)])
+        };
+        let matrices = [
+            [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
+            [[0.0, 2.0, 1.0], [3.0, -1.0, 0.5], [1.0, 1.0, -4.0]],
+            [[1e-3, 5.0, 2.0], [4.0, 1.0, -1.0], [-2.0, 0.5, 3.0]],
+            [[-1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0]],
+        ];
+        let mut lu = DenseLu::default();
+        let mut y = Vec::new();
+        for rows in matrices {
+            for swap in [None, Some((0, 2)), Some((1, 2))] {
+                let mut m = Mat::<f64>::from_fn(3, 3, |i, j| rows[i][j]);
+                if let Some((a, b)) = swap {
+                    for j in 0..3 {
+                        let (u, v) = (m[(a, j)], m[(b, j)]);
+                        m[(a, j)] = v;
+                        m[(b, j)] = u;
+                    }
+                }
+                assert!(lu.solve_into(&m, |i| i as f64, &mut y));
+                let expected = det3(&m).signum();
+                assert_eq!(
+                    lu.determinant_sign(),
+                    Some(expected),
+                    "{rows:?} swap {swap:?}"
+                );
+            }
+        }
+        let singular = Mat::<f64>::from_fn(3, 3, |i, j| (i + j) as f64);
+        lu.solve_into(&singular, |_| 1.0, &mut y);
+        assert_eq!(lu.determinant_sign(), None);
+    }
 
     #[test]
     fn solves_and_detects_singularity() {

@@ -152,20 +152,6 @@ fn diagonal_of(modal_damping: &Mat<f64>) -> Option<Vec<f64>> {
     (!coupled).then(|| (0..m).map(|j| modal_damping[(j, j)]).collect())
 }
 
-/// `A B`, sequentially.
-fn sequential_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
-    let mut out = Mat::<f64>::zeros(a.nrows(), b.ncols());
-    faer::linalg::matmul::matmul(
-        out.as_mut(),
-        faer::Accum::Replace,
-        a,
-        b,
-        1.0,
-        faer::Par::Seq,
-    );
-    out
-}
-
 /// `A M` for a real `A` and a complex `M` (two real products).
 fn real_times_complex(a: MatRef<'_, f64>, m: &Mat<c64>) -> Mat<c64> {
     let re = a * Mat::<f64>::from_fn(m.nrows(), m.ncols(), |i, j| m[(i, j)].re);
@@ -265,7 +251,7 @@ impl ModalReceptance {
                 damped[(i, c)] += v * phi[(j, c)];
             }
         }
-        let modal_damping = sequential_product(phi.transpose(), damped.as_ref());
+        let modal_damping = crate::dense::sequential_product(phi.transpose(), damped.as_ref());
         let diagonal_damping = diagonal_of(&modal_damping);
         let contact_shapes = Mat::<f64>::from_fn(nc, m, |c, j| {
             contacts.w[c]
@@ -282,7 +268,10 @@ impl ModalReceptance {
             let contacts = (0..nc)
                 .map(|c| contacts.w[c].iter().map(|&(d, v)| v * x[(d, 0)]).sum())
                 .collect();
-            let modal = sequential_product(phi.transpose(), faer::ColRef::from_slice(f).as_mat());
+            let modal = crate::dense::sequential_product(
+                phi.transpose(),
+                faer::ColRef::from_slice(f).as_mat(),
+            );
             Some(StaticLoad { contacts, modal })
         });
         drop(stiffness);

@@ -15,7 +15,8 @@ use std::collections::HashMap;
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat, MatMut};
 
-use crate::error::{Error, Result};
+use crate::dense::sequential_product;
+use crate::error::Result;
 
 /// Monodromy of `ż = A_i z` over consecutive intervals of lengths `Δt_i` (seconds):
 /// `Φ = exp(A_m Δt_m) ⋯ exp(A_1 Δt_1)` (docs/theory.md (T81)). Exact for piecewise-constant
@@ -226,11 +227,7 @@ impl PiecewiseLinearSystems {
     /// exponentials when a system has no well-conditioned modal form.
     pub fn multipliers(&mut self, pieces: &[(usize, f64)]) -> Result<Vec<c64>> {
         let pieces = merged_cycle(pieces);
-        let eigenvalues = |m: Mat<f64>| {
-            m.eigenvalues().map_err(|e| {
-                Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}"))
-            })
-        };
+        let eigenvalues = |m: Mat<f64>| crate::dense::eigenvalues(m.as_ref());
         if pieces.iter().any(|&(g, _)| self.systems[g].1.is_none()) {
             let dense: Vec<(&Mat<f64>, f64)> = pieces
                 .iter()
@@ -246,9 +243,9 @@ impl PiecewiseLinearSystems {
                 let p = pieces.len();
                 for s in 0..p {
                     let (h, g) = (pieces[s].0, pieces[(s + 1) % p].0);
-                    self.transfers
-                        .entry((g, h))
-                        .or_insert_with(|| &form(g).v_inv * &form(h).v);
+                    self.transfers.entry((g, h)).or_insert_with(|| {
+                        sequential_product(form(g).v_inv.as_ref(), form(h).v.as_ref())
+                    });
                 }
                 // P = T_{g_2←g_1} e^{B_1 Δt_1}, then e^{B_s Δt_s} and T_{g_{s+1}←g_s} in turn
                 let (g1, dt1) = pieces[0];
@@ -257,7 +254,10 @@ impl PiecewiseLinearSystems {
                 for s in 1..p {
                     let (g, dt) = pieces[s];
                     form(g).exp_times(dt, product.as_mut());
-                    product = &self.transfers[&(pieces[(s + 1) % p].0, g)] * &product;
+                    product = sequential_product(
+                        self.transfers[&(pieces[(s + 1) % p].0, g)].as_ref(),
+                        product.as_ref(),
+                    );
                 }
                 eigenvalues(product)
             }

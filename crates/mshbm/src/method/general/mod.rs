@@ -664,9 +664,7 @@ impl PeriodicProblem for GeneralMsHbm {
     /// method is expensive for FE models.
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
         let phi = self.monodromy(x, omega)?;
-        let values = phi
-            .eigenvalues()
-            .map_err(|e| Error::Numerical(format!("eigenvalues of the monodromy matrix: {e:?}")))?;
+        let values = crate::dense::eigenvalues(phi.as_ref())?;
         Ok(Some(Floquet::from_eigenvalues(values)))
     }
 
