@@ -282,6 +282,45 @@ fn paper_bar_frd_completes_below_the_gap(harmonics_list: &[usize]) {
     }
 }
 
+/// A sweep started inside the README's range (H = 10, 20 → 40 kHz) follows the branch of
+/// the whole sweep from 1 kHz: it reaches 40 kHz with the same folds there, to 1e-7
+/// relative. At 30 501.85 Hz the branch folds back alongside itself (the two pieces 1e-6
+/// of the amplitude apart); the inner sweep's longer steps there jumped across the fold onto
+/// the returning piece, travelled it backwards, and stopped at 30 421.35 Hz having met a
+/// fold twice — until the orientation check (docs/theory.md (T73)) refused such a step.
+#[test]
+fn a_sweep_started_inside_the_range_finds_the_folds_of_the_whole_sweep() {
+    let model = load_model(
+        &common::examples().join("clamped_bar.toml"),
+        &["damping.first_mode_ratio=0.01".into()],
+    )
+    .unwrap();
+    let hz = |f: f64| 2.0 * PI * f;
+    let mut whole = method(&model, 10);
+    let whole = trace(&mut whole, hz(1e3), hz(1e5));
+    let mut inner = method(&model, 10);
+    let inner = trace(&mut inner, hz(20e3), hz(40e3));
+    assert_eq!(whole.stop, StopReason::ReachedEnd);
+    assert_eq!(inner.stop, StopReason::ReachedEnd, "{:?}", inner.stop);
+    let within: Vec<f64> = whole
+        .folds
+        .iter()
+        .map(|f| f.omega)
+        .filter(|&w| w > hz(20e3) && w < hz(40e3))
+        .collect();
+    let found: Vec<f64> = inner.folds.iter().map(|f| f.omega).collect();
+    assert_eq!(found.len(), within.len(), "{found:?}\nagainst {within:?}");
+    assert!(within.len() >= 30, "{}", within.len());
+    for (a, b) in found.iter().zip(&within) {
+        assert!(
+            (a - b).abs() <= 1e-7 * b,
+            "{} Hz against {} Hz",
+            a / hz(1.0),
+            b / hz(1.0)
+        );
+    }
+}
+
 /// The library refuses settings it cannot work with before any Newton solve, naming the
 /// setting (the CLI has its own checks, but every caller gets these).
 #[test]

@@ -287,7 +287,7 @@ fn reference_folds_hz() -> Vec<f64> {
 
 /// The README's main branch (the bar, H = 10, 1 → 100 kHz, 1 % damping), traced with every
 /// shortcut of the fast path (kept evaluations, kept receptance columns, band factors,
-/// cells passed without a scan, the diagram point's own quadrature): its 97 folds are those
+/// cells passed without a scan, the diagram point's own quadrature): its 98 folds are those
 /// traced before those shortcuts existed, to 1e-4 Hz; every point is a solution of a fresh
 /// method (Newton started on it meets the tolerance without an update); and every 25th
 /// point's extremes equal the fresh method's whole solution's.

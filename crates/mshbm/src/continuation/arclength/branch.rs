@@ -16,6 +16,9 @@ pub struct BranchPoint {
     pub residual_norm: f64,
     /// Arclength step that led to it (0 for the first point).
     pub step: f64,
+    /// The sign of `det [R_X; tᵀ]` with the tangent (docs/theory.md (T73)), constant along
+    /// a smooth piece of the branch; `None` for a matrix-free Jacobian.
+    pub determinant_sign: Option<f64>,
 }
 
 /// A located fold (turning point in frequency).

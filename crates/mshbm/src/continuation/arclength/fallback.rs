@@ -4,7 +4,7 @@
 use super::branch::BranchPoint;
 use super::corrector::{Corrector, Sphere};
 use super::options::ContinuationOptions;
-use super::predictor::{predict, tangent};
+use super::predictor::{oriented_tangent, predict};
 use super::scaled::{difference, dot, normalized, Scaling};
 use crate::error::{ErrorKind, Result};
 use crate::newton;
@@ -170,7 +170,7 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
                 continue;
             }
             let (x, omega) = sc.unscale(&corrected.xs);
-            let tn = tangent(problem, sc, &x, omega, t, &d)?;
+            let (tn, determinant_sign) = oriented_tangent(problem, sc, &x, omega, t, &d)?;
             return Ok(Some(BranchPoint {
                 x,
                 omega,
@@ -178,6 +178,7 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
                 iterations: corrected.iterations,
                 residual_norm: corrected.residual_norm,
                 step: radius,
+                determinant_sign,
             }));
         }
     }
@@ -223,11 +224,12 @@ fn step_in_frequency<P: PeriodicProblem + ?Sized>(
         // bordered with the secant: near a corner the last tangent may be almost
         // orthogonal to the branch
         let border = normalized(secant.clone());
-        let t = match tangent(problem, sc, &outcome.x, omega, &border, &secant) {
-            Ok(t) => t,
-            Err(e) if e.kind() == ErrorKind::Singular => continue,
-            Err(e) => return Err(e),
-        };
+        let (t, determinant_sign) =
+            match oriented_tangent(problem, sc, &outcome.x, omega, &border, &secant) {
+                Ok(t) => t,
+                Err(e) if e.kind() == ErrorKind::Singular => continue,
+                Err(e) => return Err(e),
+            };
         return Ok(Some(BranchPoint {
             x: outcome.x,
             omega,
@@ -235,6 +237,7 @@ fn step_in_frequency<P: PeriodicProblem + ?Sized>(
             iterations: outcome.iterations,
             residual_norm: outcome.residual_norm,
             step,
+            determinant_sign,
         }));
     }
     Ok(None)

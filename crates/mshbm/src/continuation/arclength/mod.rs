@@ -55,9 +55,9 @@ use crate::problem::PeriodicProblem;
 use corrector::Corrector;
 use fallback::{Fallback, Rescue};
 use fold::{locate_fold, seen_before};
-use predictor::tangent;
+use predictor::oriented_tangent;
 use scaled::{difference, normalized, Scaling};
-use step_control::{continues_branch, next_step, shrink, Range};
+use step_control::{continues_branch, next_step, shrink, Range, StepCheck};
 
 /// Trace the branch from `omega_start` to `omega_end`, starting from Newton on the
 /// problem's initial guess; `on_event` sees every point and fold as it is found (so a
@@ -143,18 +143,16 @@ pub fn trace_branch<P: PeriodicProblem + ?Sized>(
         // fold between `last` and `point`?
         let n = point.tangent.len() - 1;
         if last.tangent[n] * point.tangent[n] < 0.0 {
-            if let Some(fold) = locate_fold(problem, &sc, &corrector, &last, &start, &point)? {
-                let fold = Fold {
-                    after: trace.branch.points.len() - 1,
-                    ..fold
-                };
-                // a fold met again (same frequency, same solution) means the branch is
-                // retracing itself: stop instead of going round
-                let seen = seen_before(&trace.branch.folds, &fold, &sc);
-                trace.fold(problem, fold)?;
-                if seen {
-                    return Ok(trace.stop(StopReason::Retraced { omega: point.omega }));
-                }
+            let fold = Fold {
+                after: trace.branch.points.len() - 1,
+                ..locate_fold(problem, &sc, &corrector, &last, &start, &point)?
+            };
+            // a fold met again (same frequency, same solution) means the branch is
+            // retracing itself: stop instead of going round
+            let seen = seen_before(&trace.branch.folds, &fold, &sc);
+            trace.fold(problem, fold)?;
+            if seen {
+                return Ok(trace.stop(StopReason::Retraced { omega: point.omega }));
             }
         }
         fallback.arclength_step_accepted();
@@ -230,7 +228,8 @@ fn first_point<P: PeriodicProblem + ?Sized>(
     }
     let mut seed = vec![0.0; n + 1];
     seed[n] = range.direction;
-    let t0 = tangent(problem, sc, &first.x, range.start, &seed, &seed)?;
+    let (t0, determinant_sign) =
+        oriented_tangent(problem, sc, &first.x, range.start, &seed, &seed)?;
     Ok(Ok(BranchPoint {
         x: first.x,
         omega: range.start,
@@ -238,6 +237,7 @@ fn first_point<P: PeriodicProblem + ?Sized>(
         iterations: first.iterations,
         residual_norm: first.residual_norm,
         step: 0.0,
+        determinant_sign,
     }))
 }
 
@@ -266,7 +266,8 @@ fn land_on_end<P: PeriodicProblem + ?Sized>(
     if !end.converged {
         return Ok(None);
     }
-    let t = tangent(problem, sc, &end.x, range.end, &last.tangent, &last.tangent)?;
+    let (t, determinant_sign) =
+        oriented_tangent(problem, sc, &end.x, range.end, &last.tangent, &last.tangent)?;
     Ok(Some(BranchPoint {
         x: end.x,
         omega: range.end,
@@ -274,6 +275,7 @@ fn land_on_end<P: PeriodicProblem + ?Sized>(
         iterations: end.iterations,
         residual_norm: end.residual_norm,
         step: frac * ds,
+        determinant_sign,
     }))
 }
 
@@ -294,12 +296,22 @@ fn arclength_step<P: PeriodicProblem + ?Sized>(
     let (x, omega) = sc.unscale(&corrected.xs);
     let secant = difference(&corrected.xs, start);
     let secant_direction = normalized(secant.clone());
-    let t = match tangent(problem, sc, &x, omega, &last.tangent, &secant) {
-        Ok(t) => t,
-        Err(e) if e.kind() == ErrorKind::Singular => return Ok(None),
-        Err(e) => return Err(e),
+    let (t, determinant_sign) =
+        match oriented_tangent(problem, sc, &x, omega, &last.tangent, &secant) {
+            Ok(t) => t,
+            Err(e) if e.kind() == ErrorKind::Singular => return Ok(None),
+            Err(e) => return Err(e),
+        };
+    let step = StepCheck {
+        secant_direction: &secant_direction,
+        last_tangent: &last.tangent,
+        tangent: &t,
+        reversed: matches!(
+            (last.determinant_sign, determinant_sign),
+            (Some(a), Some(b)) if a != b
+        ),
     };
-    if !continues_branch(&secant_direction, &last.tangent, &t, ds, options) {
+    if !continues_branch(&step, ds, options) {
         return Ok(None);
     }
     Ok(Some(BranchPoint {
@@ -309,5 +321,6 @@ fn arclength_step<P: PeriodicProblem + ?Sized>(
         iterations: corrected.iterations,
         residual_norm: corrected.residual_norm,
         step: ds,
+        determinant_sign,
     }))
 }

@@ -24,21 +24,36 @@ pub(super) fn next_step(ds: f64, point: &BranchPoint, options: &ContinuationOpti
     ds
 }
 
-/// Whether the corrected point (secant `secant` from the last point, tangent `t`) continues
-/// the branch: the secant stays within 60° of the last tangent (beyond, the corrector landed
-/// on another part of the curve, e.g. a nearby branch born at a grazing contact, which would
-/// make the branch jump or retrace), and the tangent turns by at most `max_turn_deg` unless
-/// the step is already at its smallest.
+/// What is checked of a corrected point before it is accepted.
+pub(super) struct StepCheck<'a> {
+    /// The unit secant from the last point.
+    pub secant_direction: &'a [f64],
+    pub last_tangent: &'a [f64],
+    /// The new point's tangent, oriented along the secant.
+    pub tangent: &'a [f64],
+    /// The sign of `det [R_X; tᵀ]` changed from the last point (docs/theory.md (T73)).
+    pub reversed: bool,
+}
+
+/// Whether the corrected point continues the branch:
+/// - the secant stays within 60° of the last tangent (beyond, the corrector landed on
+///   another part of the curve, e.g. a nearby branch born at a grazing contact, which would
+///   make the branch jump or retrace);
+/// - the tangent turns by at most `max_turn_deg`;
+/// - the orientation `det [R_X; tᵀ]` kept its sign (a change means the point lies on the
+///   piece that comes back from a fold the step jumped across).
+///
+/// The last two are waived once the step is at its smallest: at a corner of a nonsmooth
+/// residual the tangent and the orientation may change across the corner itself.
 pub(super) fn continues_branch(
-    secant_direction: &[f64],
-    last_tangent: &[f64],
-    t: &[f64],
+    step: &StepCheck<'_>,
     ds: f64,
     options: &ContinuationOptions,
 ) -> bool {
     let cos_turn = options.max_turn_deg.to_radians().cos();
-    dot(secant_direction, last_tangent) >= 0.5
-        && (dot(t, last_tangent) >= cos_turn || ds <= options.min_step * 2.0)
+    let smallest = ds <= options.min_step * 2.0;
+    dot(step.secant_direction, step.last_tangent) >= 0.5
+        && (smallest || (dot(step.tangent, step.last_tangent) >= cos_turn && !step.reversed))
 }
 
 /// Where a sweep from `omega_start` towards `omega_end` stands.
