@@ -490,6 +490,50 @@ fn auto_takes_every_mode_of_a_small_model_whose_modes_diagonalise_its_damping() 
     }
 }
 
+/// `ReceptanceChoice::Auto` on a model above [`EVERY_MODE_DOFS`]: every mode when the
+/// damping is mass-proportional, which the modes diagonalise for certain (the bar with 600
+/// elements, 599 DOFs with mass), with the exact receptance's periodic solution; with
+/// damping that is not (`beta_linear`; `beta_condensed`, which the modes would diagonalise
+/// too but which the check on the matrices does not recognise), the exact receptance
+/// without a modal analysis first (no every-mode phase: nothing is computed to be thrown
+/// away).
+#[test]
+fn auto_takes_every_mode_of_a_mid_sized_model_with_mass_proportional_damping() {
+    use mshbm::method::redistributed::{EVERY_MODE_DOFS, EVERY_MODE_MASS_PROPORTIONAL_DOFS};
+    for (damping, every_mode) in [
+        ("damping.first_mode_ratio=0.01", true),
+        ("damping.beta_linear=2e-8", false),
+        ("damping.beta_condensed=2e-9", false),
+    ] {
+        let model = example_model("clamped_bar.toml", &["bar.elements=600", damping]);
+        let system = model.system(MassKind::Redistributed).unwrap();
+        let massive = system.n_dofs() - mshbm::modes::massless_dofs(&system.mass).len();
+        assert!(massive > EVERY_MODE_DOFS && massive <= EVERY_MODE_MASS_PROPORTIONAL_DOFS);
+        let seen = setup_phases(&model, 3);
+        let every_phase = seen
+            .iter()
+            .any(|p| p.starts_with("the modal receptance with every mode"));
+        let exact_phase = seen.iter().any(|p| p.starts_with("the exact receptance"));
+        assert_eq!(
+            (every_phase, exact_phase),
+            (every_mode, !every_mode),
+            "{damping}: {seen:?}"
+        );
+        if every_mode {
+            let (a, scale) = solve(&model, ReceptanceChoice::Auto, 60e3);
+            let (b, _) = solve(&model, ReceptanceChoice::Exact, 60e3);
+            let e = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max)
+                / scale;
+            println!("every mode vs exact {e:.1e}");
+            assert!(e < 1e-9, "{e:e}");
+        }
+    }
+}
+
 /// `response_rows` (the contact nodes and a response DOF of a diagram point) equals those
 /// rows of the whole response: for the exact receptance (kept columns), for every mode
 /// (`A_k⁻¹ = E + Φ Y_k Φᵀ`, no solve with `K`) with diagonal and with full modal damping,

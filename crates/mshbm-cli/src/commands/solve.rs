@@ -90,8 +90,10 @@ pub enum QuadratureArg {
 /// How the receptance at the contacts is computed (redistributed MS-HBM).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum ReceptanceArg {
-    /// Modal (200 modes, at most half the DOFs with mass) above 20000 DOFs with a stiffness
-    /// factor of more than 40 values per DOF (3D solids), exact otherwise.
+    /// Every mode (exact) up to 200 DOFs with mass when the modes diagonalise the damping,
+    /// and up to 2000 with mass-proportional damping; modal (200 modes, at most half the
+    /// DOFs with mass) above 20000 DOFs with a stiffness factor of more than 40 values per
+    /// DOF (3D solids); exact otherwise.
     Auto,
     /// A sparse LU of the whole dynamic stiffness per harmonic and frequency.
     Exact,
@@ -176,7 +178,8 @@ pub struct MethodArgs {
     /// harmonic and frequency) or modal (the lowest modes plus the exact static compliance;
     /// one modal analysis at set-up, then no factorization per frequency). Default: auto
     /// (every mode, which is exact, for up to 200 DOFs with mass when the modes
-    /// diagonalise the damping; else exact, or 200 modes for large 3D models).
+    /// diagonalise the damping and up to 2000 with mass-proportional damping; else exact,
+    /// or 200 modes for large 3D models).
     #[arg(long, value_enum, default_value_t = ReceptanceArg::Auto)]
     pub receptance: ReceptanceArg,
 

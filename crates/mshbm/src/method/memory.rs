@@ -147,8 +147,8 @@ impl Interface {
 /// Gram blocks `(2H+1)²` per active set (at most one per contact plus one), per-sample
 /// contact arrays. The exact receptance's sparse factors are counted with the linear
 /// part; the modal receptance's mode shapes (`n × m` complex) are not, except for models
-/// small enough that the default choice tries every mode
-/// ([`super::redistributed::EVERY_MODE_DOFS`]): then the dense eigenproblem of every mode
+/// for which the default choice tries every mode
+/// ([`super::redistributed::EVERY_MODE_DOFS`], [`super::redistributed::EVERY_MODE_MASS_PROPORTIONAL_DOFS`]): then the dense eigenproblem of every mode
 /// ([`crate::modes::every_mode`]) and the shapes and damped shapes the receptance keeps.
 pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> MemoryPlan {
     let mut plan = MemoryPlan::new();
@@ -169,14 +169,14 @@ pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> Memor
         interface,
     );
     let massive = (system.n_dofs() - crate::modes::massless_dofs(&system.mass).len()) as u64;
-    if massive as usize <= super::redistributed::EVERY_MODE_DOFS {
+    if super::redistributed::takes_every_mode(system, massive as usize) {
         plan.add_product(
             format!("the modal receptance with every mode ({massive} modes)"),
             &[
                 system.n_dofs() as u64,
                 massive,
                 8,
-                crate::modes::DENSE_MATRICES + 2,
+                crate::modes::EVERY_MODE_MATRICES,
             ],
         );
     }

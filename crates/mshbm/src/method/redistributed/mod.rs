@@ -136,18 +136,61 @@ pub const MODAL_RECEPTANCE_FILL: usize = 40;
 /// with mass).
 pub const DEFAULT_RECEPTANCE_MODES: usize = 200;
 
-/// DOFs with mass up to which [`ReceptanceChoice::Auto`] tries every mode: when the modes
-/// diagonalise the damping, the modal receptance with every mode is exact (T130) and costs
-/// `m` complex reciprocals per harmonic and frequency instead of a factorization of the
-/// whole structure (docs/theory.md §17, "Diagonal modal damping"); its set-up is one modal
-/// analysis of at most this many DOFs.
+/// DOFs with mass up to which [`ReceptanceChoice::Auto`] tries every mode whatever the
+/// damping: when the modes diagonalise it, the modal receptance with every mode is exact
+/// (T130) and costs `m` complex reciprocals per harmonic and frequency instead of a
+/// factorization of the whole structure (docs/theory.md §17, "Diagonal modal damping");
+/// its set-up is one dense modal analysis of at most this many DOFs (milliseconds), wasted
+/// when the damping turns out to couple the modes.
 pub const EVERY_MODE_DOFS: usize = 200;
+
+/// DOFs with mass up to which [`ReceptanceChoice::Auto`] takes every mode when the damping
+/// is mass-proportional (`C = α M`, undamped included), which the modes diagonalise for
+/// certain. The dense modal analysis grows like `n³` (measured on the cantilever of
+/// `examples/cantilever_stop`: 1420 DOFs with mass 1.1 s and 160 MB for a whole solve,
+/// 3146 DOFs 15 s and 0.7 GB); at this size it costs a few seconds, as much as a few
+/// hundred sparse factorizations, and a diagram makes thousands (BENCHMARKS.md §12).
+pub const EVERY_MODE_MASS_PROPORTIONAL_DOFS: usize = 2000;
+
+/// Whether [`ReceptanceChoice::Auto`] tries every mode for `system` with `massive` DOFs with
+/// mass.
+pub(crate) fn takes_every_mode(system: &System, massive: usize) -> bool {
+    massive > 0
+        && (massive <= EVERY_MODE_DOFS
+            || (massive <= EVERY_MODE_MASS_PROPORTIONAL_DOFS && mass_proportional_damping(system)))
+}
+
+/// Whether the damping is a multiple of the mass, `C = α M` (`α ≥ 0`, zero included), to
+/// `1e-12` of its largest entry: then every mode diagonalises it.
+fn mass_proportional_damping(system: &System) -> bool {
+    let (mass, damping) = (&system.mass, &system.damping);
+    let largest_mass = mass.max_abs();
+    if largest_mass == 0.0 {
+        return false;
+    }
+    let (i, j, _) = mass.iter().fold((0, 0, 0.0f64), |best, (i, j, v)| {
+        if v.abs() > best.2.abs() {
+            (i, j, v)
+        } else {
+            best
+        }
+    });
+    let alpha = damping.get(i, j) / mass.get(i, j);
+    let tolerance = 1e-12 * (alpha.abs() * largest_mass).max(damping.max_abs());
+    damping
+        .iter()
+        .all(|(i, j, c)| (c - alpha * mass.get(i, j)).abs() <= tolerance)
+        && mass
+            .iter()
+            .all(|(i, j, m)| (damping.get(i, j) - alpha * m).abs() <= tolerance)
+}
 
 /// How the receptance at the contacts `R_k = Wᵀ A_k⁻¹ W` is computed (docs/theory.md
 /// (T125), (T130)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ReceptanceChoice {
-    /// Up to [`EVERY_MODE_DOFS`] DOFs with mass and damping the modes diagonalise,
+    /// Up to [`EVERY_MODE_DOFS`] DOFs with mass and damping the modes diagonalise, or up
+    /// to [`EVERY_MODE_MASS_PROPORTIONAL_DOFS`] with mass-proportional damping,
     /// [`ReceptanceChoice::Modal`] with every mode (exact); otherwise
     /// [`ReceptanceChoice::Exact`] up to [`MODAL_RECEPTANCE_DOFS`] DOFs or
     /// [`MODAL_RECEPTANCE_FILL`] factor values per DOF, above both
@@ -175,7 +218,7 @@ impl ReceptanceChoice {
                 && crate::sparse::cholesky_fill(&system.stiffness)?
                     > MODAL_RECEPTANCE_FILL * system.n_dofs())
         };
-        if self == ReceptanceChoice::Auto && massive <= EVERY_MODE_DOFS && massive > 0 {
+        if self == ReceptanceChoice::Auto && takes_every_mode(system, massive) {
             SetupObserver::phase(observer, || {
                 format!(
                     "the modal receptance with every mode: the {massive} modes of {} DOFs",
