@@ -250,6 +250,138 @@ fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
     assert_eq!(branch.frequency_steps, 0);
 }
 
+/// The bar with impacts (consistent mass, `e_N = 0`, H = 5) swept from 12 to 13 kHz passes
+/// its primary grazing — where the linear response's amplitude at the contact DOF reaches
+/// the gap — as a fold at a kink sharper than a right angle, and follows the impacting piece
+/// back down in frequency: every point past the corner solves a fresh problem's residual to
+/// 1e-9, impacts the stop and penetrates it by no more than 1e-9. The corner escape takes
+/// that piece, which lies behind the corner's plane, because it keeps the orientation
+/// `sign det [R_X; tᵀ]` (docs/theory.md (T73a)); before, the sweep stopped at the grazing.
+/// (It stops 3.7 Hz lower, at 12 418.888 Hz: docs/general-mshbm.md §8.)
+#[test]
+fn bar_with_impacts_passes_its_primary_grazing_corner() {
+    use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
+    use mshbm::method::settings::MethodSettings;
+    let bar = load_model(&common::examples().join("clamped_bar_impact.toml"), &[]).unwrap();
+    let grazing = bar_grazing_hz(&bar, (12e3, 13e3));
+    let options = GeneralOptions::new(5);
+    struct Silent;
+    impl FrdObserver for Silent {}
+    let branch = trace_frd_branch(
+        &bar,
+        &MethodSettings::General(options.clone()),
+        &FrdSettings::new(12e3, 13e3),
+        false,
+        &mut Silent,
+    )
+    .unwrap()
+    .branch;
+    let hz = |w: f64| w / (2.0 * PI);
+    let corner = branch
+        .folds
+        .iter()
+        .find(|f| f.at_kink && (hz(f.omega) - grazing).abs() < 1e-6 * grazing)
+        .unwrap_or_else(|| {
+            panic!(
+                "no kink fold at the grazing {grazing} Hz: {:?}",
+                branch.stop
+            )
+        });
+    let past: Vec<_> = branch.points[corner.after + 1..].iter().collect();
+    assert!(past.len() >= 5, "{} points past the corner", past.len());
+    let mut fresh = GeneralMsHbm::new(&bar, &options).unwrap();
+    let scale = fresh.length_scale();
+    let mut smallest_gap = |p: &mshbm::continuation::arclength::BranchPoint| {
+        let r = fresh.residual(&p.x, p.omega).unwrap();
+        let norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs())) / scale;
+        assert!(norm <= 1e-9, "{} Hz: residual {norm:.1e}", hz(p.omega));
+        let tr = fresh.trajectory(&p.x, p.omega).unwrap();
+        tr.gap_series(0).iter().fold(f64::MAX, |m, &v| m.min(v))
+    };
+    let gap = bar.contacts[0].gap;
+    for p in &past {
+        assert!(hz(p.omega) < grazing, "{} Hz", hz(p.omega));
+        let smallest = smallest_gap(p);
+        // the samples straddle the impact: near grazing they miss it by a little
+        assert!(
+            (-1e-9..1e-4 * gap).contains(&smallest),
+            "{} Hz: smallest gap {smallest:.1e}",
+            hz(p.omega)
+        );
+    }
+    // the furthest point is not the motion without impacts, which keeps its clearance
+    let last = past.last().unwrap();
+    let clearance = gap - bar_linear_amplitude(&bar, hz(last.omega));
+    assert!(clearance > 1e-6, "{clearance:e}");
+    let smallest = smallest_gap(last);
+    assert!(
+        smallest < 0.1 * clearance,
+        "{} Hz: smallest gap {smallest:.1e}, without impacts {clearance:.1e}",
+        hz(last.omega)
+    );
+}
+
+/// The frequency (Hz) within `range` at which the bar's linear response (no stop) has the
+/// amplitude of the gap at its contact DOF ([`bar_linear_amplitude`]), by bisection.
+fn bar_grazing_hz(model: &Model, range: (f64, f64)) -> f64 {
+    let amplitude = |f: f64| bar_linear_amplitude(model, f);
+    let gap = model.contacts[0].gap;
+    let (mut lo, mut hi) = range;
+    assert!(amplitude(lo) < gap && amplitude(hi) > gap);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if amplitude(mid) < gap {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The amplitude at the contact DOF of the bar's linear response (no stop) at `f` Hz:
+/// `(K − ω²M + iωC) u = F` solved densely as a real system of twice the size.
+fn bar_linear_amplitude(model: &Model, f: f64) -> f64 {
+    use faer::linalg::solvers::Solve;
+    let system = model.system(mshbm::model::MassKind::Consistent).unwrap();
+    let (k, m, c) = (
+        system.stiffness.to_dense(),
+        system.mass.to_dense(),
+        system.damping.to_dense(),
+    );
+    let n = k.nrows();
+    let w = 2.0 * PI * f;
+    let a = faer::Mat::<f64>::from_fn(2 * n, 2 * n, |i, j| {
+        let (r, s) = (i % n, j % n);
+        let stiff = k[(r, s)] - w * w * m[(r, s)];
+        match (i / n, j / n) {
+            (0, 0) | (1, 1) => stiff,
+            (0, 1) => -w * c[(r, s)],
+            _ => w * c[(r, s)],
+        }
+    });
+    let rhs =
+        faer::Mat::<f64>::from_fn(
+            2 * n,
+            1,
+            |i, _| {
+                if i < n {
+                    system.harmonic_load[i]
+                } else {
+                    0.0
+                }
+            },
+        );
+    let u = a.partial_piv_lu().solve(&rhs);
+    let (re, im) = system.contacts[0]
+        .w
+        .iter()
+        .fold((0.0, 0.0), |(re, im), &(dof, weight)| {
+            (re + weight * u[(dof, 0)], im + weight * u[(n + dof, 0)])
+        });
+    re.hypot(im)
+}
+
 /// The event-driven initial guess is pre-solved without the critical time
 /// ([`mshbm::method::general::PRESOLVE_ITERATIONS`]): on the undamped bar at 90 kHz
 /// (H = 1), whose linear response penetrates the stop deeply, Newton with the critical time

@@ -153,6 +153,13 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
             starts.push(normalized(t.iter().zip(v).map(|(a, b)| a + b).collect()));
             starts.push(v.clone());
         }
+        // and turned back, for a corner sharper than a right angle (accepted below only
+        // when its orientation tells it from the incoming piece)
+        if last.determinant_sign.is_some() {
+            for v in &others {
+                starts.push(normalized(t.iter().zip(v).map(|(a, b)| b - a).collect()));
+            }
+        }
         let sphere = Sphere {
             center: &x0,
             radius,
@@ -164,13 +171,24 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
                 continue;
             };
             let d = difference(&corrected.xs, &x0);
-            // forward only: a corner sharper than a right angle is not crossed (it could
-            // not be told from a retrace of the incoming piece)
-            if dot(&normalized(d.clone()), t) < 0.0 {
+            let (x, omega) = sc.unscale(&corrected.xs);
+            let (tn, determinant_sign) = match oriented_tangent(problem, sc, &x, omega, t, &d) {
+                Ok(found) => found,
+                Err(e) if e.kind() == ErrorKind::Singular => continue,
+                Err(e) => return Err(e),
+            };
+            // a point behind the corner's plane is the outgoing piece of a corner sharper
+            // than a right angle only when it keeps the orientation (T73a): the incoming
+            // piece travelled back has it reversed. Without an orientation (matrix-free
+            // Jacobians) such a point cannot be told from a retrace and is not taken
+            let backwards = dot(&normalized(d.clone()), t) < 0.0;
+            let same_orientation = matches!(
+                (last.determinant_sign, determinant_sign),
+                (Some(a), Some(b)) if a == b
+            );
+            if backwards && !same_orientation {
                 continue;
             }
-            let (x, omega) = sc.unscale(&corrected.xs);
-            let (tn, determinant_sign) = oriented_tangent(problem, sc, &x, omega, t, &d)?;
             return Ok(Some(BranchPoint {
                 x,
                 omega,
@@ -241,4 +259,56 @@ fn step_in_frequency<P: PeriodicProblem + ?Sized>(
         }));
     }
     Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{trace_branch, ContinuationOptions, StopReason};
+    use crate::problem::tests::Scalar;
+    use crate::problem::NewtonContraction;
+
+    /// `|x − 1| = c (1 − ω)`: a V whose two pieces meet at `ω = 1` at an angle of
+    /// `2 atan c` (11° for `c = 0.1` in the scaled variables), a kink fold sharper than a
+    /// right angle. Swept upwards, the branch reaches the corner on the piece `x < 1` and
+    /// leaves it on `x > 1`, back down in frequency, until it passes below the start. The
+    /// corner escape tells the outgoing piece from the incoming one travelled back by the
+    /// orientation (T73a): both pieces keep `sign det [R_X; tᵀ]`, the retrace reverses it.
+    /// Without that test the escape took only points ahead of the corner's plane and the
+    /// branch stopped at the corner.
+    #[test]
+    fn a_corner_sharper_than_a_right_angle_is_crossed_by_its_orientation() {
+        let c = 0.1;
+        let mut p = Scalar {
+            equation: move |x: f64, w: f64| {
+                ((x - 1.0).abs() - c * (1.0 - w), (x - 1.0).signum(), c)
+            },
+            contraction: NewtonContraction::Quadratic,
+        };
+        let mut options = ContinuationOptions::new(0.5, 2.0);
+        options.max_step = 0.02;
+        // Newton from x = 0 lands on the piece x < 1 at ω = 0.5
+        let mut events = Vec::new();
+        let branch = trace_branch(&mut p, &options, |_, e| {
+            if let super::super::Event::Fold(f) = e {
+                events.push((f.omega, f.at_kink));
+            }
+            Ok(())
+        })
+        .unwrap();
+        assert!(
+            matches!(branch.stop, StopReason::LeftRange),
+            "{:?}",
+            branch.stop
+        );
+        assert_eq!(events.len(), 1, "{events:?}");
+        assert!(
+            (events[0].0 - 1.0).abs() < 1e-6 && events[0].1,
+            "{events:?}"
+        );
+        let after: Vec<_> = branch.points.iter().filter(|p| p.x[0] > 1.0).collect();
+        assert!(after.len() > 10, "{}", after.len());
+        for q in after {
+            assert!(((q.x[0] - 1.0) - c * (1.0 - q.omega)).abs() < 1e-9);
+        }
+    }
 }
