@@ -166,7 +166,7 @@ fn escape_corner<P: PeriodicProblem + ?Sized>(
         };
         for dir in starts {
             let Some(corrected) =
-                corrector.solve(problem, sc, predict(&x0, &dir, radius), &sphere, 0)?
+                corrector.solve(problem, sc, predict(&x0, &dir, radius), &sphere, 1)?
             else {
                 continue;
             };
