@@ -13,8 +13,9 @@
 //!   sharp turn is not mistaken for a reversal; docs/theory.md (T73));
 //! * Keller corrector: Newton on `[R(X); tᵀ(X − X_0) − Δs] = 0` (docs/theory.md (T74));
 //! * step control: `Δs ← Δs · clamp(N_opt / N_it, ½, 2)` within bounds (docs/theory.md
-//!   (T75)); a failed corrector, or a tangent that turns by more than `max_turn_deg`,
-//!   halves `Δs`; below the smallest step the method's fallback is tried (a corner escape,
+//!   (T75)); a failed corrector, a tangent that turns by more than `max_turn_deg`, or an
+//!   orientation `sign det [R_X; tᵀ]` that flips (a jump across a fold onto the returning
+//!   piece, docs/theory.md (T73a)) halves `Δs`; below the smallest step the method's fallback is tried (a corner escape,
 //!   or stepping in frequency, docs/theory.md (T77);
 //!   [`crate::problem::ArclengthFallback`]), and when it finds nothing the branch stops
 //!   with the reason.
