@@ -17,6 +17,11 @@ use crate::problem::{Jacobian, NewtonContraction, PeriodicProblem};
 /// update at least halves the previous one ([`NewtonContraction::Quadratic`]).
 const QUADRATIC_CONTRACTION: f64 = 0.5;
 
+/// Largest change of `ln ω` in one corrector update: a larger one comes from a nearly
+/// singular bordered system, and the problem is not evaluated there (a period many orders
+/// of magnitude longer can cost the time-domain methods hours).
+const MAX_FREQUENCY_UPDATE: f64 = 0.5;
+
 /// Largest distance of a Keller-corrected point from its predictor, relative to the step.
 const MAX_CORRECTOR_TRAVEL: f64 = 0.5;
 
@@ -148,10 +153,14 @@ impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<
             && g.abs() <= self.equation.tolerance(xs)
     }
 
-    /// The full step; with [`NewtonContraction::Quadratic`], refused when it does not halve
+    /// The full step; refused when it changes `ln ω` by more than [`MAX_FREQUENCY_UPDATE`];
+    /// with [`NewtonContraction::Quadratic`], refused when it does not halve
     /// the previous one (a corrector working across a grazing event or towards another piece
     /// of the branch; the arclength step will be halved).
     fn advance(&mut self, mut xs: Vec<f64>, _f: &[f64], d: &[f64]) -> Result<Option<Vec<f64>>> {
+        if d[d.len() - 1].abs() > MAX_FREQUENCY_UPDATE {
+            return Ok(None);
+        }
         if self.contraction == NewtonContraction::Quadratic {
             let update = dot(d, d).sqrt();
             if update > QUADRATIC_CONTRACTION * self.previous_update
@@ -312,5 +321,44 @@ mod tests {
             .solve(&mut reciprocal(), &sc, start, &sphere, 0)
             .unwrap()
             .is_some());
+    }
+
+    /// `g(X) = X_0 − c`: the unknown held at `c`.
+    struct Held(f64);
+
+    impl ClosingEquation for Held {
+        fn value(&self, xs: &[f64]) -> f64 {
+            xs[0] - self.0
+        }
+        fn gradient_into(&self, xs: &[f64], out: &mut Vec<f64>) {
+            out.clear();
+            out.resize(xs.len(), 0.0);
+            out[0] = 1.0;
+        }
+        fn tolerance(&self, _xs: &[f64]) -> f64 {
+            1e-12
+        }
+    }
+
+    /// An update that changes `ln ω` by more than [`MAX_FREQUENCY_UPDATE`] is refused: on
+    /// `x = 1/ω` from `(1, 1)` with `x` held at `c`, the first update is `Δ ln ω = 1 − c`.
+    /// With `c = 0.9` Newton converges to `ω = 1/0.9`; with `c = 1e-12` (a solution at
+    /// `ω = 1e12`, 27.6 in `ln ω` away) the corrector stops instead of evaluating there.
+    #[test]
+    fn a_corrector_update_far_in_frequency_is_refused() {
+        let sc = Scaling::new(1.0, 1, 1.0);
+        let options = NewtonOptions::default();
+        let corrector = Corrector::new(&options, NewtonContraction::Unchecked);
+        let start = sc.to_scaled(&[1.0], 1.0);
+        let near = corrector
+            .solve(&mut reciprocal(), &sc, start.clone(), &Held(0.9), 0)
+            .unwrap()
+            .expect("converges");
+        let (_, omega) = sc.unscale(&near.xs);
+        assert!((omega - 1.0 / 0.9).abs() < 1e-8, "{omega}");
+        assert!(corrector
+            .solve(&mut reciprocal(), &sc, start, &Held(1e-12), 0)
+            .unwrap()
+            .is_none());
     }
 }
