@@ -250,16 +250,22 @@ fn nlvib_03_upward_sweep_passes_grazing_from_the_impacting_side() {
     assert_eq!(branch.frequency_steps, 0);
 }
 
-/// The bar with impacts (consistent mass, `e_N = 0`, H = 5) swept from 12 to 13 kHz passes
-/// its primary grazing — where the linear response's amplitude at the contact DOF reaches
-/// the gap — as a fold at a kink sharper than a right angle, and follows the impacting piece
-/// back down in frequency: every point past the corner solves a fresh problem's residual to
-/// 1e-9, impacts the stop and penetrates it by no more than 1e-9. The corner escape takes
-/// that piece, which lies behind the corner's plane, because it keeps the orientation
-/// `sign det [R_X; tᵀ]` (docs/theory.md (T73a)); before, the sweep stopped at the grazing.
-/// (It stops 3.7 Hz lower, at 12 418.888 Hz: docs/general-mshbm.md §8.)
+/// Acceptance (issue 19): the bar with impacts (consistent mass, `e_N = 0`, H = 5) swept
+/// from 1 to 100 kHz completes. Checked against references independent of the sweep:
+/// - the primary grazing — where the linear response's amplitude at the contact DOF
+///   reaches the gap (a dense solve) — is a fold at a kink, to 1e-6;
+/// - the ends, where the stop is not reached, are the linear response's amplitude to 1e-8;
+/// - every 25th point solves a fresh problem's residual to 1e-9 and penetrates the stop by
+///   no more than 1e-9 of the gap at its samples, and the points between the grazings touch
+///   it.
+///
+/// Past the primary grazing the contact node re-impacts after its critical impact; before
+/// the unarmed contact's peak was located (docs/theory.md (T147a)) the re-impact vanished
+/// where it crossed the end of the first scan step and the sweep stopped at 12 418.888 Hz
+/// (docs/general-mshbm.md §9).
 #[test]
-fn bar_with_impacts_passes_its_primary_grazing_corner() {
+fn bar_with_impacts_sweeps_from_1_to_100_khz() {
+    use mshbm::continuation::arclength::StopReason;
     use mshbm::frd::{trace_frd_branch, FrdObserver, FrdSettings};
     use mshbm::method::settings::MethodSettings;
     let bar = load_model(&common::examples().join("clamped_bar_impact.toml"), &[]).unwrap();
@@ -270,54 +276,67 @@ fn bar_with_impacts_passes_its_primary_grazing_corner() {
     let branch = trace_frd_branch(
         &bar,
         &MethodSettings::General(options.clone()),
-        &FrdSettings::new(12e3, 13e3),
+        &FrdSettings::new(1e3, 100e3),
         false,
         &mut Silent,
     )
     .unwrap()
     .branch;
     let hz = |w: f64| w / (2.0 * PI);
-    let corner = branch
-        .folds
-        .iter()
-        .find(|f| f.at_kink && (hz(f.omega) - grazing).abs() < 1e-6 * grazing)
-        .unwrap_or_else(|| {
-            panic!(
-                "no kink fold at the grazing {grazing} Hz: {:?}",
-                branch.stop
-            )
-        });
-    let past: Vec<_> = branch.points[corner.after + 1..].iter().collect();
-    assert!(past.len() >= 5, "{} points past the corner", past.len());
+    assert!(
+        matches!(branch.stop, StopReason::ReachedEnd),
+        "{:?} after {} points",
+        branch.stop,
+        branch.points.len()
+    );
+    assert!(
+        branch
+            .folds
+            .iter()
+            .any(|f| f.at_kink && (hz(f.omega) - grazing).abs() < 1e-6 * grazing),
+        "no kink fold at the grazing {grazing} Hz"
+    );
+    // the ends: the linear response (first harmonic of the contact DOF, harmonic-major
+    // unknowns with one N-DOF)
     let mut fresh = GeneralMsHbm::new(&bar, &options).unwrap();
+    assert_eq!(fresh.dimension(), 2 * 5 + 1 + 2 + 1);
+    for p in [&branch.points[0], branch.points.last().unwrap()] {
+        let amplitude = p.x[1].hypot(p.x[2]);
+        let linear = bar_linear_amplitude(&bar, hz(p.omega));
+        assert!(
+            (amplitude - linear).abs() < 1e-8 * linear,
+            "{} Hz: amplitude {amplitude}, linear {linear}",
+            hz(p.omega)
+        );
+    }
     let scale = fresh.length_scale();
-    let mut smallest_gap = |p: &mshbm::continuation::arclength::BranchPoint| {
+    let gap = bar.contacts[0].gap;
+    let mut touching = 0;
+    for p in branch.points.iter().step_by(25) {
         let r = fresh.residual(&p.x, p.omega).unwrap();
         let norm = r.iter().fold(0.0f64, |m, v| m.max(v.abs())) / scale;
         assert!(norm <= 1e-9, "{} Hz: residual {norm:.1e}", hz(p.omega));
         let tr = fresh.trajectory(&p.x, p.omega).unwrap();
-        tr.gap_series(0).iter().fold(f64::MAX, |m, &v| m.min(v))
-    };
-    let gap = bar.contacts[0].gap;
-    for p in &past {
-        assert!(hz(p.omega) < grazing, "{} Hz", hz(p.omega));
-        let smallest = smallest_gap(p);
-        // the samples straddle the impact: near grazing they miss it by a little
+        let smallest = tr.gap_series(0).iter().fold(f64::MAX, |m, &v| m.min(v));
         assert!(
-            (-1e-9..1e-4 * gap).contains(&smallest),
-            "{} Hz: smallest gap {smallest:.1e}",
+            smallest >= -1e-9 * gap,
+            "{} Hz: smallest gap {smallest:e}",
             hz(p.omega)
         );
+        if hz(p.omega) > grazing && hz(p.omega) < 90e3 {
+            // (samples straddle the contact phases; between them the node is near the stop)
+            touching += usize::from(smallest < 1e-2 * gap);
+        }
     }
-    // the furthest point is not the motion without impacts, which keeps its clearance
-    let last = past.last().unwrap();
-    let clearance = gap - bar_linear_amplitude(&bar, hz(last.omega));
-    assert!(clearance > 1e-6, "{clearance:e}");
-    let smallest = smallest_gap(last);
+    let between = branch
+        .points
+        .iter()
+        .step_by(25)
+        .filter(|p| hz(p.omega) > grazing && hz(p.omega) < 90e3)
+        .count();
     assert!(
-        smallest < 0.1 * clearance,
-        "{} Hz: smallest gap {smallest:.1e}, without impacts {clearance:.1e}",
-        hz(last.omega)
+        touching * 10 >= between * 9,
+        "{touching} of {between} points between the grazings touch the stop"
     );
 }
 

@@ -360,7 +360,17 @@ impl std::fmt::Display for Quadrature {
 
 /// Golden-section search for a maximum of `f` in the bracket `[a, d]` (60 reductions of the
 /// bracket, to `0.618⁶⁰` of its width): the larger of the two final interior values.
-pub(crate) fn golden_section_max(mut f: impl FnMut(f64) -> f64, mut a: f64, mut d: f64) -> f64 {
+pub(crate) fn golden_section_max(f: impl FnMut(f64) -> f64, a: f64, d: f64) -> f64 {
+    golden_section_argmax(f, a, d).1
+}
+
+/// [`golden_section_max`] with where it is: `(t, f(t))`, `t` the final interior point with
+/// the larger value.
+pub(crate) fn golden_section_argmax(
+    mut f: impl FnMut(f64) -> f64,
+    mut a: f64,
+    mut d: f64,
+) -> (f64, f64) {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut b, mut c) = (d - g * (d - a), a + g * (d - a));
     let (mut fb, mut fc) = (f(b), f(c));
@@ -379,7 +389,11 @@ pub(crate) fn golden_section_max(mut f: impl FnMut(f64) -> f64, mut a: f64, mut 
             fc = f(c);
         }
     }
-    fb.max(fc)
+    if fb > fc {
+        (b, fb)
+    } else {
+        (c, fc)
+    }
 }
 
 /// Add the exact Gram block of the interval `[a, b]` (`Γ_mc += w_m/(2π) ∫_a^b b_m b_c dτ`,

@@ -10,7 +10,9 @@
 //! plastic impact of (T144), after which the contact stays closed while its force is
 //! non-negative); a release changes the set without a jump. Contact 0's impact nearest its
 //! critical time `θ_c` ([`CriticalTime`], (T147)) is not located: the law is applied at
-//! `θ_c` itself.
+//! `θ_c` itself. A contact that has just left the stop is armed (its impacts located) from
+//! where its gap first exceeds the tolerance, its peak found within the scan step (T147a),
+//! so that a re-impact is located wherever the scan's grid falls.
 //!
 //! Sensitivities `S(θ) = ∂x(θ)/∂p`, `p = (φ, x_0, θ_c)` (the load's coefficients, the
 //! initial state, the critical time), follow the same closed form between events and the
@@ -25,12 +27,17 @@ use faer::{c64, Mat};
 use super::set_flow::{DenseSubsystem, SetFlow};
 use crate::dense::mat_vec;
 use crate::error::{Error, Result};
-use crate::harmonic::n_coefficients;
+use crate::harmonic::{golden_section_argmax, n_coefficients};
 use crate::roots::find_sign_change;
 
 /// Events allowed in one period before the integration gives up (impacts with `e_N > 0`
 /// that accumulate: chatter).
 pub(super) const MAX_EVENTS: usize = 10_000;
+
+/// Scan steps allowed in one period before the integration gives up (a frequency many
+/// orders of magnitude below the nonlinear subsystem's fastest mode, which only a wild
+/// Newton update asks for: the scan needs `8 ω_max/ω` steps per period).
+pub(super) const MAX_SCAN_STEPS: usize = 10_000_000;
 
 /// The flows of the active sets met so far (shared by parallel evaluations).
 #[derive(Default)]
@@ -501,6 +508,24 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     // p = (φ, q_0, q̇_0[, θ_c])
     let n_params = nq + 2 * n + usize::from(pb.critical.is_some());
     let period = 2.0 * std::f64::consts::PI / pb.omega;
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    let usable = period.is_finite()
+        && period > 0.0
+        && pb.duration.is_finite()
+        && pb.sample_offset.is_finite()
+        && finite(q0)
+        && finite(v0)
+        && finite(pb.load)
+        && pb.critical.is_none_or(|c| c.time.is_finite());
+    if !usable {
+        return Err(Error::Numerical(format!(
+            "the event-driven period got a value that is not a number (frequency {} rad/s, duration {}, start state finite: {}, load finite: {})",
+            pb.omega,
+            pb.duration,
+            finite(q0) && finite(v0),
+            finite(pb.load)
+        )));
+    }
     let h = period / pb.steps as f64;
     let mut it = Integration {
         pb,
@@ -581,6 +606,9 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     // located) from the window's start to θ_c, and after θ_c until its gap is positive
     let mut critical_pending = pb.critical.filter(|c| c.time <= pb.duration);
     let mut held_after = false;
+    // where an unarmed contact's gap peaks above the arming level within the current step
+    let mut armed_at: Vec<Option<f64>> = vec![None; n_contacts];
+    let mut scan_steps = 0usize;
     loop {
         if next_sample < pb.steps && sample_time(next_sample) <= theta {
             it.at(theta);
@@ -599,6 +627,13 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         }
         if theta >= pb.duration {
             break;
+        }
+        scan_steps += 1;
+        if scan_steps > MAX_SCAN_STEPS {
+            return Err(Error::Numerical(format!(
+                "more than {MAX_SCAN_STEPS} scan steps in one period at {} rad/s: the period is too long for the fastest mode of the nonlinear subsystem",
+                pb.omega
+            )));
         }
         let mut target = (theta + step).min(pb.duration);
         if next_sample < pb.steps {
@@ -620,25 +655,56 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         let closed = it.sets[iv.set].flow.closed.clone();
         let mut first: Option<(f64, usize)> = None;
         let mut e = std::mem::take(&mut probe);
+        armed_at.iter_mut().for_each(|a| *a = None);
         for c in 0..n_contacts {
             let is_closed = closed.contains(&c);
-            if c == 0 && !is_closed && (held_before || held_after) {
+            if c == 0 && !is_closed && held_before {
                 continue;
             }
-            let shift = if is_closed || armed[c] {
+            let held = c == 0 && !is_closed && held_after;
+            let mut shift = if is_closed || (armed[c] && !held) {
                 0.0
             } else {
                 pb.gap_tolerance
             };
+            let mut from = (theta, values[c], rates[c]);
+            if shift > 0.0
+                && after[c] <= pb.gap_tolerance
+                && after_rates[c] < 0.0
+                && (rates[c] > 0.0 || theta == iv.start)
+            {
+                // a contact not armed (after a release or contact 0's critical time) whose
+                // gap turns back within the step (or the step right after its event, where
+                // its rate is zero) and ends below the arming level: where its gap peaks
+                // above that level, it is armed from its peak on, so that a re-impact in
+                // the step is located wherever the step ends fall
+                let (peak, gap) = golden_section_argmax(
+                    |t| {
+                        phases(pb.omega, t, &mut e);
+                        it.monitor_with(&e, &iv, t, c)
+                    },
+                    theta,
+                    target,
+                );
+                if gap > pb.gap_tolerance {
+                    from = (peak, gap, 0.0);
+                    shift = 0.0;
+                    armed_at[c] = Some(peak);
+                } else if held {
+                    continue;
+                }
+            } else if held {
+                continue;
+            }
             // where the gap stays positive at both ends but turns within the scan step, it
             // may dip below zero in between (near grazing): look at its minimum
             let mut end = (target, after[c] + shift);
-            if end.1 >= 0.0 && !is_closed && rates[c] < 0.0 && after_rates[c] > 0.0 {
+            if end.1 >= 0.0 && !is_closed && from.2 < 0.0 && after_rates[c] > 0.0 {
                 let rate = |t: f64| {
                     phases(pb.omega, t, &mut e);
                     it.gap_rate_with(&e, &iv, t, c)
                 };
-                let turn = find_sign_change(rate, theta, target, rates[c], after_rates[c]).negative;
+                let turn = find_sign_change(rate, from.0, target, from.2, after_rates[c]).negative;
                 phases(pb.omega, turn, &mut e);
                 end = (turn, it.monitor_with(&e, &iv, turn, c) + shift);
             }
@@ -649,13 +715,23 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
                 phases(pb.omega, t, &mut e);
                 it.monitor_with(&e, &iv, t, c) + shift
             };
-            let left = (values[c] + shift).max(0.0);
-            let root = find_sign_change(f, theta, end.0, left, end.1).non_negative;
+            let left = (from.1 + shift).max(0.0);
+            let root = find_sign_change(f, from.0, end.0, left, end.1).non_negative;
             if first.is_none_or(|(t, _)| root < t) {
                 first = Some((root, c));
             }
         }
         probe = e;
+        // contacts armed at a peak before the next event (or the step's end)
+        let until = first.map_or(target, |(t, _)| t);
+        for (k, at) in armed_at.iter().enumerate() {
+            if at.is_some_and(|t| t <= until) {
+                armed[k] = true;
+                if k == 0 {
+                    held_after = false;
+                }
+            }
+        }
         let Some((te, c)) = first else {
             for k in 0..n_contacts {
                 if after[k] > pb.gap_tolerance {
