@@ -27,6 +27,7 @@
 
 mod evaluation;
 mod frequency_maps;
+pub mod friction;
 mod interval_signal;
 mod jacobian;
 pub mod quadrature;

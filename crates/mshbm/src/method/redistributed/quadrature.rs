@@ -117,7 +117,7 @@ impl Groups<'_> {
 }
 
 /// Derivative coefficients of a trigonometric polynomial, into `d`.
-fn derivative_into(coef: &[f64], d: &mut Vec<f64>) {
+pub(super) fn derivative_into(coef: &[f64], d: &mut Vec<f64>) {
     let h = (coef.len() - 1) / 2;
     d.clear();
     d.resize(coef.len(), 0.0);
@@ -152,7 +152,7 @@ const SCAN: usize = 8;
 /// slopes (`n_c × (SCAN + 1)`, row-major), from the trigonometric basis at the points, which
 /// every contact shares — products with the basis instead of a `sin_cos` per contact and
 /// point. The buffers are reused from cell to cell.
-struct CellScan {
+pub(super) struct CellScan {
     harmonics: usize,
     points: [f64; SCAN + 1],
     /// The basis and its derivative at the points (`(SCAN + 1) × (2H+1)`, row-major).
@@ -167,7 +167,7 @@ struct CellScan {
 }
 
 impl CellScan {
-    fn new(harmonics: usize) -> Self {
+    pub(super) fn new(harmonics: usize) -> Self {
         let ncoef = n_coefficients(harmonics);
         CellScan {
             harmonics,
@@ -182,7 +182,7 @@ impl CellScan {
     }
 
     /// Scan `(a, end]` for the indicators with coefficients `coefs` (rows of `2H+1`).
-    fn fill(&mut self, coefs: &[f64], a: f64, end: f64) {
+    pub(super) fn fill(&mut self, coefs: &[f64], a: f64, end: f64) {
         let h = self.harmonics;
         let ncoef = n_coefficients(h);
         for l in 0..=SCAN {
@@ -241,7 +241,7 @@ impl CellScan {
     /// candidate lies in the earliest sub-interval are located to round-off (when many
     /// contacts switch within one cell, locating each of them at every switch would cost
     /// their number squared).
-    fn earliest_root(&mut self, coefs: &[f64], ncoef: usize) -> Option<(f64, usize)> {
+    pub(super) fn earliest_root(&mut self, coefs: &[f64], ncoef: usize) -> Option<(f64, usize)> {
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.clear();
         for c in 0..coefs.len() / ncoef {
