@@ -239,3 +239,61 @@ fn hbm_aft_bifurcations_are_written_to_the_csv_and_the_json() {
     assert!(text.lines().last().unwrap().starts_with("# finished"));
     assert_png(&png);
 }
+
+/// The friction damper of the README (`examples/friction_damper`, Coulomb friction on a
+/// plane interface, docs/theory.md §20): its diagram through the friction-damped resonance
+/// completes, every point converged, and `solve` reports the friction forces within the
+/// cone and the energy they dissipate.
+#[test]
+fn the_friction_damper_diagram_completes() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("frd.csv");
+    let model = example("friction_damper/model.toml");
+    let csv_arg = csv.display().to_string();
+    let out = mshbm(&[
+        "frf",
+        &model,
+        "--from",
+        "100",
+        "--to",
+        "1500",
+        "--harmonics",
+        "3",
+        "--dof",
+        "209",
+        "--output",
+        &csv_arg,
+    ]);
+    assert_success(&out);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.contains("# finished"), "{text}");
+    let rows = text.lines().filter(|l| !l.starts_with('#')).count();
+    assert!(rows > 50, "{rows} rows");
+    let out = mshbm(&[
+        "solve",
+        &model,
+        "--frequency",
+        "1100",
+        "--harmonics",
+        "3",
+        "--json",
+    ]);
+    assert_success(&out);
+    let json = stdout_json(&out);
+    let frictions = json["frictions"].as_array().expect("friction series");
+    assert_eq!(frictions.len(), 5);
+    for f in frictions {
+        let (force, limit) = (
+            f["force"].as_array().unwrap(),
+            f["limit"].as_array().unwrap(),
+        );
+        for (t, l) in force.iter().zip(limit) {
+            let (t, l) = (t.as_f64().unwrap(), l.as_f64().unwrap());
+            assert!(
+                t.abs() <= l + 1e-9,
+                "friction force {t} outside the cone {l}"
+            );
+        }
+    }
+    assert!(json["dissipated_energy"].as_f64().unwrap() > 0.0);
+}

@@ -266,7 +266,12 @@ impl NativeModel {
             dirichlet,
             contacts: contacts
                 .into_iter()
-                .map(|(dofs, w, gap)| Contact { dofs, w, gap })
+                .map(|(dofs, w, gap)| Contact {
+                    dofs,
+                    w,
+                    gap,
+                    friction: None,
+                })
                 .collect(),
             interfaces: Vec::new(),
             frictions: Vec::new(),

@@ -151,6 +151,10 @@ pub struct PeriodicSolution {
     /// docs/theory.md §16).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_node_harmonics: Option<Vec<f64>>,
+    /// The energy the friction forces dissipate per period (contacts with Coulomb friction,
+    /// docs/theory.md §20), in the model's force × length unit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dissipated_energy: Option<f64>,
 }
 
 impl DofResponse {

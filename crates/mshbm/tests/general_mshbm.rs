@@ -483,6 +483,7 @@ fn friction_elements_survive_export() {
         dofs: vec![1],
         w: vec![-1.0],
         gap: 0.5,
+        friction: None,
     });
     model.frictions.push(Friction {
         dofs: vec![0, 1],

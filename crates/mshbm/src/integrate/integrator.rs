@@ -40,6 +40,12 @@ impl Integrator {
         if n == 0 {
             return Err(Error::argument("system", "the system has no free DOFs"));
         }
+        if system.contacts.iter().any(|c| c.friction.is_some()) {
+            return Err(Error::argument(
+                "model",
+                "the model's contacts have friction (`mu` of an interface); the time integration models frictionless contact only (friction on contacts is solved by the redistributed MS-HBM)",
+            ));
+        }
         let dt = settings.dt;
         if !(dt.is_finite() && dt > 0.0) {
             return Err(Error::argument(

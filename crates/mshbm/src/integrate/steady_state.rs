@@ -386,6 +386,7 @@ pub fn simulate_to_steady_state(
             stability: None,
             unknowns: contact_displacements,
             contact_node_harmonics,
+            dissipated_energy: None,
         },
         periodic,
         periodicity: options.periodicity,

@@ -160,6 +160,7 @@ pub(crate) fn periodic_solution(
         stability: None,
         unknowns: None,
         contact_node_harmonics: None,
+        dissipated_energy: None,
     }
 }
 

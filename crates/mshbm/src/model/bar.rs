@@ -181,6 +181,7 @@ impl BarParameters {
         };
         let contacts = match self.gap {
             Some(gap) => vec![Contact {
+                friction: None,
                 dofs: vec![free],
                 w: vec![w],
                 gap,

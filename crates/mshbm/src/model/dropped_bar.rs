@@ -131,6 +131,7 @@ impl DroppedBarParameters {
                 dofs: vec![0],
                 w: vec![1.0],
                 gap: self.height,
+                friction: None,
             }],
             harmonic_load: vec![0.0; n],
             constant_load: vec![0.0; n],

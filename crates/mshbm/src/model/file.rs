@@ -737,6 +737,7 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
             dofs: c.dofs,
             w: c.w,
             gap: c.gap,
+            friction: None,
         })
         .collect();
     if let Some(file) = &f.contacts_file {
@@ -857,7 +858,12 @@ fn read_contacts(inputs: &mut InputFiles, path: &Path, file: &str) -> Result<Vec
                 ))
             })?);
         }
-        contacts.push(Contact { dofs, w, gap });
+        contacts.push(Contact {
+            dofs,
+            w,
+            gap,
+            friction: None,
+        });
     }
     Ok(contacts)
 }

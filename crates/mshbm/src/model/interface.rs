@@ -78,7 +78,12 @@ pub fn obstacle_contacts(
                 .filter(|(_, &n)| n != 0.0)
                 .map(|(c, &n)| (p * dofs_per_node + c, n))
                 .unzip();
-            Contact { dofs, w, gap }
+            Contact {
+                dofs,
+                w,
+                gap,
+                friction: None,
+            }
         })
         .collect()
 }
@@ -103,7 +108,12 @@ pub fn node_pair_contacts(
                 dofs.push(a * dofs_per_node + c);
                 w.push(-n);
             }
-            Contact { dofs, w, gap }
+            Contact {
+                dofs,
+                w,
+                gap,
+                friction: None,
+            }
         })
         .collect()
 }

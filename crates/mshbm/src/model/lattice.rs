@@ -76,6 +76,7 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
             dofs: vec![2 * idx(i, 0) + 1],
             w: vec![1.0],
             gap: 0.02 * (1.0 + 0.6 * (i as f64 * 1.3).sin().abs()) + 0.01 * i as f64 / nx as f64,
+            friction: None,
         })
         .collect();
     let mut harmonic_load = vec![0.0; n];

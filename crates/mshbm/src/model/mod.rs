@@ -24,7 +24,7 @@ mod system;
 
 pub use input_files::LoadOptions;
 pub use interface::ContactInterface;
-pub use system::{MassKind, System, SystemContact, SystemFriction};
+pub use system::{MassKind, System, SystemContact, SystemContactFriction, SystemFriction};
 
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
@@ -54,6 +54,22 @@ pub struct Contact {
     pub w: Vec<f64>,
     /// Initial gap `g0` (model length unit).
     pub gap: f64,
+    /// Coulomb friction along a tangent of the contact (redistributed MS-HBM,
+    /// docs/theory.md §20); `None`: frictionless.
+    pub friction: Option<ContactFriction>,
+}
+
+/// Coulomb friction on a contact (docs/theory.md (T150), (T151)): the tangential
+/// displacement `y_T = Σ_i w_i q_{dofs_i}` along a unit tangent orthogonal to the contact's
+/// normal, and the friction coefficient.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactFriction {
+    /// DOFs of the tangential displacement (model numbering).
+    pub dofs: Vec<usize>,
+    /// `∂y_T/∂q` for each of `dofs`.
+    pub w: Vec<f64>,
+    /// Friction coefficient `μ ≥ 0`.
+    pub mu: f64,
 }
 
 /// What presses a friction element together.
@@ -155,6 +171,23 @@ pub struct Model {
     pub acceleration: Option<Vec<f64>>,
     /// Damping.
     pub damping: Damping,
+}
+
+impl Model {
+    /// Refuse contacts with Coulomb friction (docs/theory.md §20) in a method or integrator
+    /// (`what`) that models only frictionless contact, naming the first such contact.
+    pub fn refuse_contact_friction(&self, what: &str) -> Result<()> {
+        match self.contacts.iter().position(|c| c.friction.is_some()) {
+            Some(c) => Err(Error::field(
+                &self.source,
+                "mu",
+                format!(
+                    "contact {c} has friction (`mu` of an interface); {what} models frictionless contact only. Friction on contacts is solved by the redistributed MS-HBM (`--method redistributed`)"
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
 }
 
 impl Model {

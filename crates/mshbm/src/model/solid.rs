@@ -38,6 +38,8 @@
 //! # gap_gradient = [0.0, 0.0]   #   g0 = gap + gradient · x (a tilted or stepped plane)
 //! # gap_file = "gaps.csv"       #   instead of `gap`: lines `node, g0`, one per node
 //! #                             #   (for pairs: the node of the first set)
+//! # mu = 0.3                   # Coulomb friction along the tangent (−n_y, n_x) (plane
+//! #                             #   interfaces; redistributed MS-HBM, docs/theory.md §20)
 //! # [[interfaces]] kind = "pairs", sets = ["crack_a", "crack_b"], normal = [1.0, 0.0]:
 //! # node-to-node contacts g = n·(u_b − u_a) + g0 between coinciding nodes of the two sets
 //! [damping]                     # as for the other kinds
@@ -152,6 +154,8 @@ pub(super) struct InterfaceSection {
     gap: Option<f64>,
     gap_gradient: Option<Vec<f64>>,
     gap_file: Option<String>,
+    /// Coulomb friction coefficient (plane interfaces; docs/theory.md §20).
+    mu: Option<f64>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq)]
@@ -448,6 +452,54 @@ fn add_node_sets(
     Ok(())
 }
 
+/// Coulomb friction with coefficient `mu` on the contacts `new` of an interface, along the
+/// tangent `t = (−n_y, n_x)` of its unit normal `n` (plane interfaces, docs/theory.md
+/// (T150)): the tangential displacement `tᵀ u_p` of an obstacle contact's node, `tᵀ (u_b − u_a)`
+/// of a pair's.
+fn add_friction(
+    new: &mut [crate::model::Contact],
+    nodes: &[Vec<usize>],
+    normal: &[f64],
+    mu: f64,
+    dofs_per_node: usize,
+    path: &Path,
+    field: &str,
+) -> Result<()> {
+    if !(mu.is_finite() && mu >= 0.0) {
+        return Err(Error::field(
+            path,
+            field,
+            format!("the friction coefficient must be finite and ≥ 0, got {mu}"),
+        ));
+    }
+    if dofs_per_node != 2 {
+        return Err(Error::field(
+            path,
+            field,
+            "friction is supported on plane (2D) interfaces only; 3D interfaces with the Coulomb cone are not implemented yet (docs/theory.md §20)",
+        ));
+    }
+    let tangent = [-normal[1], normal[0]];
+    for (contact, nodes) in new.iter_mut().zip(nodes) {
+        let mut dofs = Vec::new();
+        let mut w = Vec::new();
+        // nodes: [p] against an obstacle, [a, b] for a pair (tᵀ (u_b − u_a))
+        let signed: Vec<(usize, f64)> = match nodes.as_slice() {
+            [p] => vec![(*p, 1.0)],
+            [a, b] => vec![(*b, 1.0), (*a, -1.0)],
+            _ => unreachable!("a contact has one node or a pair"),
+        };
+        for (node, sign) in signed {
+            for (c, &t) in tangent.iter().enumerate().filter(|(_, &t)| t != 0.0) {
+                dofs.push(node * dofs_per_node + c);
+                w.push(sign * t);
+            }
+        }
+        contact.friction = Some(crate::model::ContactFriction { dofs, w, mu });
+    }
+    Ok(())
+}
+
 /// What the `[[interfaces]]` of a model are built on.
 pub(super) struct InterfaceMesh<'a> {
     /// Node coordinates.
@@ -484,7 +536,7 @@ pub(super) fn build_interfaces(
                 .get(name)
                 .ok_or_else(|| Error::field(path, f, format!("unknown node set {name:?}")))
         };
-        let (new, nodes): (Vec<_>, Vec<Vec<usize>>) = match sec.kind {
+        let (mut new, nodes): (Vec<_>, Vec<Vec<usize>>) = match sec.kind {
             InterfaceKind::Obstacle => {
                 let (Some(name), None) = (&sec.set, &sec.sets) else {
                     return Err(Error::field(
@@ -560,6 +612,9 @@ pub(super) fn build_interfaces(
                     c.dofs[0] / d
                 ),
             ));
+        }
+        if let Some(mu) = sec.mu {
+            add_friction(&mut new, &nodes, &normal, mu, d, path, &field("mu"))?;
         }
         // position along the interface: the coordinate that varies most over its nodes
         let lead: Vec<usize> = nodes.iter().map(|n| n[0]).collect();

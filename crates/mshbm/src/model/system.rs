@@ -26,6 +26,16 @@ pub struct SystemContact {
     pub w: Vec<(usize, f64)>,
     /// Initial gap `g0`.
     pub gap: f64,
+    /// Coulomb friction along a tangent (docs/theory.md §20).
+    pub friction: Option<SystemContactFriction>,
+}
+
+/// Coulomb friction of a contact in system numbering.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SystemContactFriction {
+    /// `(system DOF, ∂y_T/∂q)` pairs.
+    pub w: Vec<(usize, f64)>,
+    pub mu: f64,
 }
 
 /// A friction element in system numbering.
@@ -196,6 +206,15 @@ impl Model {
                     .map(|(&d, &w)| (system_of[d], w))
                     .collect(),
                 gap: c.gap,
+                friction: c.friction.as_ref().map(|f| SystemContactFriction {
+                    w: f.dofs
+                        .iter()
+                        .zip(&f.w)
+                        .filter(|(&d, _)| !fixed[d])
+                        .map(|(&d, &w)| (system_of[d], w))
+                        .collect(),
+                    mu: f.mu,
+                }),
             })
             .collect();
         let frictions = self

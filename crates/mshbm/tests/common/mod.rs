@@ -255,6 +255,7 @@ pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha
             dofs: vec![1],
             w: vec![-1.0],
             gap,
+            friction: None,
         }],
         harmonic_load: vec![force, 0.0],
         constant_load: vec![0.0, 0.0],

@@ -148,6 +148,7 @@ fn friction_coupled_to_contact() {
                 dofs: vec![1],
                 w: vec![1.0],
                 gap: 0.0,
+                friction: None,
             }],
             vec![Friction {
                 dofs: vec![0],

@@ -236,6 +236,7 @@ impl GeneralMsHbm {
                 "the model has no contact and no friction element; the general MS-HBM needs at least one",
             ));
         }
+        model.refuse_contact_friction("the general MS-HBM")?;
         let system = model.system(MassKind::Consistent)?;
         super::memory::general(&system, h, steps).check(
             &format!("the general MS-HBM with {h} harmonics and {steps} steps per period"),
@@ -282,6 +283,7 @@ impl GeneralMsHbm {
                 .map(|c| SystemContact {
                     w: c.w.iter().map(|&(d, w)| (pos(d), w)).collect(),
                     gap: c.gap,
+                    friction: None,
                 })
                 .collect(),
             frictions: system

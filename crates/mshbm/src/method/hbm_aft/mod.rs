@@ -235,6 +235,7 @@ impl HbmAft {
                 "the HBM-AFT baseline has penalty normal contact only and does not support friction; use the general MS-HBM",
             ));
         }
+        model.refuse_contact_friction("the HBM-AFT baseline")?;
         let system = model.system(options.mass)?;
         super::memory::hbm_aft(&system, h, samples).check(
             &format!("HBM-AFT with {h} harmonics and {samples} samples"),

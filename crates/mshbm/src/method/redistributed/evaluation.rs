@@ -8,6 +8,7 @@ use std::rc::Rc;
 use faer::{c64, Mat};
 
 use super::frequency_maps::Map;
+use super::friction::PeriodicContact;
 use super::jacobian::{assemble_forces_into, times_each_coefficient_into};
 use super::quadrature::{integrate, integrate_into, Integration, QuadratureWorkspace};
 use super::RedistributedMsHbm;
@@ -26,6 +27,8 @@ pub(super) struct Evaluation {
     pub phi: Vec<f64>,
     /// `λ̂`.
     pub forces: Vec<f64>,
+    /// The periodic frictional contact (docs/theory.md §20), when the contacts have friction.
+    pub friction: Option<Rc<PeriodicContact>>,
     /// `∂R/∂ω`, once a linearization asked for it.
     pub d_omega: Option<Vec<f64>>,
     /// The dense Jacobian, once a linearization formed it.
@@ -45,6 +48,7 @@ impl Evaluation {
             }),
             phi: Vec::new(),
             forces: Vec::new(),
+            friction: None,
             d_omega: None,
             dense_jacobian: None,
         }
@@ -125,6 +129,18 @@ impl RedistributedMsHbm {
         e.v.extend_from_slice(v);
         e.omega = omega;
         self.force_and_free_gap_into(v, &mut e.phi, s);
+        if let Some(law) = &self.friction {
+            // (T155)–(T158): the periodic frictional contact of the free gap
+            let periodic = law.periodic(self.harmonics, &s.free_gap, self.sampling.len())?;
+            e.forces.clear();
+            e.forces.extend_from_slice(&periodic.forces);
+            e.friction = Some(Rc::new(periodic));
+            difference_into(&e.phi, &e.forces, &mut s.mismatch);
+            e.residual.resize(v.len(), 0.0);
+            times_each_coefficient_into(n, &self.residual_scale, &s.mismatch, &mut e.residual);
+            return Ok(());
+        }
+        e.friction = None;
         match Rc::get_mut(&mut e.integration) {
             Some(integration) => integrate_into(
                 &mut self.contact,
@@ -198,6 +214,7 @@ impl RedistributedMsHbm {
         &self,
         phi: &[f64],
         integration: &Integration,
+        friction: Option<&PeriodicContact>,
         out: &mut Vec<f64>,
         s: &mut EvaluationScratch,
     ) -> Result<()> {
@@ -225,14 +242,26 @@ impl RedistributedMsHbm {
         s.d_psi.resize(len, 0.0);
         times_each_coefficient_into(n, self.contact.delassus(), &s.psi, &mut s.d_psi);
         s.s_d_psi.resize(len, 0.0);
-        assemble_forces_into(
-            n,
-            self.harmonics,
-            integration,
-            &s.d_psi,
-            &mut s.s_d_psi,
-            &mut s.forces,
-        );
+        match friction {
+            // S = dλ̂/dγ̂ of the frictional law (T158)
+            Some(law) => {
+                for (row, o) in s.s_d_psi.iter_mut().enumerate() {
+                    *o = law.jacobian[row * len..(row + 1) * len]
+                        .iter()
+                        .zip(&s.d_psi)
+                        .map(|(a, b)| a * b)
+                        .sum();
+                }
+            }
+            None => assemble_forces_into(
+                n,
+                self.harmonics,
+                integration,
+                &s.d_psi,
+                &mut s.s_d_psi,
+                &mut s.forces,
+            ),
+        }
         // ψ + S D ψ, in the mismatch's storage
         s.mismatch.clear();
         s.mismatch

@@ -85,6 +85,8 @@ pub struct Phase {
     pub modes: Vec<Mode>,
     /// Anchors of every contact (meaningful for the stuck ones).
     pub anchors: Vec<f64>,
+    /// Their sensitivities to `[γ̂, a₀]` (`n × (2n(2H+1) + n)`).
+    d_anchors: Vec<f64>,
     data: usize,
 }
 
@@ -111,8 +113,12 @@ pub struct PeriodicContact {
     /// Marches of one period the fixed point needed.
     pub passes: usize,
     gamma: Vec<f64>,
-    data: Vec<(Vec<f64>, Vec<f64>)>,
+    /// `(F, G, Y_F, Y_G)` of each set of modes met (T152).
+    data: Vec<[Vec<f64>; 4]>,
 }
+
+/// Relative tolerance of the indicators (T153).
+const INDICATOR_TOLERANCE: f64 = 1e-11;
 
 /// Passes of one period before the fixed point of the state at `τ = 0` is given up.
 const MAX_PASSES: usize = 50;
@@ -140,6 +146,11 @@ impl FrictionalContacts {
 
     pub fn contacts(&self) -> usize {
         self.n
+    }
+
+    /// The friction coefficients.
+    pub fn mu(&self) -> &[f64] {
+        &self.mu
     }
 
     fn d(&self, i: usize, j: usize) -> f64 {
@@ -390,14 +401,14 @@ impl FrictionalContacts {
                         r_u[(i, col)] = -out.d_anchors_end[c * nv + col];
                     }
                 } else {
-                    // (T157): a contact stuck all period carries no mean tangential force
-                    let row = n + c;
-                    residual[i] = out.forces[row];
+                    // (T157): a contact stuck all period is centred in its cone
+                    let (value, row) = march.centring(&out.phases, c);
+                    residual[i] = value;
                     for (l, &c2) in stuck.iter().enumerate() {
-                        j_a[i * ns + l] = out.d_forces[row * nv + nu + c2];
+                        j_a[i * ns + l] = row[nu + c2];
                     }
                     for col in 0..nu {
-                        r_u[(i, col)] = out.d_forces[row * nv + col];
+                        r_u[(i, col)] = row[col];
                     }
                 }
             }
@@ -419,8 +430,9 @@ impl FrictionalContacts {
                 })?
             };
             let step = (0..ns).fold(0.0f64, |s, i| s.max(solved[(i, 0)].abs()));
-            if step <= 1e-13 * scale || pass == MAX_PASSES {
-                if step > 1e-13 * scale {
+            let size = anchors0.iter().fold(scale, |s, a| s.max(a.abs()));
+            if step <= 1e-12 * size || pass == MAX_PASSES {
+                if step > 1e-12 * size {
                     return Err(Error::Numerical(format!(
                         "friction: no periodic contact state after {MAX_PASSES} periods (anchor change {step:e})"
                     )));
@@ -446,7 +458,7 @@ impl FrictionalContacts {
                     data: march
                         .data
                         .iter()
-                        .map(|d| (d.f.clone(), d.g.clone()))
+                        .map(|d| [d.f.clone(), d.g.clone(), d.yf.clone(), d.yg.clone()])
                         .collect(),
                 });
             }
@@ -542,6 +554,7 @@ impl<'a> March<'a> {
             for (k, r) in row.iter_mut().enumerate() {
                 *r = (0..m).map(|i| ind.kappa[i] * self.gamma[k * m + i]).sum();
             }
+            let start = out.len();
             if ind.kind == Kind::Velocity {
                 derivative_into(&row, scratch);
                 out.extend_from_slice(scratch);
@@ -549,6 +562,11 @@ impl<'a> March<'a> {
                 row[0] += ind.theta.iter().zip(a).map(|(t, x)| t * x).sum::<f64>();
                 out.extend_from_slice(&row);
             }
+            // (T153): an indicator ends its mode where it falls below −ε of its size, so that
+            // a contact resting at zero gap and zero force (or a slip at zero velocity) is
+            // not flipped back and forth by round-off
+            let size: f64 = out[start..].iter().map(|v| v.abs()).sum();
+            out[start] += INDICATOR_TOLERANCE * size;
         }
     }
 
@@ -648,9 +666,14 @@ impl<'a> March<'a> {
         let mut tau = 0.0;
         let (mut flips_here, mut last_flip) = (0usize, f64::NAN);
         let mut cascade: Option<Cascade> = None;
+        // the (contact, mode) pairs left at the current instant
+        let mut left: Vec<(usize, Mode)> = Vec::new();
         for cell in 0..self.cells {
             let end = 2.0 * PI * (cell + 1) as f64 / self.cells as f64;
             loop {
+                if tau >= end {
+                    break;
+                }
                 self.indicator_coefficients(current, &anchors, &mut coefs, &mut scratch);
                 if coefs.is_empty() {
                     break;
@@ -668,6 +691,7 @@ impl<'a> March<'a> {
                     }
                 } else {
                     flips_here = 0;
+                    left.clear();
                     cascade = Some(Cascade {
                         tau: t,
                         data: current,
@@ -692,6 +716,7 @@ impl<'a> March<'a> {
                     end: t,
                     modes: modes.clone(),
                     anchors: anchors.clone(),
+                    d_anchors: d_anchors.clone(),
                     data: current,
                 });
                 let (contact, kind) = {
@@ -707,22 +732,38 @@ impl<'a> March<'a> {
                     Kind::ConeLower => Mode::SlipPositive,
                     Kind::Velocity => Mode::Stick,
                 };
-                if next == Mode::Stick {
-                    // (T154): the anchor is the tangential displacement at the instant
-                    let cascade = cascade
-                        .as_ref()
-                        .expect("a cascade starts at every new instant");
-                    self.stick(cascade, contact, t, &mut anchors, &mut d_anchors);
-                }
+                let cascade = cascade
+                    .as_ref()
+                    .expect("a cascade starts at every new instant");
                 if modes[contact] == Mode::Stick {
                     released[contact] = true;
+                }
+                left.push((contact, modes[contact]));
+                if left.contains(&(contact, next)) {
+                    // a flip that undoes one at this instant: the indicators' signs there
+                    // are round-off (a grazing contact); the mode is the one valid a little
+                    // after the instant (T153)
+                    let probe = t + 1e-3 * (2.0 * PI / self.cells as f64);
+                    let chosen =
+                        self.mode_after(cascade, contact, t, probe, &modes, &anchors, &d_anchors)?;
+                    modes[contact] = chosen.0;
+                    anchors = chosen.1;
+                    d_anchors = chosen.2;
+                    current = self.data_of(&modes)?;
+                    phase_start = t;
+                    tau = probe;
+                    continue;
+                }
+                if next == Mode::Stick {
+                    // (T154): the anchor is the tangential displacement at the instant
+                    self.stick(cascade, contact, t, &mut anchors, &mut d_anchors);
                 }
                 modes[contact] = next;
                 current = self.data_of(&modes)?;
                 phase_start = t;
                 tau = t;
             }
-            tau = end;
+            tau = tau.max(end);
         }
         self.add_phase(
             current,
@@ -739,6 +780,7 @@ impl<'a> March<'a> {
             end: 2.0 * PI,
             modes: modes.clone(),
             anchors: anchors.clone(),
+            d_anchors: d_anchors.clone(),
             data: current,
         });
         // a contact that stuck during the period has a new anchor even if it was stuck at 0
@@ -751,6 +793,170 @@ impl<'a> March<'a> {
             d_forces,
             phases,
         })
+    }
+
+    /// `h(τ) = (e_T,c + s μ_c e_N,c)ᵀ λ(τ)` in `phase`, and its sensitivity to `[γ̂, a₀]` at
+    /// fixed `τ` when `row` is given.
+    fn cone_side(&self, phase: &Phase, c: usize, s: f64, tau: f64, row: Option<&mut [f64]>) -> f64 {
+        let (n, m) = (self.contacts.n, 2 * self.contacts.n);
+        let ncoef = n_coefficients(self.harmonics);
+        let nu = m * ncoef;
+        let nv = nu + n;
+        let d = &self.data[phase.data];
+        let mu = self.contacts.mu[c];
+        let kappa: Vec<f64> = (0..m)
+            .map(|r| d.f[(n + c) * m + r] + s * mu * d.f[c * m + r])
+            .collect();
+        let theta: Vec<f64> = (0..n)
+            .map(|k| d.g[(n + c) * n + k] + s * mu * d.g[c * n + k])
+            .collect();
+        let (value, _, b) = self.combination_at(&kappa, tau);
+        if let Some(row) = row {
+            for k in 0..ncoef {
+                for r in 0..m {
+                    row[k * m + r] += b[k] * kappa[r];
+                }
+            }
+            for (k, &t) in theta.iter().enumerate() {
+                if t != 0.0 {
+                    for col in 0..nv {
+                        row[col] += t * phase.d_anchors[k * nv + col];
+                    }
+                }
+            }
+        }
+        value
+            + theta
+                .iter()
+                .zip(&phase.anchors)
+                .map(|(t, a)| t * a)
+                .sum::<f64>()
+    }
+
+    /// The largest of `sign · h` over the period (`h` of [`March::cone_side`]): the phase and
+    /// the instant, by 8 points per phase refined by golden-section search.
+    fn extreme(&self, phases: &[Phase], c: usize, s: f64, sign: f64) -> (usize, f64) {
+        let mut best = (0, 0.0, f64::NEG_INFINITY);
+        for (p, phase) in phases.iter().enumerate() {
+            if phase.end <= phase.start {
+                continue;
+            }
+            let width = phase.end - phase.start;
+            for l in 0..=8 {
+                let tau = phase.start + width * l as f64 / 8.0;
+                let v = sign * self.cone_side(phase, c, s, tau, None);
+                if v > best.2 {
+                    best = (p, tau, v);
+                }
+            }
+        }
+        let (p, tau, _) = best;
+        let phase = &phases[p];
+        let step = (phase.end - phase.start) / 8.0;
+        let (lo, hi) = ((tau - step).max(phase.start), (tau + step).min(phase.end));
+        let (t, v) = crate::harmonic::golden_section_argmax(
+            |t| sign * self.cone_side(phase, c, s, t, None),
+            lo,
+            hi,
+        );
+        if v > best.2 {
+            (p, t)
+        } else {
+            (p, tau)
+        }
+    }
+
+    /// (T157): for a contact stuck all period, `max_τ (λ_T − μ λ_N) + min_τ (λ_T + μ λ_N)`
+    /// (zero when the force is centred between the cone's extreme excursions), and its
+    /// sensitivity to `[γ̂, a₀]` at the two instants (the envelope theorem).
+    fn centring(&self, phases: &[Phase], c: usize) -> (f64, Vec<f64>) {
+        let nv = 2 * self.contacts.n * n_coefficients(self.harmonics) + self.contacts.n;
+        let mut row = vec![0.0; nv];
+        let (p1, t1) = self.extreme(phases, c, -1.0, 1.0);
+        let (p2, t2) = self.extreme(phases, c, 1.0, -1.0);
+        let upper = self.cone_side(&phases[p1], c, -1.0, t1, Some(&mut row));
+        let lower = self.cone_side(&phases[p2], c, 1.0, t2, Some(&mut row));
+        (upper + lower, row)
+    }
+
+    /// The mode of contact `c` after an instant `t` where its indicators' signs are
+    /// round-off (a grazing contact, or a slip reversing with the cone's margin growing only
+    /// quadratically): among the modes that keep its forces continuous at `t` (a slip
+    /// cannot reverse, nor a loaded contact open, at an instant), the one whose indicators
+    /// are largest, relative to their coefficients, at `probe` a little after `t`; the
+    /// others' modes kept. With the anchors (`c`'s set at `t` if it sticks).
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn mode_after(
+        &mut self,
+        cascade: &Cascade,
+        c: usize,
+        t: f64,
+        probe: f64,
+        modes: &[Mode],
+        anchors: &[f64],
+        d_anchors: &[f64],
+    ) -> Result<(Mode, Vec<f64>, Vec<f64>)> {
+        let candidates: &[Mode] = if self.contacts.mu[c] > 0.0 {
+            &[
+                Mode::Open,
+                Mode::Stick,
+                Mode::SlipPositive,
+                Mode::SlipNegative,
+            ]
+        } else {
+            &[Mode::Open, Mode::SlipPositive]
+        };
+        let ncoef = n_coefficients(self.harmonics);
+        let n = self.contacts.n;
+        let (mut coefs, mut scratch) = (Vec::new(), Vec::new());
+        // the contact's forces before the instant
+        let force_of = |march: &Self, data: usize, a: &[f64]| -> [f64; 2] {
+            let d = &march.data[data];
+            let m = 2 * n;
+            let at = |row: usize| {
+                let (v, _, _) = march.combination_at(&d.f[row * m..(row + 1) * m], t);
+                v + (0..n).map(|k| d.g[row * n + k] * a[k]).sum::<f64>()
+            };
+            [at(c), at(n + c)]
+        };
+        let before = force_of(self, cascade.data, &cascade.anchors);
+        let size = before[0].abs() + before[1].abs();
+        let mut best: Option<(bool, f64, Mode, Vec<f64>, Vec<f64>)> = None;
+        for &candidate in candidates {
+            let mut trial = modes.to_vec();
+            trial[c] = candidate;
+            let (mut a, mut da) = (anchors.to_vec(), d_anchors.to_vec());
+            if candidate == Mode::Stick {
+                self.stick(cascade, c, t, &mut a, &mut da);
+            }
+            let data = self.data_of(&trial)?;
+            self.indicator_coefficients(data, &a, &mut coefs, &mut scratch);
+            let worst = self.data[data]
+                .indicators
+                .iter()
+                .zip(coefs.chunks_exact(ncoef))
+                .filter(|(ind, _)| ind.contact == c)
+                .map(|(_, row)| {
+                    let size = row
+                        .iter()
+                        .map(|v| v.abs())
+                        .sum::<f64>()
+                        .max(f64::MIN_POSITIVE);
+                    crate::harmonic::evaluate(row, probe) / size
+                })
+                .fold(f64::INFINITY, f64::min);
+            let after = force_of(self, data, &a);
+            let continuous = (after[0] - before[0]).abs() + (after[1] - before[1]).abs()
+                <= 1e-8 * size.max(f64::MIN_POSITIVE);
+            if best
+                .as_ref()
+                .is_none_or(|(cont, w, ..)| (continuous, worst) > (*cont, *w))
+            {
+                best = Some((continuous, worst, candidate, a, da));
+            }
+        }
+        let (_, _, mode, a, da) = best.expect("at least one candidate");
+        Ok((mode, a, da))
     }
 
     /// Contact `c` sticks at `t`, in the cascade of switches `cascade` started at that
@@ -856,7 +1062,14 @@ struct Cascade {
 impl PeriodicContact {
     /// The contact forces `λ(τ)` (`[normals; tangents]`) of the periodic state.
     pub fn force_at(&self, tau: f64) -> Vec<f64> {
-        let m = self.gamma.len() / n_coefficients(self.harmonics);
+        self.state_at(tau).0
+    }
+
+    /// The forces `λ(τ)` and the contact coordinates `y(τ) = γ(τ) + D λ(τ)` (the gaps, then
+    /// the tangential displacements) of the periodic state (T152).
+    pub fn state_at(&self, tau: f64) -> (Vec<f64>, Vec<f64>) {
+        let ncoef = n_coefficients(self.harmonics);
+        let m = self.gamma.len() / ncoef;
         let n = m / 2;
         let tau = tau.rem_euclid(2.0 * PI);
         let phase = self
@@ -864,19 +1077,41 @@ impl PeriodicContact {
             .iter()
             .find(|p| tau >= p.start && tau <= p.end)
             .unwrap_or(&self.phases[self.phases.len() - 1]);
-        let (f, g) = &self.data[phase.data];
-        let ncoef = n_coefficients(self.harmonics);
+        let [f, g, yf, yg] = &self.data[phase.data];
         let mut b = vec![0.0; ncoef];
         basis_into(self.harmonics, tau, &mut b);
         let gamma_at: Vec<f64> = (0..m)
             .map(|r| (0..ncoef).map(|k| b[k] * self.gamma[k * m + r]).sum())
             .collect();
-        (0..m)
-            .map(|i| {
-                (0..m).map(|r| f[i * m + r] * gamma_at[r]).sum::<f64>()
-                    + (0..n).map(|c| g[i * n + c] * phase.anchors[c]).sum::<f64>()
-            })
-            .collect()
+        let affine = |a: &[f64], ga: &[f64]| -> Vec<f64> {
+            (0..m)
+                .map(|i| {
+                    (0..m).map(|r| a[i * m + r] * gamma_at[r]).sum::<f64>()
+                        + (0..n)
+                            .map(|c| ga[i * n + c] * phase.anchors[c])
+                            .sum::<f64>()
+                })
+                .collect()
+        };
+        (affine(f, g), affine(yf, yg))
+    }
+
+    /// The energy the friction forces dissipate over one period, `−∮ λ_Tᵀ dy_T` (the sum of
+    /// `μ λ_N |Δy_T|` over the slip phases), by the trapezoidal rule on `samples` instants.
+    pub fn dissipated_energy(&self, samples: usize) -> f64 {
+        let m = self.gamma.len() / n_coefficients(self.harmonics);
+        let n = m / 2;
+        let mut total = 0.0;
+        let mut previous = self.state_at(0.0);
+        for j in 1..=samples {
+            let next = self.state_at(2.0 * PI * j as f64 / samples as f64);
+            for c in 0..n {
+                let force = 0.5 * (previous.0[n + c] + next.0[n + c]);
+                total -= force * (next.1[n + c] - previous.1[n + c]);
+            }
+            previous = next;
+        }
+        total
     }
 }
 

@@ -28,6 +28,7 @@
 mod evaluation;
 mod frequency_maps;
 pub mod friction;
+mod frictional;
 mod interval_signal;
 mod jacobian;
 pub mod quadrature;
@@ -291,6 +292,9 @@ pub struct RedistributedMsHbm {
     /// `L | N` partition and length scale.
     partition: Partition,
     contact: StaticContact,
+    /// Coulomb friction on the contacts (docs/theory.md §20): the law that replaces the
+    /// static contact problem, on the coordinates `[normals; tangents]`.
+    friction: Option<friction::FrictionalContacts>,
     /// `Λ` of the residual (T128): `‖Λ f‖ = ‖K_NN⁻¹ W f‖` (`n_c × n_c`, row-major).
     residual_scale: Rc<Vec<f64>>,
     /// The factors preconditioning the operator Jacobian (docs/theory.md §18).
@@ -366,6 +370,8 @@ impl RedistributedMsHbm {
             )
         });
         let system = model.system(MassKind::Redistributed)?;
+        // with friction the contact coordinates are the normals, then the tangents (T150)
+        let (system, friction) = frictional::with_tangent_coordinates(system, &model.source)?;
         super::memory::redistributed(&system, h, samples).check(
             &format!("the redistributed MS-HBM with {h} harmonics and {samples} samples"),
             limits,
@@ -398,6 +404,13 @@ impl RedistributedMsHbm {
         let directions = contact_directions(&system);
         let contact = StaticContact::new(&stiffness_nn, directions.clone(), gap)?;
         let residual_scale = contact.displacement_scale()?;
+        let friction = match friction {
+            Some(mu) => Some(friction::FrictionalContacts::new(
+                contact.delassus().to_vec(),
+                mu,
+            )?),
+            None => None,
+        };
         let n_contacts = system.contacts.len();
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
@@ -416,7 +429,9 @@ impl RedistributedMsHbm {
             residual_scale: Rc::new(residual_scale),
             preconditioner: Default::default(),
             jacobian_form: options.jacobian,
-            operator_jacobian: options.jacobian.is_operator(n_contacts * n_coefficients(h)),
+            operator_jacobian: friction.is_none()
+                && options.jacobian.is_operator(n_contacts * n_coefficients(h)),
+            friction,
             stiffness_nn,
             directions,
             frequency: None,
@@ -463,9 +478,10 @@ impl RedistributedMsHbm {
         )?;
         self.sampling = Sampling::within(harmonics, samples, &self.limits)?;
         self.harmonics = harmonics;
-        self.operator_jacobian = self
-            .jacobian_form
-            .is_operator(self.n() * n_coefficients(harmonics));
+        self.operator_jacobian = self.friction.is_none()
+            && self
+                .jacobian_form
+                .is_operator(self.n() * n_coefficients(harmonics));
         // everything sized by H: the prepared frequency, the preconditioner's factors, the
         // Floquet analysis' per-set data
         self.frequency = None;
@@ -577,8 +593,13 @@ impl RedistributedMsHbm {
         let mut scratch = std::mem::take(&mut self.scratch);
         if e.d_omega.is_none() {
             let mut d = scratch.spare_d_omega.take().unwrap_or_default();
-            let computed =
-                self.frequency_derivative_into(&e.phi, &e.integration, &mut d, &mut scratch);
+            let computed = self.frequency_derivative_into(
+                &e.phi,
+                &e.integration,
+                e.friction.as_deref(),
+                &mut d,
+                &mut scratch,
+            );
             if let Err(error) = computed {
                 self.scratch = scratch;
                 return Err(error);
@@ -603,7 +624,9 @@ impl RedistributedMsHbm {
             return Ok(());
         }
         if e.dense_jacobian.is_none() {
-            let jacobian = if n <= SMALL_INTERFACE_CONTACTS {
+            let jacobian = if let Some(law) = &e.friction {
+                frictional::dense_jacobian(n, self.harmonics, &matrices, &self.residual_scale, law)
+            } else if n <= SMALL_INTERFACE_CONTACTS {
                 let mut jacobian = scratch
                     .spare_jacobian
                     .take()
@@ -1009,6 +1032,9 @@ impl PeriodicProblem for RedistributedMsHbm {
         linearized
     }
     fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
+        if self.friction.is_some() {
+            return self.frictional_solution(x, omega, response_dof, true);
+        }
         self.solution_with(x, omega, response_dof, true)
     }
 
@@ -1020,6 +1046,14 @@ impl PeriodicProblem for RedistributedMsHbm {
         omega: f64,
         response_dof: usize,
     ) -> Result<DiagramPoint> {
+        if self.friction.is_some() {
+            return Ok(DiagramPoint::of(&self.frictional_solution(
+                x,
+                omega,
+                response_dof,
+                false,
+            )?));
+        }
         Ok(DiagramPoint::of(&self.solution_with(
             x,
             omega,
@@ -1039,6 +1073,10 @@ impl PeriodicProblem for RedistributedMsHbm {
     /// [`ReducedSystem`] (fixed-interface modes plus static interface correction, with its
     /// truncation error), as [`RedistributedMsHbm::set_stability_options`] chooses.
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
+        if self.friction.is_some() {
+            // stick–slip switching in the monodromy is not implemented yet (docs/theory.md §20)
+            return Ok(None);
+        }
         let reduced = self.stability_system()?;
         let integration = Rc::clone(&self.evaluation(x, omega)?.integration);
         // the first-order matrices depend only on the active set (not on ω): build them,

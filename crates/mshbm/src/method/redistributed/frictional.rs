@@ -1,0 +1,262 @@
+//! The redistributed MS-HBM with Coulomb friction on its contacts (docs/theory.md §20):
+//! the contact coordinates are the normals and then the tangents (T150), so the
+//! receptance, the Delassus matrix and the residual (T128) are those of §16 on `2n_c`
+//! coordinates, and the frictional law ([`super::friction`]) replaces the static contact
+//! problem: `λ̂(u)` and its derivative `S = dλ̂/du` (T158) in the Jacobian (T129).
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use faer::Mat;
+
+use super::frequency_maps::{FrequencyMatrices, Map};
+use super::friction::PeriodicContact;
+use super::jacobian::times_each_coefficient_into;
+use super::{n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS};
+use crate::error::{Error, Result};
+use crate::harmonic::{basis_into, evaluate, n_coefficients};
+use crate::method::fixed_response;
+use crate::method::partition::DofLocation;
+use crate::method::{periodic_solution, SolutionParts};
+use crate::model::{System, SystemContact};
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
+
+/// `system` with its contacts' tangents appended as contact coordinates (T150), and the
+/// friction coefficients, when its contacts have friction; `system` unchanged otherwise.
+/// Either every contact has friction or none (`mu = 0` for a frictionless one).
+pub(super) fn with_tangent_coordinates(
+    mut system: System,
+    source: &Path,
+) -> Result<(System, Option<Vec<f64>>)> {
+    let with = system
+        .contacts
+        .iter()
+        .filter(|c| c.friction.is_some())
+        .count();
+    if with == 0 {
+        return Ok((system, None));
+    }
+    if with < system.contacts.len() {
+        let c = system
+            .contacts
+            .iter()
+            .position(|c| c.friction.is_none())
+            .expect("some contact has no friction");
+        return Err(Error::field(
+            source,
+            "mu",
+            format!(
+                "contact {c} has no friction while others have; give every interface a friction coefficient (mu = 0 for a frictionless one)"
+            ),
+        ));
+    }
+    let mut mu = Vec::with_capacity(with);
+    let mut tangents = Vec::with_capacity(with);
+    for (c, contact) in system.contacts.iter().enumerate() {
+        let friction = contact.friction.as_ref().expect("counted above");
+        if friction.w.is_empty() {
+            return Err(Error::field(
+                source,
+                "mu",
+                format!("the tangent of contact {c} has no free DOF"),
+            ));
+        }
+        mu.push(friction.mu);
+        tangents.push(SystemContact {
+            w: friction.w.clone(),
+            gap: 0.0,
+            friction: None,
+        });
+    }
+    system.contacts.extend(tangents);
+    Ok((system, Some(mu)))
+}
+
+/// The dense Jacobian (T129) with the frictional law's `S = dλ̂/du` (T158):
+/// `J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(I − D R_k⁻¹)`, column by column.
+pub(super) fn dense_jacobian(
+    n: usize,
+    harmonics: usize,
+    matrices: &FrequencyMatrices,
+    residual_scale: &[f64],
+    law: &PeriodicContact,
+) -> Mat<f64> {
+    let size = n * n_coefficients(harmonics);
+    let mut jacobian = Mat::<f64>::zeros(size, size);
+    let (mut unit, mut direct, mut scaled, mut s_times, mut scaled_s) = (
+        vec![0.0; size],
+        vec![0.0; size],
+        vec![0.0; size],
+        vec![0.0; size],
+        vec![0.0; size],
+    );
+    for j in 0..size {
+        unit.iter_mut().for_each(|v| *v = 0.0);
+        unit[j] = 1.0;
+        matrices.apply_into(Map::Residual, n, &unit, &mut direct);
+        matrices.apply_into(Map::Scaled, n, &unit, &mut scaled);
+        // (I − D R⁻¹) e_j
+        scaled.iter_mut().zip(&unit).for_each(|(s, u)| *s = u - *s);
+        for (row, o) in s_times.iter_mut().enumerate() {
+            *o = law.jacobian[row * size..(row + 1) * size]
+                .iter()
+                .zip(&scaled)
+                .map(|(a, b)| a * b)
+                .sum();
+        }
+        times_each_coefficient_into(n, residual_scale, &s_times, &mut scaled_s);
+        for i in 0..size {
+            jacobian[(i, j)] = direct[i] - scaled_s[i];
+        }
+    }
+    jacobian
+}
+
+impl RedistributedMsHbm {
+    /// [`crate::problem::PeriodicProblem::solution`] with friction: the contact-node DOFs
+    /// from the periodic frictional state of the evaluation (T152), the normal force and
+    /// gap of every contact, and its friction force with its limit `μ λ_N`.
+    pub(super) fn frictional_solution(
+        &mut self,
+        x: &[f64],
+        omega: f64,
+        response_dof: usize,
+        every_contact: bool,
+    ) -> Result<PeriodicSolution> {
+        let location = self.partition.locate_response(&self.system, response_dof)?;
+        let (residual, forces, law) = {
+            let e = self.evaluation(x, omega)?;
+            let law = e.friction.clone().expect("a frictional evaluation");
+            (e.residual.clone(), e.forces.clone(), law)
+        };
+        let n = self.n();
+        let n_c = n / 2;
+        let h = self.harmonics;
+        let ncoef = n_coefficients(h);
+        let nonlinear = &self.system.nonlinear_dofs;
+        let n_n = nonlinear.len();
+        let mut rows = nonlinear.clone();
+        if let DofLocation::Linear(l) = location {
+            rows.push(self.system.linear_dofs[l]);
+        }
+        let q_rows = self.structure_rows(&forces, &rows)?;
+        let width = rows.len();
+        let q_n: Vec<f64> = (0..ncoef)
+            .flat_map(|m| (0..n_n).map(move |i| (m, i)))
+            .map(|(m, i)| q_rows[m * width + i])
+            .collect();
+        // the load on the contact nodes b̂ = K_NN q̂_N − W̄ λ̂ and its static displacement
+        let mut load_displacement = Vec::with_capacity(n_n * ncoef);
+        let zero_force = vec![0.0; n];
+        for m in 0..ncoef {
+            let kq = self.stiffness_nn.mul_vec(&q_n[m * n_n..(m + 1) * n_n]);
+            let lambda = &forces[m * n..(m + 1) * n];
+            let b: Vec<f64> = (0..n_n)
+                .map(|i| {
+                    let w = &self.directions[i * n..(i + 1) * n];
+                    kq[i] - w.iter().zip(lambda).map(|(w, l)| w * l).sum::<f64>()
+                })
+                .collect();
+            load_displacement.extend(self.contact.displacement(&b, &zero_force));
+        }
+        let taus = self.sampling.taus.clone();
+        let mut basis_buf = vec![0.0; ncoef];
+        let contact = &self.contact;
+        let mut cache: HashMap<u64, Vec<f64>> = HashMap::new();
+        let mut q_at = |i: usize, tau: f64| -> f64 {
+            let key = tau.to_bits();
+            if cache.len() >= MAX_CACHED_INSTANTS {
+                cache.clear();
+            }
+            let lambda = cache.entry(key).or_insert_with(|| law.force_at(tau));
+            basis_into(h, tau, &mut basis_buf);
+            let u: f64 = (0..ncoef)
+                .map(|m| basis_buf[m] * load_displacement[m * n_n + i])
+                .sum();
+            u + contact.force_displacement_of(i, lambda)
+        };
+        let states: Vec<(Vec<f64>, Vec<f64>)> =
+            if every_contact || matches!(location, DofLocation::Nonlinear(_)) {
+                taus.iter().map(|&t| law.state_at(t)).collect()
+            } else {
+                Vec::new()
+            };
+        let mut extremes = |i: usize| -> (Vec<f64>, f64, f64) {
+            let samples: Vec<f64> = taus.iter().map(|&t| q_at(i, t)).collect();
+            let mx = refine_extremum(&taus, &samples, 1.0, |t| q_at(i, t));
+            let mn = refine_extremum(&taus, &samples, -1.0, |t| q_at(i, t));
+            (samples, mx, mn)
+        };
+        let mut contacts = Vec::new();
+        let mut frictions = Vec::new();
+        let mu = self
+            .friction
+            .as_ref()
+            .map(|f| f.mu().to_vec())
+            .unwrap_or_default();
+        for c in (0..n_c).filter(|_| every_contact) {
+            let i = self.partition.contact_n_index(&self.system, c);
+            let (displacement, max, min) = extremes(i);
+            contacts.push(ContactSeries {
+                dof: self.system.model_dof[self.system.contacts[c].w[0].0],
+                coefficients: n_dof_coefficients(&q_n, n_n, h, i),
+                displacement,
+                gap: states.iter().map(|(_, y)| y[c]).collect(),
+                force: states.iter().map(|(l, _)| l[c]).collect(),
+                max,
+                min,
+            });
+            let force: Vec<f64> = states.iter().map(|(l, _)| l[n_c + c]).collect();
+            frictions.push(FrictionSeries {
+                dof: self.system.model_dof[self.system.contacts[n_c + c].w[0].0],
+                max: force.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                min: force.iter().copied().fold(f64::INFINITY, f64::min),
+                limit: states.iter().map(|(l, _)| mu[c] * l[c]).collect(),
+                force,
+            });
+        }
+        let response = match location {
+            DofLocation::Fixed => fixed_response(response_dof, h),
+            DofLocation::Nonlinear(i) => {
+                let (_, max, min) = extremes(i);
+                DofResponse {
+                    dof: response_dof,
+                    coefficients: n_dof_coefficients(&q_n, n_n, h, i),
+                    max,
+                    min,
+                }
+            }
+            DofLocation::Linear(_) => {
+                let coefficients: Vec<f64> = (0..ncoef).map(|m| q_rows[m * width + n_n]).collect();
+                let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
+                let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
+                let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
+                DofResponse {
+                    dof: response_dof,
+                    coefficients,
+                    max,
+                    min,
+                }
+            }
+        };
+        let mut solution = periodic_solution(
+            &self.system,
+            &self.partition,
+            omega,
+            SolutionParts {
+                method: crate::solution::MethodKind::Redistributed,
+                quadrature: self.quadrature,
+                harmonics: h,
+                taus: &taus,
+                residual: &residual,
+                contacts,
+                frictions,
+                response,
+            },
+        );
+        solution.contact_node_harmonics = Some(q_n);
+        solution.contact_dofs.truncate(n_c);
+        solution.dissipated_energy = Some(law.dissipated_energy(4 * taus.len()));
+        Ok(solution)
+    }
+}
