@@ -628,7 +628,7 @@ fn report_steady(model: &Model, scheme: &str, s: &SteadyState, json: Option<Stri
     let sol = &s.solution;
     crate::outln!(
         "{} at {} Hz: {scheme}, {} steps per period",
-        model.name,
+        crate::output::one_line(&model.name),
         sol.frequency_hz,
         sol.samples
     )?;
@@ -744,7 +744,7 @@ fn report_transient(
     }
     crate::outln!(
         "{}: {scheme}, dt = {dt:.4e} s, {steps} steps, t = 0 .. {t_end:.6e} s",
-        model.name
+        crate::output::one_line(&model.name)
     )?;
     for c in 0..st.min_gap.len() {
         crate::outln!(

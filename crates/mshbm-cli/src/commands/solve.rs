@@ -21,6 +21,7 @@ use mshbm::{MassKind, Model};
 use super::ModelArgs;
 use crate::output::finite::to_json;
 use crate::output::status::NotConverged;
+use crate::output::stream::comment_text;
 use crate::output::{write_csv_atomic, OutputKind, OutputPlan};
 use crate::plot::{Figure, HLine, Series, Style};
 
@@ -739,14 +740,14 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     if let Some(path) = &args.output {
         let mut csv = time_series_csv(&solution);
         if let Some(why) = &not_converged {
-            csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
+            csv.push_str(&format!("# not converged: {}\n", comment_text(why)));
         }
         write_csv_atomic(path, &csv)?;
     }
     if let Some(path) = &args.contacts_csv {
         let mut csv = crate::contact_map::contacts_csv(&model, &solution);
         if let Some(why) = &not_converged {
-            csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
+            csv.push_str(&format!("# not converged: {}\n", comment_text(why)));
         }
         write_csv_atomic(path, &csv)?;
     }
@@ -768,7 +769,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     } else {
         crate::outln!(
             "{} at {} Hz, H = {}, {} samples, {} quadrature, {label}",
-            model.name,
+            crate::output::one_line(&model.name),
             args.frequency,
             solution.harmonics,
             solution.samples,
