@@ -31,11 +31,11 @@ pub struct FrfArgs {
     pub model: ModelArgs,
 
     /// Start frequency [Hz] (the branch starts from the linear response here).
-    #[arg(long = "from", value_name = "HZ")]
+    #[arg(long = "from", value_name = "HZ", allow_negative_numbers = true)]
     pub from_hz: f64,
 
     /// End frequency [Hz] (below --from for a downward sweep).
-    #[arg(long = "to", value_name = "HZ")]
+    #[arg(long = "to", value_name = "HZ", allow_negative_numbers = true)]
     pub to_hz: f64,
 
     /// Numbers of harmonics, comma-separated: one branch each, overlaid in one plot.
@@ -47,20 +47,20 @@ pub struct FrfArgs {
 
     /// Initial arclength step (dimensionless: x scaled by the model's length scale, ω by
     /// the start frequency).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub step: f64,
 
     /// Largest arclength step.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub max_step: f64,
 
     /// Smallest arclength step; below it the continuation stops and reports why. Grazing
     /// contacts turn the branch within very short arcs, so this is small.
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value_t = 1e-12, allow_negative_numbers = true)]
     pub min_step: f64,
 
     /// Largest turn of the tangent between two points [degrees].
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     pub max_turn: f64,
 
     /// CSV file, one row per point (streamed to a temporary file beside it as points are

@@ -154,7 +154,7 @@ pub struct MethodArgs {
 
     /// Newton tolerance: max-norm of the residual relative to the model's length scale
     /// (the largest gap or static deflection of the contact DOFs).
-    #[arg(long, default_value_t = 1e-10)]
+    #[arg(long, default_value_t = 1e-10, allow_negative_numbers = true)]
     pub tolerance: f64,
 
     /// Newton iteration limit per solution.
@@ -339,7 +339,7 @@ pub struct SolveArgs {
     pub model: ModelArgs,
 
     /// Excitation frequency [Hz].
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     pub frequency: f64,
 
     /// Number of harmonics H of the linear part.
@@ -412,12 +412,22 @@ pub struct SolveArgs {
     /// branch folds, several solutions coexist (e.g. above a resonance bent by contact,
     /// where the contact-free solution coexists with contacting ones). The first one met
     /// is written; the others are listed.
-    #[arg(long, value_name = "HZ", conflicts_with = "start")]
+    #[arg(
+        long,
+        value_name = "HZ",
+        conflicts_with = "start",
+        allow_negative_numbers = true
+    )]
     pub sweep_from: Option<f64>,
 
     /// End of the sweep [Hz] (default: 1.5 × --frequency, or --frequency / 1.5 when the
     /// sweep starts above it).
-    #[arg(long, value_name = "HZ", requires = "sweep_from")]
+    #[arg(
+        long,
+        value_name = "HZ",
+        requires = "sweep_from",
+        allow_negative_numbers = true
+    )]
     pub sweep_to: Option<f64>,
 }
 
