@@ -797,6 +797,8 @@ pub fn run(args: &SolveArgs) -> Result<()> {
                 if st.stable { "stable" } else { "unstable" },
                 st.max_multiplier
             )?;
+        } else if let Some(why) = &solution.stability_unknown {
+            crate::outln!("stability unknown: {why}")?;
         }
         for c in &solution.contacts {
             crate::outln!(
