@@ -205,6 +205,8 @@ fn a_hostile_path_is_escaped_in_error_messages() {
             "x\u{1b}[31m.txt",
         ],
         vec!["modes", "no\u{1b}]0;pwned\u{7}such.toml"],
+        // a usage error quotes the value clap refused
+        vec!["solve", &model, "--frequency", "\u{1b}[2J\u{9b}31m"],
     ] {
         let (status, _) = run(dir.path(), &args);
         assert_eq!(status, Some(1), "{args:?}");
