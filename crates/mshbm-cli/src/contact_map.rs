@@ -112,7 +112,7 @@ impl Panel<'_> {
         };
         let x_range = edges.first().map_or(0.0, |e| e.0)..edges.last().map_or(1.0, |e| e.1);
         let mut chart = ChartBuilder::on(&map)
-            .caption(&self.title, ("sans-serif", 20))
+            .caption(crate::output::one_line(&self.title), ("sans-serif", 20))
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(55)
@@ -213,7 +213,7 @@ impl FacePanel {
             });
         let (lo, hi) = if hi > lo { (lo, hi) } else { (lo, lo + 1.0) };
         let mut chart = ChartBuilder::on(&map)
-            .caption(&self.title, ("sans-serif", 20))
+            .caption(crate::output::one_line(&self.title), ("sans-serif", 20))
             .margin(10)
             .x_label_area_size(40)
             .y_label_area_size(55)
@@ -222,8 +222,8 @@ impl FacePanel {
             .configure_mesh()
             .disable_mesh()
             .label_style(("sans-serif", 14))
-            .x_desc(&self.axis_names.0)
-            .y_desc(&self.axis_names.1)
+            .x_desc(crate::output::one_line(&self.axis_names.0))
+            .y_desc(crate::output::one_line(&self.axis_names.1))
             .draw()?;
         chart.draw_series(
             self.x

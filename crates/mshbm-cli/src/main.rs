@@ -59,7 +59,10 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => return usage_error(&e),
+    };
     if let Err(e) = output::interrupt::install() {
         crate::note!("error: cannot install the SIGINT/SIGTERM handlers: {e:#}");
         return ExitCode::from(output::status::ERROR);
@@ -78,4 +81,88 @@ fn main() -> ExitCode {
         crate::note!("error: {e:#}");
     }
     ExitCode::from(output::status::exit_status(&result))
+}
+
+/// A command line clap refused, or `--help`/`--version`. Help and version are printed as
+/// clap prints them (exit status 0; the help shown for a missing subcommand exits with 1).
+/// A usage error is bad input: exit status 1 like every other (status 2 means "written but
+/// not converged", docs/safety.md), and clap's message without its usage block, on one
+/// line, with the hint to `--help` on a second.
+fn usage_error(e: &clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    match e.kind() {
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion => {
+            let _ = e.print();
+            ExitCode::from(output::status::SUCCESS)
+        }
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            let _ = e.print();
+            ExitCode::from(output::status::ERROR)
+        }
+        _ => {
+            for line in usage_error_lines(&e.render().to_string()) {
+                crate::note!("{line}");
+            }
+            ExitCode::from(output::status::ERROR)
+        }
+    }
+}
+
+/// The lines of clap's rendered error worth showing: blank lines and the `Usage:` block
+/// dropped, indented lines (a list of missing arguments, possible values, a tip) joined to
+/// the line they belong to.
+fn usage_error_lines(rendered: &str) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut in_usage = false;
+    for line in rendered.lines() {
+        let indented = line.starts_with(char::is_whitespace);
+        if line.trim().is_empty() {
+            in_usage = false;
+        } else if line.starts_with("Usage:") {
+            in_usage = true;
+        } else if in_usage && indented {
+            // the usage's continuation lines
+        } else if let (true, Some(last)) = (indented, lines.last_mut()) {
+            let line = line.trim();
+            last.push_str(if line.starts_with("tip:") { "; " } else { " " });
+            last.push_str(line);
+        } else {
+            in_usage = false;
+            lines.push(line.trim_end().to_string());
+        }
+    }
+    lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::usage_error_lines;
+
+    #[test]
+    fn usage_errors_keep_the_message_and_the_hint() {
+        let rendered = "error: the following required arguments were not provided:\n  --frequency <HZ>\n\nUsage: mshbm solve --frequency <HZ> <MODEL>\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            usage_error_lines(rendered),
+            [
+                "error: the following required arguments were not provided: --frequency <HZ>",
+                "For more information, try '--help'."
+            ]
+        );
+        let rendered = "error: unexpected argument '--thread' found\n\n  tip: a similar argument exists: '--threads'\n\nUsage: mshbm frf [OPTIONS] --from <HZ> --to <HZ> <MODEL>\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            usage_error_lines(rendered),
+            [
+                "error: unexpected argument '--thread' found; tip: a similar argument exists: '--threads'",
+                "For more information, try '--help'."
+            ]
+        );
+        let rendered = "error: invalid value 'jpg' for '--format <FORMAT>'\n  [possible values: png, svg]\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            usage_error_lines(rendered),
+            [
+                "error: invalid value 'jpg' for '--format <FORMAT>' [possible values: png, svg]",
+                "For more information, try '--help'."
+            ]
+        );
+    }
 }

@@ -9,7 +9,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::output::{write_atomic, OutputKind};
+use crate::output::{one_line as drawn, write_atomic, OutputKind};
 
 static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
@@ -214,7 +214,7 @@ impl Figure {
         root.fill(&WHITE).map_err(err)?;
         let ((x0, x1), (y0, y1)) = self.bounds();
         let mut chart = ChartBuilder::on(root)
-            .caption(&self.title, ("sans-serif", 22))
+            .caption(drawn(&self.title), ("sans-serif", 22))
             .margin(15)
             .x_label_area_size(50)
             .y_label_area_size(80)
@@ -222,8 +222,8 @@ impl Figure {
             .map_err(err)?;
         chart
             .configure_mesh()
-            .x_desc(&self.x_label)
-            .y_desc(&self.y_label)
+            .x_desc(drawn(&self.x_label))
+            .y_desc(drawn(&self.y_label))
             .label_style(("sans-serif", 15))
             .axis_desc_style(("sans-serif", 17))
             .light_line_style(RGBColor(235, 235, 235))
@@ -239,7 +239,7 @@ impl Figure {
                     style,
                 ))
                 .map_err(err)?
-                .label(&h.label)
+                .label(drawn(&h.label))
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], style));
         }
         for s in &self.series {
@@ -277,7 +277,7 @@ impl Figure {
                     .map_err(err)?,
             };
             if !s.label.is_empty() {
-                anno.label(&s.label)
+                anno.label(drawn(&s.label))
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], line));
             }
             if s.style == Style::LineAndMarkers {

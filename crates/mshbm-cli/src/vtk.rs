@@ -64,7 +64,7 @@ pub fn unstructured_grid(model: &Model, fields: &[(&str, &[f64])]) -> Result<Vec
     let vtk = Vtk {
         version: Version::new((1, 0)),
         byte_order: ByteOrder::LittleEndian,
-        title: model.name.clone(),
+        title: crate::output::one_line(&model.name),
         file_path: None,
         data: DataSet::inline(UnstructuredGridPiece {
             points: points.into(),

@@ -352,3 +352,62 @@ fn degenerate_contacts_are_refused() {
         "{err}"
     );
 }
+
+/// A command line clap refuses is bad input like any other: exit status 1 (2 means
+/// "written but not converged"), clap's message on one line and the hint to `--help` on a
+/// second, no usage block; values out of range reach the commands' own checks.
+#[test]
+fn usage_errors_exit_with_1_in_at_most_three_lines() {
+    let model = example("clamped_bar.toml");
+    let m = model.as_str();
+    let solve = |extra: &[&'static str]| {
+        let mut v = vec!["solve", m, "--frequency", "30000"];
+        v.extend_from_slice(extra);
+        v
+    };
+    let frf = |extra: &[&'static str]| {
+        let mut v = vec!["frf", m, "--from", "29000", "--to", "31000"];
+        v.extend_from_slice(extra);
+        v
+    };
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["solve", m, "--frequency", "-100"],
+        solve(&["--max-memory", "0"]),
+        solve(&["--max-memory", "nan"]),
+        solve(&["--harmonics", "1,,3"]),
+        solve(&["--tolerance", "-1"]),
+        solve(&["--output", ""]),
+        frf(&["--max-step", "-5"]),
+        frf(&["--threads", "0"]),
+        vec!["paper", "--format", "jpg"],
+        vec!["solve", m],
+        vec!["modes"],
+        vec!["no-such-command"],
+    ];
+    for args in cases {
+        let out = mshbm(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert!(
+            (1..=3).contains(&lines.len()) && lines[0].starts_with("error: "),
+            "{args:?}: {stderr}"
+        );
+        assert!(!stderr.contains("Usage:"), "{args:?}: {stderr}");
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
+    // a negative number is a value, checked by the command
+    let err = fails(&["solve", m, "--frequency", "-100"]);
+    assert!(err.contains("--frequency") && err.contains("-100"), "{err}");
+    // help and version are not errors
+    for args in [
+        vec!["--help"],
+        vec!["--version"],
+        vec!["solve", "--help"],
+        vec!["help", "frf"],
+    ] {
+        let out = mshbm(&args);
+        assert_eq!(out.status.code(), Some(0), "{args:?}");
+        assert!(!out.stdout.is_empty(), "{args:?}");
+    }
+}

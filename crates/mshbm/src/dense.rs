@@ -309,21 +309,50 @@ pub fn sequential_product(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     out
 }
 
-/// The eigenvalues of a real square matrix (Hessenberg reduction and the multishift QR
-/// algorithm), on the calling thread: the monodromy matrices of the Floquet analysis are a
-/// few hundred wide, where faer's parallel reduction spent more time handing work between
-/// threads than computing (BENCHMARKS.md §12).
-pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<c64>> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::linalg::evd::{evd_real, evd_scratch, ComputeEigenvectors, EvdParams};
+/// faer's parameters of the real eigenvalue problem with the Schur form always computed by
+/// the double-shift QR algorithm (`lahqr`, LAPACK's `dlahqr`), which gives up after
+/// `30 max(10, n)` iterations. faer's default for `n ≥ 75`, the multishift QR with
+/// aggressive early deflation, never returned on nearly defective matrices: the bubble
+/// sort of its deflation window's eigenvalues can cycle without end (issue 46: the
+/// monodromy `[[I, T I], [ε K, I]]` of a bar a trillion times too heavy, all multipliers 1,
+/// spun for hours in `real_schur::multishift_qr`). Measured on one core: the same time on
+/// the bar's 198 × 198 monodromies, up to 1.8 times longer at 400 × 400.
+fn bounded_evd_params() -> faer::Spec<faer::linalg::evd::EvdParams, f64> {
+    let mut params: faer::Spec<faer::linalg::evd::EvdParams, f64> = Default::default();
+    params.config.schur.blocking_threshold = usize::MAX;
+    params
+}
+
+/// A square matrix with finite entries for an eigenvalue problem; an error names `what`.
+fn check_eigen_input(a: MatRef<'_, f64>, what: &str) -> Result<()> {
     let n = a.nrows();
     if a.ncols() != n {
         return Err(Error::Numerical(format!(
-            "eigenvalues of a {n} × {} matrix: it is not square",
+            "{what}: eigenvalues of a {n} × {} matrix: it is not square",
             a.ncols()
         )));
     }
-    let params: faer::Spec<EvdParams, f64> = Default::default();
+    let finite = (0..n).all(|j| (0..n).all(|i| a[(i, j)].is_finite()));
+    if !finite {
+        return Err(Error::Numerical(format!(
+            "{what}: the {n} × {n} matrix has entries that are not finite (NaN or infinity)"
+        )));
+    }
+    Ok(())
+}
+
+/// The eigenvalues of a real square matrix (Hessenberg reduction and the double-shift QR
+/// algorithm with its iteration cap, see [`bounded_evd_params`]), on the calling thread:
+/// the monodromy matrices of the Floquet analysis are a few hundred wide, where faer's
+/// parallel reduction spent more time handing work between threads than computing
+/// (BENCHMARKS.md §12). A matrix with a NaN or an infinity, or one whose QR iteration does
+/// not converge, is an error, never a hang.
+pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<c64>> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{evd_real, evd_scratch, ComputeEigenvectors};
+    check_eigen_input(a, "eigenvalue solver")?;
+    let n = a.nrows();
+    let params = bounded_evd_params();
     let mut re = faer::diag::Diag::<f64>::zeros(n);
     let mut im = faer::diag::Diag::<f64>::zeros(n);
     let mut mem = MemBuffer::new(evd_scratch::<f64>(
@@ -347,9 +376,99 @@ pub fn eigenvalues(a: MatRef<'_, f64>) -> Result<Vec<c64>> {
     Ok((0..n).map(|i| c64::new(re[i], im[i])).collect())
 }
 
+/// The eigenvalues and right eigenvectors (columns, complex) of a real square matrix, as
+/// faer's `Mat::eigen` gives them, but with the iteration cap of [`eigenvalues`]: an error,
+/// never a hang, for a non-finite or (nearly) defective matrix.
+pub fn eigen(a: MatRef<'_, f64>) -> Result<(Vec<c64>, Mat<c64>)> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::evd::{evd_real, evd_scratch, ComputeEigenvectors};
+    check_eigen_input(a, "eigendecomposition")?;
+    let n = a.nrows();
+    let params = bounded_evd_params();
+    let par = faer::get_global_parallelism();
+    let mut u = Mat::<f64>::zeros(n, n);
+    let mut re = faer::diag::Diag::<f64>::zeros(n);
+    let mut im = faer::diag::Diag::<f64>::zeros(n);
+    let mut mem = MemBuffer::new(evd_scratch::<f64>(
+        n,
+        ComputeEigenvectors::No,
+        ComputeEigenvectors::Yes,
+        par,
+        params,
+    ));
+    evd_real(
+        a,
+        re.as_mut(),
+        im.as_mut(),
+        None,
+        Some(u.as_mut()),
+        par,
+        MemStack::new(&mut mem),
+        params,
+    )
+    .map_err(|e| Error::Numerical(format!("eigendecomposition: {e:?}")))?;
+    // a complex pair holds its eigenvector's real and imaginary parts in two columns
+    let mut values = Vec::with_capacity(n);
+    let mut vectors = Mat::<c64>::zeros(n, n);
+    let mut j = 0;
+    while j < n {
+        if im[j] == 0.0 || j + 1 == n {
+            values.push(c64::new(re[j], 0.0));
+            for i in 0..n {
+                vectors[(i, j)] = c64::new(u[(i, j)], 0.0);
+            }
+            j += 1;
+        } else {
+            values.push(c64::new(re[j], im[j]));
+            values.push(c64::new(re[j], -im[j]));
+            for i in 0..n {
+                vectors[(i, j)] = c64::new(u[(i, j)], u[(i, j + 1)]);
+                vectors[(i, j + 1)] = c64::new(u[(i, j)], -u[(i, j + 1)]);
+            }
+            j += 2;
+        }
+    }
+    Ok((values, vectors))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `eigen` gives eigenpairs (`A v = λ v`, a complex pair included) and the values of
+    /// `eigenvalues`; a NaN or an infinity is refused by both, never iterated on.
+    #[test]
+    fn eigen_solves_give_eigenpairs_and_refuse_non_finite_matrices() {
+        let rows = [[0.0, 1.0, 0.0], [-2.0, -0.1, 1.0], [0.5, 0.0, -1.0]];
+        let mut a = Mat::from_fn(3, 3, |i, j| rows[i][j]);
+        let (values, vectors) = eigen(a.as_ref()).unwrap();
+        assert!(
+            values.iter().any(|v| v.im != 0.0),
+            "a complex pair: {values:?}"
+        );
+        for (k, &l) in values.iter().enumerate() {
+            for i in 0..3 {
+                let av: c64 = (0..3).map(|j| vectors[(j, k)] * a[(i, j)]).sum();
+                assert!(
+                    (av - l * vectors[(i, k)]).norm() < 1e-12,
+                    "{k}: {av} vs {l}"
+                );
+            }
+        }
+        let only = eigenvalues(a.as_ref()).unwrap();
+        for l in &values {
+            assert!(
+                only.iter().any(|m| (m - l).norm() < 1e-12),
+                "{l} in {only:?}"
+            );
+        }
+        for bad in [f64::NAN, f64::INFINITY] {
+            a[(1, 2)] = bad;
+            let err = eigenvalues(a.as_ref()).unwrap_err().to_string();
+            assert!(err.contains("not finite"), "{err}");
+            assert!(eigen(a.as_ref()).is_err());
+        }
+    }
 
     /// The sign of the determinant from the LU against the cofactor expansion of 3 × 3
     /// matrices that need row exchanges (zero leading pivots) and of their row swaps.

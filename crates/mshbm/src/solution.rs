@@ -140,6 +140,11 @@ pub struct PeriodicSolution {
     /// Floquet multipliers and stability, when computed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stability: Option<crate::stability::Floquet>,
+    /// Why the stability is unknown: the multipliers were asked for and could not be
+    /// computed (an eigenvalue problem that did not converge, a monodromy that is not
+    /// finite); `stability` is then `None`. `None` when they were computed or not asked for.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stability_unknown: Option<String>,
     /// The method's unknowns `x` (e.g. the harmonics of every contact-node DOF of the
     /// redistributed MS-HBM, eq. 31), so that a later solve can start from this solution
     /// (`mshbm solve --from-solution`); set by [`crate::solve::solve_periodic`].

@@ -31,11 +31,11 @@ pub struct FrfArgs {
     pub model: ModelArgs,
 
     /// Start frequency [Hz] (the branch starts from the linear response here).
-    #[arg(long = "from", value_name = "HZ")]
+    #[arg(long = "from", value_name = "HZ", allow_negative_numbers = true)]
     pub from_hz: f64,
 
     /// End frequency [Hz] (below --from for a downward sweep).
-    #[arg(long = "to", value_name = "HZ")]
+    #[arg(long = "to", value_name = "HZ", allow_negative_numbers = true)]
     pub to_hz: f64,
 
     /// Numbers of harmonics, comma-separated: one branch each, overlaid in one plot.
@@ -47,26 +47,27 @@ pub struct FrfArgs {
 
     /// Initial arclength step (dimensionless: x scaled by the model's length scale, ω by
     /// the start frequency).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
     pub step: f64,
 
     /// Largest arclength step.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub max_step: f64,
 
     /// Smallest arclength step; below it the continuation stops and reports why. Grazing
     /// contacts turn the branch within very short arcs, so this is small.
-    #[arg(long, default_value_t = 1e-12)]
+    #[arg(long, default_value_t = 1e-12, allow_negative_numbers = true)]
     pub min_step: f64,
 
     /// Largest turn of the tangent between two points [degrees].
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     pub max_turn: f64,
 
     /// CSV file, one row per point (streamed to a temporary file beside it as points are
     /// found, renamed into place when the run ends):
     /// frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,
-    /// stable,max_multiplier (the last two empty without --stability). The last line says
+    /// stable,max_multiplier (the last two empty without --stability; `unknown` and empty
+    /// where the multipliers could not be computed). The last line says
     /// how the run ended: `# finished: ...` or `# incomplete: ...` (a branch stopped early,
     /// or SIGINT/SIGTERM).
     #[arg(long, value_name = "FILE")]
@@ -252,7 +253,11 @@ pub fn frd_csv_row(
         point.residual_norm,
         point.newton_iterations,
         point.fold,
-        point.stable.map(|b| b.to_string()).unwrap_or_default(),
+        match (point.stable, &point.stability_unknown) {
+            (Some(b), _) => b.to_string(),
+            (None, Some(_)) => "unknown".into(),
+            (None, None) => String::new(),
+        },
         point
             .max_multiplier
             .map(|m| format!("{m:.9}"))
@@ -490,7 +495,11 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     } else {
         None
     };
+    let unknown = stability_unknown_lines(&report.branches);
     if let Some(mut csv) = output.csv.take() {
+        for line in &unknown {
+            csv.comment(line)?;
+        }
         // where the stability changes, with how (a fold, a period doubling, a
         // Neimark–Sacker bifurcation), between the two points of different verdicts
         for b in &report.bifurcations {
@@ -533,6 +542,9 @@ pub fn run(args: &FrfArgs) -> Result<()> {
                 if f.at_kink { " (at a kink)" } else { "" }
             )?;
         }
+        for line in &unknown {
+            crate::outln!("{line}")?;
+        }
         for b in &report.bifurcations {
             crate::outln!(
                 "stability change ({}): {} near {:.3} Hz",
@@ -552,6 +564,28 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         .into());
     }
     Ok(())
+}
+
+/// One line per branch with points whose stability is unknown (asked for, not computable):
+/// how many, and the first with its reason.
+fn stability_unknown_lines(branches: &[mshbm::frd::BranchReport]) -> Vec<String> {
+    branches
+        .iter()
+        .filter_map(|b| {
+            let mut unknown = b.points.iter().filter_map(|p| {
+                p.stability_unknown
+                    .as_ref()
+                    .map(|why| (p.frequency_hz, why))
+            });
+            let (hz, why) = unknown.next()?;
+            Some(format!(
+                "stability unknown ({}): {} of {} points, first at {hz:.3} Hz: {why}",
+                b.label,
+                1 + unknown.count(),
+                b.points.len()
+            ))
+        })
+        .collect()
 }
 
 /// How a multiplier crosses the unit circle, for people.

@@ -35,7 +35,7 @@ pub struct ModelArgs {
 
     /// Memory budget [GiB] that a model and a computation may plan to use; larger ones are
     /// refused before anything is allocated. Default: the machine's physical memory.
-    #[arg(long, value_name = "GIB", value_parser = parse_memory_gib)]
+    #[arg(long, value_name = "GIB", value_parser = parse_memory_gib, allow_negative_numbers = true)]
     pub max_memory: Option<f64>,
 }
 

@@ -98,7 +98,7 @@ pub fn run(args: &ModesArgs) -> Result<()> {
     if args.json {
         crate::outln!("{}", to_json("standard output", &report)?)?;
     } else {
-        crate::outln!("{}", model.name)?;
+        crate::outln!("{}", crate::output::one_line(&model.name))?;
         crate::outln!(
             "{:>5} {:>18} {:>18} {:>14}",
             "mode",

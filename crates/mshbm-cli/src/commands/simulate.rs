@@ -77,16 +77,21 @@ pub struct SimulateArgs {
     /// harmonic load; for free problems it only sets the period that --periods and
     /// --steps-per-period refer to (default period: the closed-form period of a dropped bar,
     /// otherwise the first eigenperiod).
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     pub frequency: Option<f64>,
 
     /// Length of the run in periods (default: 2 for free problems, 20 for forced ones).
     /// With --steady-state: the period limit (default 1000).
-    #[arg(long, value_name = "P", conflicts_with = "duration")]
+    #[arg(
+        long,
+        value_name = "P",
+        conflicts_with = "duration",
+        allow_negative_numbers = true
+    )]
     pub periods: Option<f64>,
 
     /// Length of the run [s] (instead of --periods).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub duration: Option<f64>,
 
     /// Time steps per period (default: 2000 for forced problems and with --steady-state,
@@ -95,7 +100,7 @@ pub struct SimulateArgs {
     pub steps_per_period: Option<usize>,
 
     /// Time step [s] (instead of --steps-per-period).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_negative_numbers = true)]
     pub dt: Option<f64>,
 
     /// Time-stepping scheme. Default: `redistributed` for models with contacts (the
@@ -107,12 +112,12 @@ pub struct SimulateArgs {
 
     /// Restitution coefficient e_N in [0, 1] of Newton's impact law (--scheme moreau;
     /// default 0).
-    #[arg(long, value_name = "E")]
+    #[arg(long, value_name = "E", allow_negative_numbers = true)]
     pub restitution: Option<f64>,
 
     /// θ in [0.5, 1] of the Moreau–Jean scheme (--scheme moreau; default 0.5, no numerical
     /// damping; θ > 0.5 dissipates).
-    #[arg(long, value_name = "T")]
+    #[arg(long, value_name = "T", allow_negative_numbers = true)]
     pub theta: Option<f64>,
 
     /// Integrate period by period until the response repeats (--periodicity) to --tolerance
@@ -128,7 +133,7 @@ pub struct SimulateArgs {
 
     /// Steady state: largest period-to-period change (--periodicity) counted as a repeat
     /// (default: 1e-3 for the response, 1e-6 for the state).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub tolerance: Option<f64>,
 
     /// Steady state: number of harmonics H of the reported Fourier coefficients.
@@ -628,7 +633,7 @@ fn report_steady(model: &Model, scheme: &str, s: &SteadyState, json: Option<Stri
     let sol = &s.solution;
     crate::outln!(
         "{} at {} Hz: {scheme}, {} steps per period",
-        model.name,
+        crate::output::one_line(&model.name),
         sol.frequency_hz,
         sol.samples
     )?;
@@ -744,7 +749,7 @@ fn report_transient(
     }
     crate::outln!(
         "{}: {scheme}, dt = {dt:.4e} s, {steps} steps, t = 0 .. {t_end:.6e} s",
-        model.name
+        crate::output::one_line(&model.name)
     )?;
     for c in 0..st.min_gap.len() {
         crate::outln!(

@@ -21,6 +21,7 @@ use mshbm::{MassKind, Model};
 use super::ModelArgs;
 use crate::output::finite::to_json;
 use crate::output::status::NotConverged;
+use crate::output::stream::comment_text;
 use crate::output::{write_csv_atomic, OutputKind, OutputPlan};
 use crate::plot::{Figure, HLine, Series, Style};
 
@@ -153,7 +154,7 @@ pub struct MethodArgs {
 
     /// Newton tolerance: max-norm of the residual relative to the model's length scale
     /// (the largest gap or static deflection of the contact DOFs).
-    #[arg(long, default_value_t = 1e-10)]
+    #[arg(long, default_value_t = 1e-10, allow_negative_numbers = true)]
     pub tolerance: f64,
 
     /// Newton iteration limit per solution.
@@ -338,7 +339,7 @@ pub struct SolveArgs {
     pub model: ModelArgs,
 
     /// Excitation frequency [Hz].
-    #[arg(long, value_name = "HZ")]
+    #[arg(long, value_name = "HZ", allow_negative_numbers = true)]
     pub frequency: f64,
 
     /// Number of harmonics H of the linear part.
@@ -411,12 +412,22 @@ pub struct SolveArgs {
     /// branch folds, several solutions coexist (e.g. above a resonance bent by contact,
     /// where the contact-free solution coexists with contacting ones). The first one met
     /// is written; the others are listed.
-    #[arg(long, value_name = "HZ", conflicts_with = "start")]
+    #[arg(
+        long,
+        value_name = "HZ",
+        conflicts_with = "start",
+        allow_negative_numbers = true
+    )]
     pub sweep_from: Option<f64>,
 
     /// End of the sweep [Hz] (default: 1.5 × --frequency, or --frequency / 1.5 when the
     /// sweep starts above it).
-    #[arg(long, value_name = "HZ", requires = "sweep_from")]
+    #[arg(
+        long,
+        value_name = "HZ",
+        requires = "sweep_from",
+        allow_negative_numbers = true
+    )]
     pub sweep_to: Option<f64>,
 }
 
@@ -739,14 +750,14 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     if let Some(path) = &args.output {
         let mut csv = time_series_csv(&solution);
         if let Some(why) = &not_converged {
-            csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
+            csv.push_str(&format!("# not converged: {}\n", comment_text(why)));
         }
         write_csv_atomic(path, &csv)?;
     }
     if let Some(path) = &args.contacts_csv {
         let mut csv = crate::contact_map::contacts_csv(&model, &solution);
         if let Some(why) = &not_converged {
-            csv.push_str(&format!("# not converged: {}\n", why.replace('\n', " ")));
+            csv.push_str(&format!("# not converged: {}\n", comment_text(why)));
         }
         write_csv_atomic(path, &csv)?;
     }
@@ -768,7 +779,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     } else {
         crate::outln!(
             "{} at {} Hz, H = {}, {} samples, {} quadrature, {label}",
-            model.name,
+            crate::output::one_line(&model.name),
             args.frequency,
             solution.harmonics,
             solution.samples,
@@ -786,6 +797,8 @@ pub fn run(args: &SolveArgs) -> Result<()> {
                 if st.stable { "stable" } else { "unstable" },
                 st.max_multiplier
             )?;
+        } else if let Some(why) = &solution.stability_unknown {
+            crate::outln!("stability unknown: {why}")?;
         }
         for c in &solution.contacts {
             crate::outln!(

@@ -10,6 +10,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use mshbm::model::excerpt::{escape_controls, LineBreaks};
 use tempfile::NamedTempFile;
 
 use super::finite::check_csv_line;
@@ -131,12 +132,15 @@ pub fn write_atomic(path: &Path, contents: &[u8], kind: OutputKind) -> Result<()
 }
 
 /// Write a CSV text to `path` atomically, after checking that it holds no NaN or infinity
-/// (the first line is the header naming the columns; `#` lines are comments).
+/// (the first line is the header naming the columns; `#` lines are comments), with control
+/// characters other than line breaks and tabs escaped.
 pub fn write_csv_atomic(path: &Path, text: &str) -> Result<()> {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     for (row, line) in lines.enumerate() {
         check_csv_line(path, header, row + 1, line)?;
     }
+    // a name or message in a comment line cannot carry terminal escapes into the file
+    let text = escape_controls(text, LineBreaks::Keep);
     write_atomic(path, text.as_bytes(), OutputKind::Data)
 }

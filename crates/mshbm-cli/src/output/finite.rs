@@ -43,7 +43,23 @@ pub fn check_json<T: Serialize + ?Sized>(destination: &str, value: &T) -> Result
 /// Serialize `value` to one line of JSON after [`check_json`].
 pub fn to_json<T: Serialize + ?Sized>(destination: &str, value: &T) -> Result<String> {
     check_json(destination, value)?;
-    Ok(serde_json::to_string(value)?)
+    let json = serde_json::to_string(value)?;
+    // serde_json escapes C0 control characters; DEL and C1 (U+007F–U+009F), which can only
+    // stand in strings, are escaped here too, so that no control character of an input
+    // (a model's name) reaches a terminal
+    if !json.chars().any(char::is_control) {
+        return Ok(json);
+    }
+    Ok(json
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                format!("\\u{:04x}", u32::from(c))
+            } else {
+                c.to_string()
+            }
+        })
+        .collect())
 }
 
 /// The field path of the first non-finite number (the serializer's "error").

@@ -11,7 +11,9 @@
 //!   comment line saying how the run ended.
 //! * [`interrupt`]: SIGINT/SIGTERM set a flag that long runs check.
 //! * [`finite`]: no NaN or infinity reaches a CSV or JSON output.
-//! * [`stdout`]: writing to stdout reports errors instead of panicking.
+//! * [`stdout`]: writing to stdout reports errors instead of panicking; control characters
+//!   are escaped on stdout and stderr, and [`one_line`] escapes input text (a model's
+//!   name) wherever it is shown: a line of text, a CSV comment, a plot's title.
 //! * [`status`]: the exit statuses (0 done, 1 error, 2 computed but not converged, 130
 //!   interrupted).
 
@@ -25,3 +27,10 @@ pub mod stream;
 
 pub use atomic::{write_atomic, write_csv_atomic};
 pub use plan::{OutputKind, OutputPlan};
+
+/// Input text (a model's name, a title holding it) as shown on one line of any output:
+/// every control character escaped (`\u{1b}`, `\n`), docs/safety.md "Escaped messages".
+pub fn one_line(text: &str) -> String {
+    mshbm::model::excerpt::escape_controls(text, mshbm::model::excerpt::LineBreaks::Escape)
+        .into_owned()
+}

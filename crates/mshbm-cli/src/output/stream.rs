@@ -68,15 +68,22 @@ impl StreamedCsv {
 
     /// Append the comment line `# {text}` (CSV readers skip it with `comment="#"`).
     pub fn comment(&mut self, text: &str) -> Result<()> {
-        let line = format!("# {}\n", text.replace('\n', " "));
+        let line = format!("# {}\n", comment_text(text));
         self.file.write_all(line.as_bytes())?;
         Ok(())
     }
 
     /// End the file with `# {status}` and rename it into place.
     pub fn finish(mut self, status: &str) -> Result<()> {
-        let line = format!("# {}\n", status.replace('\n', " "));
+        let line = format!("# {}\n", comment_text(status));
         self.file.write_all(line.as_bytes())?;
         self.file.commit()
     }
+}
+
+/// `text` on one comment line: line breaks become spaces, other control characters are
+/// escaped (`\u{1b}`), so that a model's name or a message cannot break the CSV or act on a
+/// terminal that shows it.
+pub fn comment_text(text: &str) -> String {
+    super::one_line(&text.replace('\n', " "))
 }

@@ -28,6 +28,11 @@ pub struct FrdPoint {
     /// Largest Floquet multiplier modulus, when computed.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_multiplier: Option<f64>,
+    /// Why the stability is unknown: asked for (`FrdSettings::stability`) and not
+    /// computable at this point (e.g. an eigenvalue problem that did not converge);
+    /// `stable` and `max_multiplier` are then `None`, and the diagram goes on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stability_unknown: Option<String>,
     /// HBM-AFT: largest penetration `max(−g)` over the contacts and the time samples.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_penetration: Option<f64>,

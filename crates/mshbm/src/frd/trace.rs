@@ -154,10 +154,15 @@ pub fn trace_frd_branch(
         };
         let fold = matches!(event, Event::Fold(_));
         let s = p.diagram_point(x, omega, dof)?;
-        let floquet = if settings.stability {
-            p.floquet(x, omega)?
+        // a verdict that cannot be computed is "unknown" at this point, not the end of
+        // the diagram
+        let (floquet, stability_unknown) = if settings.stability {
+            match p.floquet(x, omega) {
+                Ok(f) => (f, None),
+                Err(e) => (None, Some(e.to_string())),
+            }
         } else {
-            None
+            (None, None)
         };
         if let (Some(now), false) = (&floquet, fold) {
             let hz = omega / (2.0 * std::f64::consts::PI);
@@ -179,6 +184,7 @@ pub fn trace_frd_branch(
             fold,
             stable: floquet.as_ref().map(|f| f.stable),
             max_multiplier: floquet.as_ref().map(|f| f.max_multiplier),
+            stability_unknown,
             max_penetration: s.max_penetration,
         };
         observer.point(&info, &point, points.len() + 1, step)?;

@@ -384,6 +384,7 @@ pub fn simulate_to_steady_state(
                 min: rmin,
             },
             stability: None,
+            stability_unknown: None,
             unknowns: contact_displacements,
             contact_node_harmonics,
             dissipated_energy: None,

@@ -158,6 +158,7 @@ pub(crate) fn periodic_solution(
         frictions: parts.frictions,
         response: parts.response,
         stability: None,
+        stability_unknown: None,
         unknowns: None,
         contact_node_harmonics: None,
         dissipated_energy: None,

@@ -108,7 +108,8 @@ pub struct Solved {
     pub solution: PeriodicSolution,
     pub label: String,
     pub outcome: NewtonOutcome,
-    /// Why the multipliers of a converged solution could not be computed, if they could not.
+    /// Why the multipliers of a converged solution could not be computed, if they could not
+    /// (the solution's stability is then unknown, `PeriodicSolution::stability_unknown`).
     pub stability_error: Option<Error>,
     /// How the solution was reached.
     pub path: SolvePath,
@@ -161,7 +162,10 @@ pub fn solve_periodic(
     if outcome.converged && settings.stability {
         match problem.floquet(&outcome.x, omega) {
             Ok(st) => solution.stability = st,
-            Err(e) => stability_error = Some(e),
+            Err(e) => {
+                solution.stability_unknown = Some(e.to_string());
+                stability_error = Some(e);
+            }
         }
     }
     let mut other_solutions = Vec::with_capacity(others.len());
@@ -169,7 +173,10 @@ pub fn solve_periodic(
         let mut s = solution_at(problem, &x, omega, dof)?;
         s.converged = true;
         if settings.stability {
-            s.stability = problem.floquet(&x, omega).ok().flatten();
+            match problem.floquet(&x, omega) {
+                Ok(st) => s.stability = st,
+                Err(e) => s.stability_unknown = Some(e.to_string()),
+            }
         }
         other_solutions.push(s);
     }

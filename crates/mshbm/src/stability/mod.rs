@@ -285,12 +285,15 @@ impl ReducedSystem {
         modes: Option<usize>,
     ) -> Self {
         let r = minv_stiffness.nrows();
-        // the largest column sum of M̄⁻¹ K bounds the largest ω²
+        // the largest column sum of M̄⁻¹ K bounds the largest ω². Balanced at that frequency
+        // however low it is (it was clamped at 1 rad/s: a bar 5·10¹⁹ times too heavy then
+        // had blocks 1 and 10⁻²⁰ apart, no modal form and a nearly defective monodromy,
+        // issue 46); 1 only for a structure without stiffness
         let w_ref = (0..r)
             .map(|j| (0..r).map(|i| minv_stiffness[(i, j)].abs()).sum::<f64>())
             .fold(0.0f64, f64::max)
-            .sqrt()
-            .max(1.0);
+            .sqrt();
+        let w_ref = if w_ref.is_normal() { w_ref } else { 1.0 };
         ReducedSystem {
             minv_damping,
             minv_stiffness,

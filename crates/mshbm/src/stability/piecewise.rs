@@ -54,8 +54,7 @@ impl RealModalForm {
     /// `a` to `1e-10` relative (defective or nearly defective matrices).
     pub fn new(a: &Mat<f64>) -> Option<Self> {
         let n = a.nrows();
-        let eig = a.eigen().ok()?;
-        let (u, s) = (eig.U(), eig.S().column_vector());
+        let (s, u) = crate::dense::eigen(a.as_ref()).ok()?;
         let scale = (0..n).fold(0.0f64, |m, i| m.max(s[i].norm()));
         let is_real = |l: c64| l.im.abs() <= 1e-13 * scale;
         let mut v = Mat::<f64>::zeros(n, n);
@@ -224,8 +223,21 @@ impl PiecewiseLinearSystems {
     /// The Floquet multipliers of `ż = 𝔄_{g_s} z` on consecutive intervals `(g_s, Δt_s)`
     /// (time order, lengths in seconds, the sequence covering one period): the eigenvalues
     /// of the monodromy (T81), from the cyclic modal product (T141), or from dense
-    /// exponentials when a system has no well-conditioned modal form.
+    /// exponentials when a system has no well-conditioned modal form. A multiplier that is
+    /// not finite (an exponential that overflowed) is an error: the stability is unknown,
+    /// not "unstable with modulus inf".
     pub fn multipliers(&mut self, pieces: &[(usize, f64)]) -> Result<Vec<c64>> {
+        let values = self.multipliers_unchecked(pieces)?;
+        if values.iter().all(|v| v.re.is_finite() && v.im.is_finite()) {
+            Ok(values)
+        } else {
+            Err(crate::error::Error::Numerical(
+                "Floquet multipliers: the monodromy over one period is not finite (an exponential overflowed)".into(),
+            ))
+        }
+    }
+
+    fn multipliers_unchecked(&mut self, pieces: &[(usize, f64)]) -> Result<Vec<c64>> {
         let pieces = merged_cycle(pieces);
         let eigenvalues = |m: Mat<f64>| crate::dense::eigenvalues(m.as_ref());
         if pieces.iter().any(|&(g, _)| self.systems[g].1.is_none()) {
@@ -394,6 +406,22 @@ mod tests {
                 m.max((expm[(i, j)] - reference[(i, j)]).abs())
             });
         assert!(err < 1e-12, "{err}");
+    }
+
+    #[test]
+    fn an_overflowing_monodromy_is_an_error_not_an_infinite_multiplier() {
+        // negative damping: growth e^{1000} over the period
+        let mut systems = PiecewiseLinearSystems::new();
+        let g = systems
+            .index_of(&[true], || Ok(chain(1.0, -2000.0)))
+            .unwrap();
+        let h = systems
+            .index_of(&[false], || Ok(chain(0.0, -2000.0)))
+            .unwrap();
+        for pieces in [vec![(g, 1.0)], vec![(g, 0.5), (h, 0.5)]] {
+            let err = systems.multipliers(&pieces).unwrap_err().to_string();
+            assert!(err.contains("not finite"), "{pieces:?}: {err}");
+        }
     }
 
     #[test]

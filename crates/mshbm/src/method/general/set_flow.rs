@@ -328,11 +328,8 @@ impl SetFlow {
 /// relative (a defective or nearly defective `A`: critically damped modes).
 fn modal_form(a: &Mat<f64>) -> Result<(Vec<c64>, Mat<c64>, Mat<c64>)> {
     let n = a.nrows();
-    let eig = a
-        .eigen()
-        .map_err(|e| Error::Numerical(format!("modes of the nonlinear subsystem: {e:?}")))?;
-    let v = eig.U().to_owned();
-    let l: Vec<c64> = (0..n).map(|i| eig.S().column_vector()[i]).collect();
+    let (l, v) = crate::dense::eigen(a.as_ref())
+        .map_err(|e| Error::Numerical(format!("modes of the nonlinear subsystem: {e}")))?;
     let v_inv = v.partial_piv_lu().solve(Mat::<c64>::identity(n, n));
     let mut worst = 0.0f64;
     for i in 0..n {
