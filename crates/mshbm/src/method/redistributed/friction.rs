@@ -668,13 +668,18 @@ impl<'a> March<'a> {
         let mut cascade: Option<Cascade> = None;
         // the (contact, mode) pairs left at the current instant
         let mut left: Vec<(usize, Mode)> = Vec::new();
+        let mut stale = true;
         for cell in 0..self.cells {
             let end = 2.0 * PI * (cell + 1) as f64 / self.cells as f64;
             loop {
                 if tau >= end {
                     break;
                 }
-                self.indicator_coefficients(current, &anchors, &mut coefs, &mut scratch);
+                // the indicators change only with the modes and anchors, i.e. at a flip
+                if stale {
+                    self.indicator_coefficients(current, &anchors, &mut coefs, &mut scratch);
+                    stale = false;
+                }
                 if coefs.is_empty() {
                     break;
                 }
@@ -701,6 +706,7 @@ impl<'a> March<'a> {
                     });
                 }
                 last_flip = t;
+                stale = true;
                 self.add_phase(
                     current,
                     phase_start,
