@@ -12,14 +12,14 @@ use faer::Mat;
 use super::frequency_maps::{FrequencyMatrices, Map};
 use super::friction::PeriodicContact;
 use super::jacobian::times_each_coefficient_into;
-use super::{n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS};
+use super::{
+    dof_response, n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS,
+};
 use crate::error::{Error, Result};
-use crate::harmonic::{basis_into, evaluate, n_coefficients};
-use crate::method::fixed_response;
+use crate::harmonic::{basis_into, n_coefficients};
 use crate::method::partition::DofLocation;
-use crate::method::{periodic_solution, SolutionParts};
 use crate::model::{System, SystemContact};
-use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
+use crate::solution::{ContactSeries, FrictionSeries, PeriodicSolution};
 
 /// `system` with its contacts' tangents appended as contact coordinates (T150), and the
 /// friction coefficients, when its contacts have friction; `system` unchanged otherwise.
@@ -215,45 +215,18 @@ impl RedistributedMsHbm {
                 force,
             });
         }
-        let response = match location {
-            DofLocation::Fixed => fixed_response(response_dof, h),
-            DofLocation::Nonlinear(i) => {
+        let response = dof_response(
+            location,
+            response_dof,
+            (&q_n, n_n),
+            (&q_rows, width),
+            &taus,
+            |i| {
                 let (_, max, min) = extremes(i);
-                DofResponse {
-                    dof: response_dof,
-                    coefficients: n_dof_coefficients(&q_n, n_n, h, i),
-                    max,
-                    min,
-                }
-            }
-            DofLocation::Linear(_) => {
-                let coefficients: Vec<f64> = (0..ncoef).map(|m| q_rows[m * width + n_n]).collect();
-                let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
-                let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
-                let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
-                DofResponse {
-                    dof: response_dof,
-                    coefficients,
-                    max,
-                    min,
-                }
-            }
-        };
-        let mut solution = periodic_solution(
-            &self.system,
-            &self.partition,
-            omega,
-            SolutionParts {
-                method: crate::solution::MethodKind::Redistributed,
-                quadrature: self.quadrature,
-                harmonics: h,
-                taus: &taus,
-                residual: &residual,
-                contacts,
-                frictions,
-                response,
+                (max, min)
             },
         );
+        let mut solution = self.solution_of(omega, &taus, &residual, contacts, frictions, response);
         solution.contact_node_harmonics = Some(q_n);
         solution.contact_dofs.truncate(n_c);
         solution.dissipated_energy = Some(law.dissipated_energy(4 * taus.len()));

@@ -944,45 +944,15 @@ impl RedistributedMsHbm {
                 min,
             });
         }
-        let response = match location {
-            DofLocation::Fixed => fixed_response(response_dof, h),
-            DofLocation::Nonlinear(i) => {
-                let (max, min) = interval_extremes.unwrap_or_else(|| n_extremes(i));
-                DofResponse {
-                    dof: response_dof,
-                    coefficients: n_dof_coefficients(&q_n, n_n, h, i),
-                    max,
-                    min,
-                }
-            }
-            DofLocation::Linear(_) => {
-                let coefficients: Vec<f64> = (0..ncoef).map(|m| q_rows[m * width + n_n]).collect();
-                let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
-                let max = refine_extremum(&taus, &samples, 1.0, |t| evaluate(&coefficients, t));
-                let min = refine_extremum(&taus, &samples, -1.0, |t| evaluate(&coefficients, t));
-                DofResponse {
-                    dof: response_dof,
-                    coefficients,
-                    max,
-                    min,
-                }
-            }
-        };
-        let mut solution = periodic_solution(
-            &self.system,
-            &self.partition,
-            omega,
-            SolutionParts {
-                method: crate::solution::MethodKind::Redistributed,
-                quadrature: self.quadrature,
-                harmonics: h,
-                taus: &taus,
-                residual: &residual,
-                contacts,
-                frictions: vec![],
-                response,
-            },
+        let response = dof_response(
+            location,
+            response_dof,
+            (&q_n, n_n),
+            (&q_rows, width),
+            &taus,
+            |i| interval_extremes.unwrap_or_else(|| n_extremes(i)),
         );
+        let mut solution = self.solution_of(omega, &taus, &residual, contacts, vec![], response);
         solution.contact_node_harmonics = Some(q_n);
         Ok(solution)
     }
@@ -1096,6 +1066,75 @@ impl PeriodicProblem for RedistributedMsHbm {
             .collect();
         let values = self.stability_pieces.multipliers(&pieces)?;
         Ok(Some(crate::stability::Floquet::from_eigenvalues(values)))
+    }
+}
+
+/// The response DOF's harmonics and extremes: zeros for a fixed DOF; for a contact-node
+/// DOF `i` its coefficients in `q_n` (`n_n` per coefficient) with the extremes of its time
+/// signal from `extremes(i)`; for a linear DOF the series in the last column of `q_rows`
+/// (`width` per coefficient), its extremes refined between the samples at `taus`.
+pub(super) fn dof_response(
+    location: DofLocation,
+    response_dof: usize,
+    (q_n, n_n): (&[f64], usize),
+    (q_rows, width): (&[f64], usize),
+    taus: &[f64],
+    extremes: impl FnOnce(usize) -> (f64, f64),
+) -> DofResponse {
+    let ncoef = q_rows.len() / width;
+    let h = (ncoef - 1) / 2;
+    match location {
+        DofLocation::Fixed => fixed_response(response_dof, h),
+        DofLocation::Nonlinear(i) => {
+            let (max, min) = extremes(i);
+            DofResponse {
+                dof: response_dof,
+                coefficients: n_dof_coefficients(q_n, n_n, h, i),
+                max,
+                min,
+            }
+        }
+        DofLocation::Linear(_) => {
+            let coefficients: Vec<f64> = (0..ncoef).map(|m| q_rows[m * width + n_n]).collect();
+            let samples: Vec<f64> = taus.iter().map(|&t| evaluate(&coefficients, t)).collect();
+            let max = refine_extremum(taus, &samples, 1.0, |t| evaluate(&coefficients, t));
+            let min = refine_extremum(taus, &samples, -1.0, |t| evaluate(&coefficients, t));
+            DofResponse {
+                dof: response_dof,
+                coefficients,
+                max,
+                min,
+            }
+        }
+    }
+}
+
+impl RedistributedMsHbm {
+    /// The [`PeriodicSolution`] of this method with its parts.
+    pub(super) fn solution_of(
+        &self,
+        omega: f64,
+        taus: &[f64],
+        residual: &[f64],
+        contacts: Vec<ContactSeries>,
+        frictions: Vec<crate::solution::FrictionSeries>,
+        response: DofResponse,
+    ) -> PeriodicSolution {
+        periodic_solution(
+            &self.system,
+            &self.partition,
+            omega,
+            SolutionParts {
+                method: crate::solution::MethodKind::Redistributed,
+                quadrature: self.quadrature,
+                harmonics: self.harmonics,
+                taus,
+                residual,
+                contacts,
+                frictions,
+                response,
+            },
+        )
     }
 }
 
