@@ -13,7 +13,8 @@ use super::frequency_maps::{FrequencyMatrices, Map};
 use super::friction::PeriodicContact;
 use super::jacobian::times_each_coefficient_into;
 use super::{
-    dof_response, n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS,
+    dof_response, n_dof_coefficients, refine_extremum, NodeHarmonics, RedistributedMsHbm,
+    MAX_CACHED_INSTANTS,
 };
 use crate::error::{Error, Result};
 use crate::harmonic::{basis_into, n_coefficients};
@@ -133,31 +134,21 @@ impl RedistributedMsHbm {
         let n_c = n / 2;
         let h = self.harmonics;
         let ncoef = n_coefficients(h);
-        let nonlinear = &self.system.nonlinear_dofs;
-        let n_n = nonlinear.len();
-        let mut rows = nonlinear.clone();
-        if let DofLocation::Linear(l) = location {
-            rows.push(self.system.linear_dofs[l]);
-        }
-        let q_rows = self.structure_rows(&forces, &rows)?;
-        let width = rows.len();
-        let q_n: Vec<f64> = (0..ncoef)
-            .flat_map(|m| (0..n_n).map(move |i| (m, i)))
-            .map(|(m, i)| q_rows[m * width + i])
-            .collect();
-        // the load on the contact nodes b̂ = K_NN q̂_N − W̄ λ̂ and its static displacement
-        let mut load_displacement = Vec::with_capacity(n_n * ncoef);
+        let NodeHarmonics {
+            q_rows,
+            width,
+            q_n,
+            load,
+        } = self.node_harmonics(&forces, location)?;
+        let n_n = self.system.nonlinear_dofs.len();
+        // the static displacement of the contact nodes under their load
         let zero_force = vec![0.0; n];
+        let mut load_displacement = Vec::with_capacity(n_n * ncoef);
         for m in 0..ncoef {
-            let kq = self.stiffness_nn.mul_vec(&q_n[m * n_n..(m + 1) * n_n]);
-            let lambda = &forces[m * n..(m + 1) * n];
-            let b: Vec<f64> = (0..n_n)
-                .map(|i| {
-                    let w = &self.directions[i * n..(i + 1) * n];
-                    kq[i] - w.iter().zip(lambda).map(|(w, l)| w * l).sum::<f64>()
-                })
-                .collect();
-            load_displacement.extend(self.contact.displacement(&b, &zero_force));
+            load_displacement.extend(
+                self.contact
+                    .displacement(&load[m * n_n..(m + 1) * n_n], &zero_force),
+            );
         }
         let taus = self.sampling.taus.clone();
         let mut basis_buf = vec![0.0; ncoef];

@@ -767,6 +767,59 @@ impl RedistributedMsHbm {
     }
 }
 
+/// What a solution's outputs start from ([`RedistributedMsHbm::node_harmonics`]).
+pub(super) struct NodeHarmonics {
+    /// The harmonics of the contact-node DOFs, then of the response DOF when it is linear
+    /// (`width` per coefficient).
+    pub q_rows: Vec<f64>,
+    pub width: usize,
+    /// The paper's unknowns `q̂_N` (`n_N` per coefficient).
+    pub q_n: Vec<f64>,
+    /// The coefficients of the load on the contact nodes,
+    /// `b̂ = f_N − K_NL q̂_L = K_NN q̂_N − W λ̂` (`n_N` per coefficient).
+    pub load: Vec<f64>,
+}
+
+impl RedistributedMsHbm {
+    /// The structure's response at the contact nodes (and at a linear response DOF) under the
+    /// contact forces `forces` (`λ̂`), and the load on the contact nodes.
+    pub(super) fn node_harmonics(
+        &self,
+        forces: &[f64],
+        location: DofLocation,
+    ) -> Result<NodeHarmonics> {
+        let n = self.n();
+        let ncoef = n_coefficients(self.harmonics);
+        let nonlinear = &self.system.nonlinear_dofs;
+        let n_n = nonlinear.len();
+        let mut rows = nonlinear.clone();
+        if let DofLocation::Linear(l) = location {
+            rows.push(self.system.linear_dofs[l]);
+        }
+        let q_rows = self.structure_rows(forces, &rows)?;
+        let width = rows.len();
+        let q_n: Vec<f64> = (0..ncoef)
+            .flat_map(|m| (0..n_n).map(move |i| (m, i)))
+            .map(|(m, i)| q_rows[m * width + i])
+            .collect();
+        let mut load = vec![0.0; n_n * ncoef];
+        for m in 0..ncoef {
+            let kq = self.stiffness_nn.mul_vec(&q_n[m * n_n..(m + 1) * n_n]);
+            let lambda = &forces[m * n..(m + 1) * n];
+            for i in 0..n_n {
+                let w = &self.directions[i * n..(i + 1) * n];
+                load[m * n_n + i] = kq[i] - w.iter().zip(lambda).map(|(w, l)| w * l).sum::<f64>();
+            }
+        }
+        Ok(NodeHarmonics {
+            q_rows,
+            width,
+            q_n,
+            load,
+        })
+    }
+}
+
 impl RedistributedMsHbm {
     /// [`PeriodicProblem::solution`], with the series and extremes of every contact
     /// (`every_contact`) or with no contact series (the response DOF alone, for a diagram).
@@ -782,30 +835,13 @@ impl RedistributedMsHbm {
         let n = self.n();
         let h = self.harmonics;
         let ncoef = n_coefficients(h);
-        // the paper's unknowns q̂_N (and the response DOF's harmonics, when it is linear),
-        // and the coefficients of the load on the contact nodes,
-        // b̂ = f_N − K_NL q̂_L = K_NN q̂_N − W λ̂ (their rows of the whole system)
-        let nonlinear = &self.system.nonlinear_dofs;
-        let n_n = nonlinear.len();
-        let mut rows = nonlinear.clone();
-        if let DofLocation::Linear(l) = location {
-            rows.push(self.system.linear_dofs[l]);
-        }
-        let q_rows = self.structure_rows(&forces, &rows)?;
-        let q_ref = &q_rows;
-        let width = rows.len();
-        let q_n: Vec<f64> = (0..ncoef)
-            .flat_map(|m| (0..n_n).map(move |i| q_ref[m * width + i]))
-            .collect();
-        let mut b = vec![0.0; n_n * ncoef];
-        for m in 0..ncoef {
-            let kq = self.stiffness_nn.mul_vec(&q_n[m * n_n..(m + 1) * n_n]);
-            let lambda = &forces[m * n..(m + 1) * n];
-            for i in 0..n_n {
-                let w = &self.directions[i * n..(i + 1) * n];
-                b[m * n_n + i] = kq[i] - w.iter().zip(lambda).map(|(w, l)| w * l).sum::<f64>();
-            }
-        }
+        let NodeHarmonics {
+            q_rows,
+            width,
+            q_n,
+            load: b,
+        } = self.node_harmonics(&forces, location)?;
+        let n_n = self.system.nonlinear_dofs.len();
         let mut basis_buf = vec![0.0; ncoef];
         let mut q_s = Vec::with_capacity(self.sampling.len());
         let mut f_s = Vec::with_capacity(self.sampling.len());
