@@ -12,10 +12,8 @@ use faer::Mat;
 use super::frequency_maps::{FrequencyMatrices, Map};
 use super::friction::PeriodicContact;
 use super::jacobian::times_each_coefficient_into;
-use super::{
-    dof_response, n_dof_coefficients, refine_extremum, NodeHarmonics, RedistributedMsHbm,
-    MAX_CACHED_INSTANTS,
-};
+use super::outputs::{dof_response, NodeHarmonics};
+use super::{n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS};
 use crate::error::{Error, Result};
 use crate::harmonic::{basis_into, n_coefficients};
 use crate::method::partition::DofLocation;

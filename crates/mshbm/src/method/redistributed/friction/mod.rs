@@ -1,0 +1,370 @@
+//! Coulomb friction on massless contact nodes, in contact coordinates (docs/theory.md §20,
+//! (T150)–(T160)): the rate-independent law that maps the free-gap signal `γ(τ)` of one
+//! period to the periodic contact forces `λ(τ)`, their exact Fourier coefficients `λ̂` and
+//! the derivative `∂λ̂/∂γ̂`.
+//!
+//! Each contact has a normal and one tangential coordinate (plane problems), ordered
+//! `[normals; tangents]`, and is open, stuck at an anchor (its tangential displacement when
+//! it stuck), or slipping in one direction ([`Mode`]). For a fixed mode of every contact
+//! the forces are affine in the free gap and the anchors (T152), so between the instants
+//! where a mode changes the forces are trigonometric polynomials and the Fourier integrals
+//! are exact Gram blocks, as for frictionless contact (§6). The instants are the first
+//! roots of the mode's validity indicators (T153), located cell by cell with the scan of
+//! the frictionless quadrature; a contact that sticks takes its tangential displacement of
+//! that instant as its anchor (T154). The state at `τ = 0` is found as the fixed point of
+//! one period's march (T156), with the convention (T157) for contacts that stay stuck all
+//! period. The derivative follows the anchors' sensitivities through the period (T155) and
+//! the fixed point (T158); the interval ends drop out because `λ` is continuous in time.
+
+// the small dense matrices of the law are indexed as the equations write them
+#![allow(clippy::needless_range_loop)]
+
+mod centring;
+mod march;
+mod modes;
+
+use std::f64::consts::PI;
+
+use faer::Mat;
+
+use crate::contact::lcp::{LcpMatrix, LcpSolver};
+use crate::dense::solve_small_lu_columns;
+use crate::error::{Error, Result};
+use crate::harmonic::{basis_into, n_coefficients};
+use march::March;
+
+/// The state of one contact (docs/theory.md (T151)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Gap open, no force.
+    Open,
+    /// Closed, the tangential displacement held at the contact's anchor.
+    Stick,
+    /// Closed, slipping with a positive tangential velocity: `λ_T = −μ λ_N`. A contact
+    /// without friction (`μ = 0`) is closed in this mode, with no velocity condition.
+    SlipPositive,
+    /// Closed, slipping with a negative tangential velocity: `λ_T = +μ λ_N`.
+    SlipNegative,
+}
+
+/// One interval of constant modes and anchors.
+#[derive(Clone, Debug)]
+pub struct Phase {
+    pub start: f64,
+    pub end: f64,
+    pub modes: Vec<Mode>,
+    /// Anchors of every contact (meaningful for the stuck ones).
+    pub anchors: Vec<f64>,
+    /// Their sensitivities to `[γ̂, a₀]` (`n × (2n(2H+1) + n)`).
+    d_anchors: Vec<f64>,
+    data: usize,
+}
+
+/// Contacts with Coulomb friction on massless nodes: the Delassus matrix of the normal and
+/// tangential contact coordinates and the friction coefficients.
+#[derive(Clone, Debug)]
+pub struct FrictionalContacts {
+    n: usize,
+    /// `2n × 2n`, row-major, coordinates `[normals; tangents]` (T150).
+    delassus: Vec<f64>,
+    mu: Vec<f64>,
+}
+
+/// The periodic contact forces of a free-gap signal (T156).
+#[derive(Clone, Debug)]
+pub struct PeriodicContact {
+    pub harmonics: usize,
+    /// `λ̂`, harmonic-major, `2n` per coefficient.
+    pub forces: Vec<f64>,
+    /// `dλ̂/dγ̂` (square, `2n(2H+1)`, row-major), the fixed point's dependence included.
+    pub jacobian: Vec<f64>,
+    /// The period cut at the mode changes, in order.
+    pub phases: Vec<Phase>,
+    /// Marches of one period the fixed point needed.
+    pub passes: usize,
+    gamma: Vec<f64>,
+    /// `(F, G, Y_F, Y_G)` of each set of modes met (T152).
+    data: Vec<[Vec<f64>; 4]>,
+}
+
+/// Relative tolerance of the indicators (T153).
+const INDICATOR_TOLERANCE: f64 = 1e-11;
+
+/// Passes of one period before the fixed point of the state at `τ = 0` is given up.
+const MAX_PASSES: usize = 50;
+
+impl Phase {
+    fn of(
+        start: f64,
+        end: f64,
+        modes: &[Mode],
+        anchors: &[f64],
+        d_anchors: &[f64],
+        data: usize,
+    ) -> Self {
+        Phase {
+            start,
+            end,
+            modes: modes.to_vec(),
+            anchors: anchors.to_vec(),
+            d_anchors: d_anchors.to_vec(),
+            data,
+        }
+    }
+}
+
+impl FrictionalContacts {
+    /// `delassus` is `2n × 2n` row-major in the coordinates `[normals; tangents]`, `mu` the
+    /// `n` friction coefficients (finite, non-negative).
+    pub fn new(delassus: Vec<f64>, mu: Vec<f64>) -> Result<Self> {
+        let n = mu.len();
+        if delassus.len() != 4 * n * n {
+            return Err(Error::Numerical(format!(
+                "friction: the Delassus matrix has {} entries, 4n² = {} expected for {n} contacts",
+                delassus.len(),
+                4 * n * n
+            )));
+        }
+        if let Some(c) = mu.iter().position(|m| !(m.is_finite() && *m >= 0.0)) {
+            return Err(Error::Numerical(format!(
+                "friction: the friction coefficient of contact {c} is {} (finite and ≥ 0 expected)",
+                mu[c]
+            )));
+        }
+        Ok(FrictionalContacts { n, delassus, mu })
+    }
+
+    pub fn contacts(&self) -> usize {
+        self.n
+    }
+
+    /// The friction coefficients.
+    pub fn mu(&self) -> &[f64] {
+        &self.mu
+    }
+
+    fn d(&self, i: usize, j: usize) -> f64 {
+        self.delassus[i * 2 * self.n + j]
+    }
+
+    /// The state at `τ = 0` without friction forces: the normal LCP on `D_NN`, closed
+    /// contacts stuck where they are (T156).
+    fn initial_state(&self, gamma0: &[f64]) -> Result<(Vec<Mode>, Vec<f64>)> {
+        let n = self.n;
+        let dnn: Vec<f64> = (0..n * n).map(|k| self.d(k / n, k % n)).collect();
+        let solution = LcpSolver::new(LcpMatrix::new(n, dnn))
+            .solve(&gamma0[..n])
+            .map_err(|e| Error::Numerical(format!("friction: initial state: {e}")))?;
+        let modes = (0..n)
+            .map(|c| match (solution.active[c], self.mu[c] > 0.0) {
+                (false, _) => Mode::Open,
+                (true, true) => Mode::Stick,
+                (true, false) => Mode::SlipPositive,
+            })
+            .collect();
+        let anchors = (0..n)
+            .map(|c| {
+                gamma0[n + c]
+                    + (0..n)
+                        .map(|k| self.d(n + c, k) * solution.lambda[k])
+                        .sum::<f64>()
+            })
+            .collect();
+        Ok((modes, anchors))
+    }
+
+    /// The periodic contact forces for the free gap with coefficients `gamma` (harmonic-major,
+    /// `2n` per coefficient, `harmonics` harmonics), with switching times located on a grid
+    /// of `cells` cells (T153), and their derivative (T155), (T158).
+    pub fn periodic(
+        &self,
+        harmonics: usize,
+        gamma: &[f64],
+        cells: usize,
+    ) -> Result<PeriodicContact> {
+        let (n, m) = (self.n, 2 * self.n);
+        let ncoef = n_coefficients(harmonics);
+        if gamma.len() != m * ncoef {
+            return Err(Error::Numerical(format!(
+                "friction: {} free-gap coefficients, {} expected",
+                gamma.len(),
+                m * ncoef
+            )));
+        }
+        if gamma.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical(
+                "friction: the free gap is not finite".into(),
+            ));
+        }
+        let mut gamma0 = vec![0.0; m];
+        let b0 = {
+            let mut b = vec![0.0; ncoef];
+            basis_into(harmonics, 0.0, &mut b);
+            b
+        };
+        for k in 0..ncoef {
+            for r in 0..m {
+                gamma0[r] += b0[k] * gamma[k * m + r];
+            }
+        }
+        let (mut modes0, mut anchors0) = self.initial_state(&gamma0)?;
+        let scale = gamma
+            .iter()
+            .fold(0.0f64, |s, v| s.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
+        let mut march = March::new(self, harmonics, gamma, cells.max(1));
+        for pass in 1..=MAX_PASSES {
+            let out = march.run(&modes0, &anchors0)?;
+            if out.modes_end != modes0 {
+                modes0 = out.modes_end.clone();
+                anchors0 = out.anchors_end.clone();
+                continue;
+            }
+            // (T156)–(T158): residual of the stuck contacts' anchors at τ = 0
+            let nu = m * ncoef;
+            let nv = nu + n;
+            let stuck: Vec<usize> = (0..n).filter(|&c| modes0[c] == Mode::Stick).collect();
+            let ns = stuck.len();
+            let mut residual = vec![0.0; ns];
+            let mut j_a = vec![0.0; ns * ns];
+            let mut r_u = Mat::<f64>::zeros(ns, nu);
+            for (i, &c) in stuck.iter().enumerate() {
+                if out.released[c] {
+                    residual[i] = anchors0[c] - out.anchors_end[c];
+                    for (l, &c2) in stuck.iter().enumerate() {
+                        j_a[i * ns + l] =
+                            f64::from(u8::from(i == l)) - out.d_anchors_end[c * nv + nu + c2];
+                    }
+                    for col in 0..nu {
+                        r_u[(i, col)] = -out.d_anchors_end[c * nv + col];
+                    }
+                } else {
+                    // (T157): a contact stuck all period is centred in its cone
+                    let (value, row) = march.centring(&out.phases, c);
+                    residual[i] = value;
+                    for (l, &c2) in stuck.iter().enumerate() {
+                        j_a[i * ns + l] = row[nu + c2];
+                    }
+                    for col in 0..nu {
+                        r_u[(i, col)] = row[col];
+                    }
+                }
+            }
+            let mut rhs = Mat::<f64>::zeros(ns, nu + 1);
+            for i in 0..ns {
+                rhs[(i, 0)] = residual[i];
+                for col in 0..nu {
+                    rhs[(i, col + 1)] = r_u[(i, col)];
+                }
+            }
+            let solved = if ns == 0 {
+                Mat::zeros(0, nu + 1)
+            } else {
+                solve_small_lu_columns(&j_a, rhs.as_ref(), 1e-13).map_err(|_| {
+                    Error::Singular(
+                        "friction: the periodicity of the stuck contacts' anchors is singular"
+                            .into(),
+                    )
+                })?
+            };
+            let step = (0..ns).fold(0.0f64, |s, i| s.max(solved[(i, 0)].abs()));
+            let size = anchors0.iter().fold(scale, |s, a| s.max(a.abs()));
+            if step <= 1e-12 * size || pass == MAX_PASSES {
+                if step > 1e-12 * size {
+                    return Err(Error::Numerical(format!(
+                        "friction: no periodic contact state after {MAX_PASSES} periods (anchor change {step:e})"
+                    )));
+                }
+                // (T158): dλ̂/dγ̂ = ∂λ̂/∂γ̂ − ∂λ̂/∂a₀ J_a⁻¹ ∂r/∂γ̂
+                let mut jacobian = vec![0.0; nu * nu];
+                for row in 0..nu {
+                    for col in 0..nu {
+                        let mut v = out.d_forces[row * nv + col];
+                        for (l, &c2) in stuck.iter().enumerate() {
+                            v -= out.d_forces[row * nv + nu + c2] * solved[(l, col + 1)];
+                        }
+                        jacobian[row * nu + col] = v;
+                    }
+                }
+                return Ok(PeriodicContact {
+                    harmonics,
+                    forces: out.forces,
+                    jacobian,
+                    phases: out.phases,
+                    passes: pass,
+                    gamma: gamma.to_vec(),
+                    data: march
+                        .data
+                        .iter()
+                        .map(|d| [d.f.clone(), d.g.clone(), d.yf.clone(), d.yg.clone()])
+                        .collect(),
+                });
+            }
+            for (i, &c) in stuck.iter().enumerate() {
+                anchors0[c] -= solved[(i, 0)];
+            }
+        }
+        Err(Error::Numerical(format!(
+            "friction: the contact modes at τ = 0 did not repeat within {MAX_PASSES} periods"
+        )))
+    }
+}
+
+impl PeriodicContact {
+    /// The contact forces `λ(τ)` (`[normals; tangents]`) of the periodic state.
+    pub fn force_at(&self, tau: f64) -> Vec<f64> {
+        self.state_at(tau).0
+    }
+
+    /// The forces `λ(τ)` and the contact coordinates `y(τ) = γ(τ) + D λ(τ)` (the gaps, then
+    /// the tangential displacements) of the periodic state (T152).
+    pub fn state_at(&self, tau: f64) -> (Vec<f64>, Vec<f64>) {
+        let ncoef = n_coefficients(self.harmonics);
+        let m = self.gamma.len() / ncoef;
+        let n = m / 2;
+        let tau = tau.rem_euclid(2.0 * PI);
+        let phase = self
+            .phases
+            .iter()
+            .find(|p| tau >= p.start && tau <= p.end)
+            .unwrap_or(&self.phases[self.phases.len() - 1]);
+        let [f, g, yf, yg] = &self.data[phase.data];
+        let mut b = vec![0.0; ncoef];
+        basis_into(self.harmonics, tau, &mut b);
+        let gamma_at: Vec<f64> = (0..m)
+            .map(|r| (0..ncoef).map(|k| b[k] * self.gamma[k * m + r]).sum())
+            .collect();
+        let affine = |a: &[f64], ga: &[f64]| -> Vec<f64> {
+            (0..m)
+                .map(|i| {
+                    (0..m).map(|r| a[i * m + r] * gamma_at[r]).sum::<f64>()
+                        + (0..n)
+                            .map(|c| ga[i * n + c] * phase.anchors[c])
+                            .sum::<f64>()
+                })
+                .collect()
+        };
+        (affine(f, g), affine(yf, yg))
+    }
+
+    /// The energy the friction forces dissipate over one period, `−∮ λ_Tᵀ dy_T` (the sum of
+    /// `μ λ_N |Δy_T|` over the slip phases), by the trapezoidal rule on `samples` instants.
+    pub fn dissipated_energy(&self, samples: usize) -> f64 {
+        let m = self.gamma.len() / n_coefficients(self.harmonics);
+        let n = m / 2;
+        let mut total = 0.0;
+        let mut previous = self.state_at(0.0);
+        for j in 1..=samples {
+            let next = self.state_at(2.0 * PI * j as f64 / samples as f64);
+            for c in 0..n {
+                let force = 0.5 * (previous.0[n + c] + next.0[n + c]);
+                total -= force * (next.1[n + c] - previous.1[n + c]);
+            }
+            previous = next;
+        }
+        total
+    }
+}
+
+#[cfg(test)]
+mod tests;
