@@ -172,3 +172,22 @@ fn a_friction_damper_converges_with_stick_and_slip_and_its_jacobian_equals_centr
         assert_derivatives_match_finite_differences(&mut p, x, omega, 1e-5, "friction damper");
     }
 }
+
+#[test]
+fn the_memory_plan_counts_the_frictional_law() {
+    use mshbm::limits::Limits;
+    use mshbm::method::redistributed::{RedistributedMsHbm, RedistributedOptions};
+    // H = 40, 2048 samples on 5 contacts: the law's dense derivatives (3 × 810 × 815 × 8 B,
+    // 16 MB) and the phases' anchor sensitivities (2048 × 5 × 815 × 8 B, 67 MB) are most of
+    // the plan; the same model without friction fits in 40 MB, with friction it does not
+    let limits = Limits::default().with_memory_gib(0.04);
+    let options = RedistributedOptions {
+        samples: Some(2048),
+        ..RedistributedOptions::new(40)
+    };
+    assert!(RedistributedMsHbm::within(&damper(None, 2.0), &options, &limits).is_ok());
+    let refused = RedistributedMsHbm::within(&damper(Some(0.1), 2.0), &options, &limits)
+        .err()
+        .expect("refused within 40 MB");
+    assert!(refused.to_string().contains("friction"), "{refused}");
+}

@@ -208,6 +208,27 @@ pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> Memor
         "the contact forces kept by the extremum search".to_string(),
         mul(&[probes, contacts.saturating_mul(8).saturating_add(64), 2]),
     );
+    // Coulomb friction (docs/theory.md §20): the coordinates above already hold the
+    // tangents; the law keeps dλ̂/d[γ̂, a₀] of a march, its dλ̂/dγ̂ and the dense Jacobian
+    // (three matrices of the unknowns' size squared), and each phase's anchor
+    // sensitivities (taken as one phase per sample)
+    let frictional = system
+        .contacts
+        .iter()
+        .filter(|c| c.friction.is_some())
+        .count() as u64;
+    if frictional > 0 {
+        let unknowns = contacts.saturating_mul(nc);
+        let columns = unknowns.saturating_add(frictional);
+        plan.add_product(
+            "the frictional law's derivatives and the dense Jacobian",
+            &[unknowns, columns, 8, 3],
+        );
+        plan.add_product(
+            format!("the anchor sensitivities of up to {samples} phases of friction"),
+            &[samples as u64, frictional, columns, 8],
+        );
+    }
     plan
 }
 
