@@ -58,7 +58,56 @@ pub struct ContactSeries {
     pub min: f64,
 }
 
-/// Force of one Coulomb friction element over the period (general MS-HBM).
+/// The state of a frictional contact (docs/theory.md (T151), (T181)).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, Hash)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactState {
+    /// Gap open, no force.
+    Open,
+    /// Closed, the tangential displacement held.
+    Stick,
+    /// Closed and slipping (a closed contact without friction counts as slipping).
+    Slip,
+}
+
+impl ContactState {
+    /// The name in outputs: `open`, `stick`, `slip`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ContactState::Open => "open",
+            ContactState::Stick => "stick",
+            ContactState::Slip => "slip",
+        }
+    }
+}
+
+/// The fractions of the period a frictional contact spends in each state (they sum to 1),
+/// exact from the located switches (docs/theory.md (T181)).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq)]
+pub struct StateFractions {
+    pub stick: f64,
+    pub slip: f64,
+    pub open: f64,
+}
+
+impl StateFractions {
+    /// The mean over contacts (`None` without any).
+    pub fn mean(fractions: &[StateFractions]) -> Option<StateFractions> {
+        if fractions.is_empty() {
+            return None;
+        }
+        let n = fractions.len() as f64;
+        Some(StateFractions {
+            stick: fractions.iter().map(|f| f.stick).sum::<f64>() / n,
+            slip: fractions.iter().map(|f| f.slip).sum::<f64>() / n,
+            open: fractions.iter().map(|f| f.open).sum::<f64>() / n,
+        })
+    }
+}
+
+/// Force of one Coulomb friction element over the period: a friction element of the
+/// general MS-HBM, or the tangential force of a contact with friction (redistributed
+/// MS-HBM; then `frictions[c]` belongs to `contacts[c]`).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct FrictionSeries {
     /// The element's (first) DOF, model numbering.
@@ -72,6 +121,10 @@ pub struct FrictionSeries {
     /// Largest and smallest force over the period.
     pub max: f64,
     pub min: f64,
+    /// A contact with friction: its state at each of `time_s` (empty for the general
+    /// MS-HBM's friction elements).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub state: Vec<ContactState>,
 }
 
 /// Harmonics and extremes of the response DOF.
@@ -96,6 +149,10 @@ pub struct DiagramPoint {
     /// HBM-AFT (penalty contact): the largest penetration `max(−g)` over the contacts and
     /// the time samples.
     pub max_penetration: Option<f64>,
+    /// Contacts with friction: as [`PeriodicSolution::dissipated_energy`].
+    pub dissipated_energy: Option<f64>,
+    /// Contacts with friction: as [`PeriodicSolution::state_fractions`].
+    pub state_fractions: Option<Vec<StateFractions>>,
 }
 
 impl DiagramPoint {
@@ -111,6 +168,8 @@ impl DiagramPoint {
                     .flat_map(|c| c.gap.iter())
                     .fold(f64::NEG_INFINITY, |m, g| m.max(-g))
             }),
+            dissipated_energy: s.dissipated_energy,
+            state_fractions: s.state_fractions.clone(),
         }
     }
 }
@@ -160,6 +219,10 @@ pub struct PeriodicSolution {
     /// docs/theory.md §20), in the model's force × length unit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dissipated_energy: Option<f64>,
+    /// Contacts with friction: the fractions of the period each contact spends stuck,
+    /// slipping and open (docs/theory.md (T181)), in the order of `contact_dofs`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_fractions: Option<Vec<StateFractions>>,
 }
 
 impl DofResponse {

@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 use crate::continuation::arclength::StopReason;
-use crate::solution::MethodKind;
+use crate::solution::{MethodKind, StateFractions};
 use crate::stability::Crossing;
 
 /// One point of a branch: the extremes and first-harmonic amplitude of the response DOF.
@@ -36,6 +36,14 @@ pub struct FrdPoint {
     /// HBM-AFT: largest penetration `max(−g)` over the contacts and the time samples.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_penetration: Option<f64>,
+    /// Contacts with friction: the energy the friction dissipates per period
+    /// (docs/theory.md (T180)).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dissipated_energy: Option<f64>,
+    /// Contacts with friction: per contact, the fractions of the period stuck, slipping and
+    /// open (docs/theory.md (T181)).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_fractions: Option<Vec<StateFractions>>,
 }
 
 /// A located fold of a branch.

@@ -186,6 +186,8 @@ pub fn trace_frd_branch(
             max_multiplier: floquet.as_ref().map(|f| f.max_multiplier),
             stability_unknown,
             max_penetration: s.max_penetration,
+            dissipated_energy: s.dissipated_energy,
+            state_fractions: s.state_fractions.clone(),
         };
         observer.point(&info, &point, points.len() + 1, step)?;
         if let Event::Fold(f) = &event {

@@ -388,6 +388,7 @@ pub fn simulate_to_steady_state(
             unknowns: contact_displacements,
             contact_node_harmonics,
             dissipated_energy: None,
+            state_fractions: None,
         },
         periodic,
         periodicity: options.periodicity,

@@ -162,6 +162,7 @@ pub(crate) fn periodic_solution(
         unknowns: None,
         contact_node_harmonics: None,
         dissipated_energy: None,
+        state_fractions: None,
     }
 }
 

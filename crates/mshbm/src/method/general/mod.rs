@@ -723,6 +723,7 @@ impl PeriodicProblem for GeneralMsHbm {
                     force,
                     max,
                     min,
+                    state: Vec::new(),
                 }
             })
             .collect();

@@ -202,6 +202,7 @@ impl RedistributedMsHbm {
                 min: force.iter().copied().fold(f64::INFINITY, f64::min),
                 limit: states.iter().map(|(l, _)| mu[c] * l[c]).collect(),
                 force,
+                state: taus.iter().map(|&t| law.modes_at(t)[c].into()).collect(),
             });
         }
         let response = dof_response(
@@ -218,7 +219,8 @@ impl RedistributedMsHbm {
         let mut solution = self.solution_of(omega, &taus, &residual, contacts, frictions, response);
         solution.contact_node_harmonics = Some(q_n);
         solution.contact_dofs.truncate(n_c);
-        solution.dissipated_energy = Some(law.dissipated_energy(4 * taus.len()));
+        solution.dissipated_energy = Some(law.dissipated_energy());
+        solution.state_fractions = Some(law.state_fractions());
         Ok(solution)
     }
 }

@@ -1,5 +1,5 @@
 //! Coulomb friction on massless contact nodes, in contact coordinates (docs/theory.md §20,
-//! (T150)–(T160)): the rate-independent law that maps the free-gap signal `γ(τ)` of one
+//! (T150)–(T160), (T180)–(T181)): the rate-independent law that maps the free-gap signal `γ(τ)` of one
 //! period to the periodic contact forces `λ(τ)`, their exact Fourier coefficients `λ̂` and
 //! the derivative `∂λ̂/∂γ̂`.
 //!
@@ -30,7 +30,8 @@ use faer::Mat;
 use crate::contact::lcp::{LcpMatrix, LcpSolver};
 use crate::dense::solve_small_lu_columns;
 use crate::error::{Error, Result};
-use crate::harmonic::{basis_into, n_coefficients};
+use crate::harmonic::{add_interval_gram, basis_into, n_coefficients};
+use crate::solution::{ContactState, StateFractions};
 use march::March;
 
 /// The state of one contact (docs/theory.md (T151)).
@@ -323,11 +324,7 @@ impl PeriodicContact {
         let m = self.gamma.len() / ncoef;
         let n = m / 2;
         let tau = tau.rem_euclid(2.0 * PI);
-        let phase = self
-            .phases
-            .iter()
-            .find(|p| tau >= p.start && tau <= p.end)
-            .unwrap_or(&self.phases[self.phases.len() - 1]);
+        let phase = self.phase_at(tau);
         let [f, g, yf, yg] = &self.data[phase.data];
         let mut b = vec![0.0; ncoef];
         basis_into(self.harmonics, tau, &mut b);
@@ -347,22 +344,105 @@ impl PeriodicContact {
         (affine(f, g), affine(yf, yg))
     }
 
-    /// The energy the friction forces dissipate over one period, `−∮ λ_Tᵀ dy_T` (the sum of
-    /// `μ λ_N |Δy_T|` over the slip phases), by the trapezoidal rule on `samples` instants.
-    pub fn dissipated_energy(&self, samples: usize) -> f64 {
-        let m = self.gamma.len() / n_coefficients(self.harmonics);
+    /// The phase that holds `τ` (taken modulo the period).
+    fn phase_at(&self, tau: f64) -> &Phase {
+        let tau = tau.rem_euclid(2.0 * PI);
+        self.phases
+            .iter()
+            .find(|p| tau >= p.start && tau <= p.end)
+            .unwrap_or(&self.phases[self.phases.len() - 1])
+    }
+
+    /// The modes of every contact at `τ`.
+    pub fn modes_at(&self, tau: f64) -> &[Mode] {
+        &self.phase_at(tau).modes
+    }
+
+    /// The energy the friction forces dissipate over one period, `−∮ λ_Tᵀ dy_T`, exactly:
+    /// per slip phase the product of the tangential force's and velocity's trigonometric
+    /// polynomials integrated with the phase's Gram block (docs/theory.md (T180)).
+    pub fn dissipated_energy(&self) -> f64 {
+        let h = self.harmonics;
+        let ncoef = n_coefficients(h);
+        let m = self.gamma.len() / ncoef;
         let n = m / 2;
+        let mut gram = vec![0.0; ncoef * ncoef];
         let mut total = 0.0;
-        let mut previous = self.state_at(0.0);
-        for j in 1..=samples {
-            let next = self.state_at(2.0 * PI * j as f64 / samples as f64);
-            for c in 0..n {
-                let force = 0.5 * (previous.0[n + c] + next.0[n + c]);
-                total -= force * (next.1[n + c] - previous.1[n + c]);
+        for phase in &self.phases {
+            let slipping: Vec<usize> = (0..n)
+                .filter(|&c| matches!(phase.modes[c], Mode::SlipPositive | Mode::SlipNegative))
+                .collect();
+            if slipping.is_empty() || phase.end <= phase.start {
+                continue;
             }
-            previous = next;
+            gram.iter_mut().for_each(|g| *g = 0.0);
+            add_interval_gram(h, phase.start, phase.end, &mut gram);
+            let [f, g, yf, _] = &self.data[phase.data];
+            for &c in &slipping {
+                let row = n + c;
+                // the force's and the displacement's coefficients in this phase (T180)
+                let mut u: Vec<f64> = (0..ncoef)
+                    .map(|k| (0..m).map(|r| f[row * m + r] * self.gamma[k * m + r]).sum())
+                    .collect();
+                u[0] += (0..n)
+                    .map(|j| g[row * n + j] * phase.anchors[j])
+                    .sum::<f64>();
+                let v: Vec<f64> = (0..ncoef)
+                    .map(|k| {
+                        (0..m)
+                            .map(|r| yf[row * m + r] * self.gamma[k * m + r])
+                            .sum()
+                    })
+                    .collect();
+                let mut dv = vec![0.0; ncoef];
+                for k in 1..=h {
+                    dv[2 * k - 1] = k as f64 * v[2 * k];
+                    dv[2 * k] = -(k as f64) * v[2 * k - 1];
+                }
+                for (a, ua) in u.iter().enumerate() {
+                    let weight = if a == 0 { 1.0 } else { 2.0 };
+                    let row_sum: f64 = (0..ncoef).map(|k| gram[a * ncoef + k] * dv[k]).sum();
+                    total -= 2.0 * PI * ua * row_sum / weight;
+                }
+            }
         }
         total
+    }
+
+    /// The fraction of the period each contact spends stuck, slipping and open, exact from
+    /// the located switches (docs/theory.md (T181)); a closed contact without friction
+    /// counts as slipping.
+    pub fn state_fractions(&self) -> Vec<StateFractions> {
+        let n = self.phases.first().map_or(0, |p| p.modes.len());
+        let mut out = vec![
+            StateFractions {
+                stick: 0.0,
+                slip: 0.0,
+                open: 0.0
+            };
+            n
+        ];
+        for phase in &self.phases {
+            let share = (phase.end - phase.start).max(0.0) / (2.0 * PI);
+            for (o, mode) in out.iter_mut().zip(&phase.modes) {
+                match mode {
+                    Mode::Open => o.open += share,
+                    Mode::Stick => o.stick += share,
+                    Mode::SlipPositive | Mode::SlipNegative => o.slip += share,
+                }
+            }
+        }
+        out
+    }
+}
+
+impl From<Mode> for ContactState {
+    fn from(mode: Mode) -> Self {
+        match mode {
+            Mode::Open => ContactState::Open,
+            Mode::Stick => ContactState::Stick,
+            Mode::SlipPositive | Mode::SlipNegative => ContactState::Slip,
+        }
     }
 }
 

@@ -145,6 +145,17 @@ fn the_jenkins_elements_closed_form_hysteresis_loop_is_matched() {
             "{} {s1}",
             p.forces[5]
         );
+        // the loop's area and the share of the period in stick (T180)–(T181)
+        let area = 4.0 * fs * (amplitude - fs / kt);
+        let energy = p.dissipated_energy();
+        assert!(
+            (energy - area).abs() <= 1e-10 * area,
+            "H = {harmonics}: energy {energy} against the loop's area {area}"
+        );
+        let f = p.state_fractions()[0];
+        assert!((f.stick - tau1 / PI).abs() <= 1e-10, "{f:?}");
+        assert!((f.slip - (1.0 - tau1 / PI)).abs() <= 1e-10, "{f:?}");
+        assert_eq!(f.open, 0.0);
     }
 }
 
@@ -249,6 +260,14 @@ fn the_coupled_interface_visits_every_mode() {
     }
 }
 
+/// One step of [`catching_up`]: the forces, the coordinates `y` and the mode of each contact
+/// (0 open, 1 stick, 2 and 3 slip).
+struct CatchingUpStep {
+    forces: Vec<f64>,
+    y: Vec<f64>,
+    modes: Vec<usize>,
+}
+
 /// The same quasi-static law marched on a fine grid by the catching-up scheme: at each step
 /// the forces and displacements `y = γ + Dλ` of the mode combination (of all 4ⁿ) whose
 /// conditions hold, stick meaning `y_T` kept from the previous step and slip a direction of
@@ -259,7 +278,7 @@ fn catching_up(
     gamma: &[f64],
     steps: usize,
     periods: usize,
-) -> Vec<Vec<f64>> {
+) -> Vec<CatchingUpStep> {
     let n = law.n;
     let m = 2 * n;
     let ncoef = n_coefficients(harmonics);
@@ -322,13 +341,17 @@ fn catching_up(
                     continue 'combos;
                 }
             }
-            found = Some(x);
+            found = Some((x, modes));
             break;
         }
-        let x = found.expect("a valid mode combination");
+        let (x, modes) = found.expect("a valid mode combination");
         y_prev = (0..m).map(|i| x[(m + i, 0)]).collect();
-        if step >= steps * (periods - 1) && step < steps * periods {
-            out.push((0..m).map(|i| x[(i, 0)]).collect());
+        if step >= steps * (periods - 1) && step <= steps * periods {
+            out.push(CatchingUpStep {
+                forces: (0..m).map(|i| x[(i, 0)]).collect(),
+                y: y_prev.clone(),
+                modes,
+            });
         }
     }
     out
@@ -342,9 +365,9 @@ fn the_event_driven_march_agrees_with_a_fine_catching_up_march() {
     let reference = catching_up(&law, h, &gamma, steps, 3);
     let scale = p.forces.iter().fold(0.0f64, |s, v| s.max(v.abs()));
     let mut worst = 0.0f64;
-    for (j, lam_ref) in reference.iter().enumerate() {
+    for (j, step) in reference.iter().enumerate() {
         let lam = p.force_at(2.0 * PI * j as f64 / steps as f64);
-        for (a, b) in lam.iter().zip(lam_ref) {
+        for (a, b) in lam.iter().zip(&step.forces) {
             worst = worst.max((a - b).abs());
         }
     }
@@ -353,6 +376,80 @@ fn the_event_driven_march_agrees_with_a_fine_catching_up_march() {
         worst <= 2e-3 * scale,
         "largest difference {worst:e} of {scale:e}"
     );
+}
+
+#[test]
+fn the_dissipated_energy_and_the_state_fractions_match_the_catching_up_march() {
+    let (law, gamma, h) = coupled();
+    let p = law.periodic(h, &gamma, 64).unwrap();
+    let steps = 20000;
+    let reference = catching_up(&law, h, &gamma, steps, 3);
+    let n = law.n;
+    // −∮ λ_Tᵀ dy_T by the trapezoidal rule on the march's steps (one period: steps + 1 states)
+    let mut energy = 0.0;
+    for pair in reference.windows(2) {
+        for c in 0..n {
+            let force = 0.5 * (pair[0].forces[n + c] + pair[1].forces[n + c]);
+            energy -= force * (pair[1].y[n + c] - pair[0].y[n + c]);
+        }
+    }
+    let exact = p.dissipated_energy();
+    assert!(energy > 0.0, "the interface slips: {energy:e}");
+    assert!(
+        (exact - energy).abs() <= 2e-3 * energy,
+        "energy {exact:e} against the march's {energy:e}"
+    );
+    // fractions: the share of the march's steps in each mode
+    let fractions = p.state_fractions();
+    let mut states_met = [false; 3];
+    for c in 0..n {
+        let f = fractions[c];
+        assert!((f.stick + f.slip + f.open - 1.0).abs() <= 1e-12, "{f:?}");
+        let share = |wanted: &[usize]| {
+            reference[..steps]
+                .iter()
+                .filter(|s| wanted.contains(&s.modes[c]))
+                .count() as f64
+                / steps as f64
+        };
+        for (got, want, k) in [
+            (f.open, share(&[0]), 0),
+            (f.stick, share(&[1]), 1),
+            (f.slip, share(&[2, 3]), 2),
+        ] {
+            assert!(
+                (got - want).abs() <= 2e-3,
+                "contact {c}: {got} against the march's {want} ({f:?})"
+            );
+            states_met[k] |= got > 0.01;
+        }
+    }
+    assert_eq!(
+        states_met, [true; 3],
+        "the interface opens, sticks and slips"
+    );
+    // each sample's state is its phase's
+    for j in 0..64 {
+        let tau = 2.0 * PI * j as f64 / 64.0;
+        let step = &reference[(j * steps) / 64];
+        for c in 0..n {
+            let want = match step.modes[c] {
+                0 => ContactState::Open,
+                1 => ContactState::Stick,
+                _ => ContactState::Slip,
+            };
+            let got: ContactState = p.modes_at(tau)[c].into();
+            // a sample within a step of a switch may fall on either side
+            let near_switch = p
+                .phases
+                .iter()
+                .any(|ph| (ph.start - tau).abs() < 1e-3 || (ph.end - tau).abs() < 1e-3);
+            assert!(
+                near_switch || got == want,
+                "τ = {tau}, contact {c}: {got:?} against {want:?}"
+            );
+        }
+    }
 }
 
 #[test]
