@@ -10,7 +10,7 @@ use std::path::Path;
 
 use anyhow::Result;
 use mshbm::model::ContactInterface;
-use mshbm::solution::PeriodicSolution;
+use mshbm::solution::{ContactState, PeriodicSolution};
 use mshbm::Model;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -38,15 +38,22 @@ pub fn interfaces(model: &Model) -> Vec<ContactInterface> {
 }
 
 /// `interface,contact,nodes,position,time_s,gap,force`: one row per contact and time
-/// sample (nodes separated by `;` for node-to-node contacts).
+/// sample (nodes separated by `;` for node-to-node contacts); with friction on the
+/// contacts also `state,tangential_force,limit` (`open`, `stick` or `slip`; the friction
+/// force and its bound `μ λ_N`).
 pub fn contacts_csv(model: &Model, s: &PeriodicSolution) -> String {
-    let mut out = String::from("interface,contact,nodes,position,time_s,gap,force\n");
+    let friction = frictional_contacts(s);
+    let mut out = String::from("interface,contact,nodes,position,time_s,gap,force");
+    if friction {
+        out.push_str(",state,tangential_force,limit");
+    }
+    out.push('\n');
     for i in interfaces(model) {
         for (k, c) in i.contacts.clone().enumerate() {
             let series = &s.contacts[c];
             let nodes: Vec<String> = i.nodes[k].iter().map(|p| p.to_string()).collect();
             for (j, t) in s.time_s.iter().enumerate() {
-                let _ = writeln!(
+                let _ = write!(
                     out,
                     "{},{c},{},{:.12e},{t:.12e},{:.12e},{:.12e}",
                     i.name,
@@ -55,10 +62,28 @@ pub fn contacts_csv(model: &Model, s: &PeriodicSolution) -> String {
                     series.gap[j],
                     series.force[j]
                 );
+                if friction {
+                    let f = &s.frictions[c];
+                    let _ = write!(
+                        out,
+                        ",{},{:.12e},{:.12e}",
+                        f.state[j].name(),
+                        f.force[j],
+                        f.limit[j]
+                    );
+                }
+                out.push('\n');
             }
         }
     }
     out
+}
+
+/// The solution's friction series are its contacts' (contacts with friction).
+fn frictional_contacts(s: &PeriodicSolution) -> bool {
+    !s.contacts.is_empty()
+        && s.frictions.len() == s.contacts.len()
+        && s.frictions.iter().all(|f| f.state.len() == s.time_s.len())
 }
 
 /// One panel of the map: `values[contact][sample]` over the positions and the period.
@@ -347,6 +372,31 @@ pub fn save_contact_map(model: &Model, s: &PeriodicSolution, path: &Path) -> Res
             positions: &i.positions,
             values: series.iter().map(|c| c.gap.clone()).collect(),
         }));
+        if frictional_contacts(s) {
+            let frictions: Vec<_> = i.contacts.clone().map(|c| &s.frictions[c]).collect();
+            panels.push(AnyPanel::SpaceTime(Panel {
+                title: format!("{}: state (0 open, 1 stick, 2 slip)", i.name),
+                positions: &i.positions,
+                values: frictions
+                    .iter()
+                    .map(|f| {
+                        f.state
+                            .iter()
+                            .map(|state| match state {
+                                ContactState::Open => 0.0,
+                                ContactState::Stick => 1.0,
+                                ContactState::Slip => 2.0,
+                            })
+                            .collect()
+                    })
+                    .collect(),
+            }));
+            panels.push(AnyPanel::SpaceTime(Panel {
+                title: format!("{}: tangential (friction) force", i.name),
+                positions: &i.positions,
+                values: frictions.iter().map(|f| f.force.clone()).collect(),
+            }));
+        }
     }
     let size = (1000, 420 * panels.len().max(1) as u32);
     render_to_file(path, size, |r| draw(r, &panels), |r| draw(r, &panels))

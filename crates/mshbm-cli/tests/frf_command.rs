@@ -269,6 +269,31 @@ fn the_friction_damper_diagram_completes() {
     assert!(text.contains("# finished"), "{text}");
     let rows = text.lines().filter(|l| !l.starts_with('#')).count();
     assert!(rows > 50, "{rows} rows");
+    // the friction columns: energy and the mean state fractions (summing to 1) per point
+    let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+    assert!(
+        header.ends_with(&["dissipated_energy", "stick", "slip", "open"]),
+        "{header:?}"
+    );
+    let (mut stuck, mut slipping) = (0.0f64, 0.0f64);
+    for line in text.lines().skip(1).filter(|l| !l.starts_with('#')) {
+        let cells: Vec<f64> = line
+            .rsplit(',')
+            .take(4)
+            .map(|c| c.parse().unwrap())
+            .collect();
+        let (open, slip, stick, energy) = (cells[0], cells[1], cells[2], cells[3]);
+        assert!(energy >= 0.0, "{line}");
+        assert!((stick + slip + open - 1.0).abs() <= 1e-6, "{line}");
+        stuck = stuck.max(stick);
+        slipping = slipping.max(slip);
+    }
+    assert!(
+        stuck > 0.01 && slipping > 0.1,
+        "stick {stuck}, slip {slipping}"
+    );
+    let contacts_csv = dir.path().join("contacts.csv");
+    let contacts_arg = contacts_csv.display().to_string();
     let out = mshbm(&[
         "solve",
         &model,
@@ -277,9 +302,48 @@ fn the_friction_damper_diagram_completes() {
         "--harmonics",
         "3",
         "--json",
+        "--contacts-csv",
+        &contacts_arg,
     ]);
     assert_success(&out);
     let json = stdout_json(&out);
+    // each sample's state agrees with its forces: open without force, slip on the cone,
+    // stick inside it
+    let text = std::fs::read_to_string(&contacts_csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "interface,contact,nodes,position,time_s,gap,force,state,tangential_force,limit"
+    );
+    let mut met = std::collections::HashSet::new();
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let number = |k: usize| cells[k].parse::<f64>().unwrap();
+        let (normal, tangential, limit) = (number(6), number(8), number(9));
+        match cells[7] {
+            "open" => assert!(normal == 0.0 && tangential == 0.0, "{line}"),
+            "slip" => assert!(
+                (tangential.abs() - limit).abs() <= 1e-9 * limit.max(1e-300),
+                "{line}"
+            ),
+            "stick" => assert!(
+                normal > 0.0 && tangential.abs() <= limit * (1.0 + 1e-9),
+                "{line}"
+            ),
+            other => panic!("state {other}"),
+        }
+        met.insert(cells[7].to_string());
+    }
+    assert!(met.contains("stick") && met.contains("slip"), "{met:?}");
+    let fractions = json["state_fractions"].as_array().expect("state fractions");
+    assert_eq!(fractions.len(), 5);
+    for f in fractions {
+        let sum: f64 = ["stick", "slip", "open"]
+            .iter()
+            .map(|k| f[k].as_f64().unwrap())
+            .sum();
+        assert!((sum - 1.0).abs() <= 1e-12, "{f}");
+    }
     let frictions = json["frictions"].as_array().expect("friction series");
     assert_eq!(frictions.len(), 5);
     for f in frictions {

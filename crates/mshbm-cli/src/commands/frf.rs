@@ -12,7 +12,7 @@ use mshbm::frd::{
     FrdSettings,
 };
 use mshbm::method::settings::MethodSettings;
-use mshbm::solution::MethodKind;
+use mshbm::solution::{MethodKind, StateFractions};
 use mshbm::stability::Crossing;
 use mshbm::Model;
 
@@ -67,7 +67,10 @@ pub struct FrfArgs {
     /// found, renamed into place when the run ends):
     /// frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,
     /// stable,max_multiplier (the last two empty without --stability; `unknown` and empty
-    /// where the multipliers could not be computed). The last line says
+    /// where the multipliers could not be computed); with friction on the contacts also
+    /// dissipated_energy,stick,slip,open (the energy the friction dissipates per period and
+    /// the fractions of the period stuck, slipping and open, averaged over the contacts;
+    /// per contact in --json). The last line says
     /// how the run ended: `# finished: ...` or `# incomplete: ...` (a branch stopped early,
     /// or SIGINT/SIGTERM).
     #[arg(long, value_name = "FILE")]
@@ -102,6 +105,26 @@ const CSV_HEADER: &str =
     "frequency_hz,harmonics,max_qn,min_qn,amplitude_h1,residual_norm,newton_iterations,fold,stable,max_multiplier";
 /// Extra columns when hbm-aft runs (several methods or penalties share the file).
 const CSV_METHOD_COLUMNS: &str = ",method,penalty,max_penetration";
+/// Extra columns for contacts with friction: the energy dissipated per period and the
+/// fractions of the period in stick, slip and open, averaged over the contacts (per contact
+/// in `--json`).
+const CSV_FRICTION_COLUMNS: &str = ",dissipated_energy,stick,slip,open";
+
+/// The friction columns of a row (empty cells where the point has none).
+fn frd_csv_friction_cells(point: &FrdPoint) -> String {
+    let energy = point
+        .dissipated_energy
+        .map(|e| format!("{e:.9e}"))
+        .unwrap_or_default();
+    match point
+        .state_fractions
+        .as_deref()
+        .and_then(StateFractions::mean)
+    {
+        Some(f) => format!(",{energy},{:.9},{:.9},{:.9}", f.stick, f.slip, f.open),
+        None => format!(",{energy},,,"),
+    }
+}
 
 /// What `mshbm frf` does with a diagram as it is found: rows streamed to the CSV, a
 /// progress bar on a terminal (elsewhere a line every ten seconds), one summary line per
@@ -117,6 +140,8 @@ struct FrfOutput {
     interrupted: Option<&'static str>,
     /// The CSV rows carry the method columns (several methods or penalties).
     method_columns: bool,
+    /// The CSV rows carry the friction columns (contacts with friction).
+    friction_columns: bool,
     /// One summary line per branch on stderr (not with --json).
     summaries: bool,
     /// When stderr is not a terminal (a log file, a batch job): when the last progress line
@@ -141,14 +166,17 @@ impl FrdObserver for FrfOutput {
                 .method_columns
                 .then_some((branch.method.name(), branch.penalty));
             // a write error (full disk, NaN) stops the diagram at once
-            csv.row(&frd_csv_row(point, branch.harmonics, method))
-                .map_err(|e| {
-                    // the message names the file already: keep it once
-                    let text = format!("{e:#}");
-                    let prefix = format!("{}: ", csv.path().display());
-                    let message = text.strip_prefix(&prefix).unwrap_or(&text).to_string();
-                    mshbm::Error::io(csv.path(), message)
-                })?;
+            let mut row = frd_csv_row(point, branch.harmonics, method);
+            if self.friction_columns {
+                row.push_str(&frd_csv_friction_cells(point));
+            }
+            csv.row(&row).map_err(|e| {
+                // the message names the file already: keep it once
+                let text = format!("{e:#}");
+                let prefix = format!("{}: ", csv.path().display());
+                let message = text.strip_prefix(&prefix).unwrap_or(&text).to_string();
+                mshbm::Error::io(csv.path(), message)
+            })?;
         }
         if let Some(signal) = interrupt::requested() {
             self.interrupted = Some(signal);
@@ -438,12 +466,13 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         .check()?;
     let settings = frd_settings(args, &model)?;
     let method_columns = methods.iter().any(|m| m.kind() == MethodKind::HbmAft);
+    let friction_columns = model.has_contact_friction();
+    let mut header = frd_csv_header(method_columns);
+    if friction_columns {
+        header.push_str(CSV_FRICTION_COLUMNS);
+    }
     let csv = match &args.output {
-        Some(path) => Some(StreamedCsv::create(
-            path,
-            &frd_csv_header(method_columns),
-            true,
-        )?),
+        Some(path) => Some(StreamedCsv::create(path, &header, true)?),
         None => None,
     };
     let mut output = FrfOutput {
@@ -454,6 +483,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         points: 0,
         interrupted: None,
         method_columns,
+        friction_columns,
         summaries: !args.json,
         last_line: None,
     };

@@ -174,6 +174,11 @@ pub struct Model {
 }
 
 impl Model {
+    /// Some contact has Coulomb friction (`mu` of an interface, docs/theory.md §20).
+    pub fn has_contact_friction(&self) -> bool {
+        self.contacts.iter().any(|c| c.friction.is_some())
+    }
+
     /// Refuse contacts with Coulomb friction (docs/theory.md §20) in a method or integrator
     /// (`what`) that models only frictionless contact, naming the first such contact.
     pub fn refuse_contact_friction(&self, what: &str) -> Result<()> {
