@@ -7,7 +7,8 @@ use mshbm::frd::{
     FrdSettings,
 };
 use mshbm::method::settings::MethodSettings;
-use numpy::PyArray1;
+use mshbm::solution::StateFractions;
+use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyList};
 
@@ -61,6 +62,7 @@ fn point_dict<'py>(
     d.set_item("stable", p.stable)?;
     d.set_item("max_multiplier", p.max_multiplier)?;
     d.set_item("max_penetration", p.max_penetration)?;
+    d.set_item("dissipated_energy", p.dissipated_energy)?;
     d.set_item("points", points)?;
     d.set_item("step", step)?;
     Ok(d)
@@ -173,6 +175,46 @@ fn branch_dict<'py>(py: Python<'py>, b: Found) -> PyResult<Bound<'py, PyDict>> {
         "max_penetration",
         col(|p| p.max_penetration.unwrap_or(f64::NAN)),
     )?;
+    d.set_item(
+        "dissipated_energy",
+        col(|p| p.dissipated_energy.unwrap_or(f64::NAN)),
+    )?;
+    let means: Vec<Option<StateFractions>> = p
+        .iter()
+        .map(|p| p.state_fractions.as_deref().and_then(StateFractions::mean))
+        .collect();
+    let mean_col = |f: fn(&StateFractions) -> f64| {
+        array(
+            py,
+            means
+                .iter()
+                .map(|m| m.as_ref().map_or(f64::NAN, f))
+                .collect(),
+        )
+    };
+    d.set_item("stick", mean_col(|f| f.stick))?;
+    d.set_item("slip", mean_col(|f| f.slip))?;
+    d.set_item("open", mean_col(|f| f.open))?;
+    // per point and contact: [stick, slip, open]
+    let per_contact: Option<Vec<Vec<[f64; 3]>>> = p
+        .iter()
+        .map(|p| {
+            p.state_fractions.as_ref().map(|fs| {
+                fs.iter()
+                    .map(|f| [f.stick, f.slip, f.open])
+                    .collect::<Vec<_>>()
+            })
+        })
+        .collect();
+    match per_contact {
+        Some(rows) if !rows.is_empty() => {
+            let contacts = rows[0].len();
+            let flat: Vec<f64> = rows.iter().flatten().flatten().copied().collect();
+            let array = PyArray1::from_vec(py, flat).reshape([rows.len(), contacts, 3])?;
+            d.set_item("state_fractions", array)?;
+        }
+        _ => d.set_item("state_fractions", py.None())?,
+    }
     Ok(d)
 }
 

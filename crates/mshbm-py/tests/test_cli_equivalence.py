@@ -194,3 +194,39 @@ def test_transient_simulation_equals_cli_csv(cli, tmp_path, scheme):
     assert len(got["time_s"]) == len(ref["time_s"]) > 1000
     for col in ref:
         assert np.allclose(got[col], np.array(ref[col], float), rtol=1e-11, atol=1e-300), col
+
+
+FRICTION_DAMPER = EXAMPLES / "friction_damper" / "model.toml"
+
+
+def test_friction_outputs_equal_cli(cli, cli_json, tmp_path):
+    """Contacts with friction: the energy and the stick/slip/open fractions per point, and
+    per sample the state and the friction force, as the CLI writes them."""
+    out = tmp_path / "frd.csv"
+    cli("frf", FRICTION_DAMPER, "--from", 300, "--to", 700, "--harmonics", 3, "--dof", 209, "--output", out)
+    ref = read_cli_csv(out)
+    damper = mshbm.Model.from_toml(FRICTION_DAMPER)
+    d = mshbm.frf(damper, 300, 700, [3], dof=209)
+    assert d.completed
+    got = d.to_dict()
+    assert len(got["frequency_hz"]) == len(ref["frequency_hz"]) > 10
+    assert np.allclose(got["dissipated_energy"], np.array(ref["dissipated_energy"], float), rtol=1e-8, atol=0)
+    for col in ("stick", "slip", "open"):
+        assert np.allclose(got[col], np.array(ref[col], float), rtol=0, atol=1e-8), col
+    fractions = d.branches[0].state_fractions
+    assert fractions.shape == (len(got["frequency_hz"]), 5, 3)
+    assert np.allclose(fractions.sum(axis=2), 1.0, atol=1e-12)
+    assert np.allclose(fractions[:, :, 0].mean(axis=1), got["stick"], atol=1e-12)
+    s = mshbm.solve(damper, 1100, 3)
+    ref = cli_json("solve", FRICTION_DAMPER, "--frequency", 1100, "--harmonics", 3)
+    assert s.dissipated_energy == pytest.approx(ref["dissipated_energy"], rel=1e-10)
+    assert s.state_fractions.shape == (5, 3)
+    assert np.allclose(s.state_fractions, [[f["stick"], f["slip"], f["open"]] for f in ref["state_fractions"]], atol=1e-12)
+    assert s.contact_state.tolist() == [f["state"] for f in ref["frictions"]]
+    assert np.allclose(s.friction_force, [f["force"] for f in ref["frictions"]], rtol=1e-10, atol=1e-12)
+    # the state agrees with the forces: on the cone where slipping, no force where open
+    slip = s.contact_state == "slip"
+    assert np.allclose(np.abs(s.friction_force[slip]), s.friction_limit[slip], rtol=1e-9)
+    assert np.all(s.contact_force[s.contact_state == "open"] == 0.0)
+    columns = s.to_dict()
+    assert list(columns["state_c0"]) == list(s.contact_state[0])

@@ -130,6 +130,40 @@ class Solution(_Result):
         return np.array([c["force"] for c in self._data["solution"]["contacts"]])
 
     @property
+    def friction_force(self) -> np.ndarray:
+        """Tangential (friction) force of each contact with friction over one period,
+        (contacts, samples); empty without friction."""
+        return np.array([f["force"] for f in self._contact_frictions()])
+
+    @property
+    def friction_limit(self) -> np.ndarray:
+        """Its bound ``μ λ_N`` at each sample, (contacts, samples)."""
+        return np.array([f["limit"] for f in self._contact_frictions()])
+
+    @property
+    def contact_state(self) -> np.ndarray:
+        """State of each contact with friction at each sample (``"open"``, ``"stick"``,
+        ``"slip"``), (contacts, samples); empty without friction."""
+        return np.array([f["state"] for f in self._contact_frictions()], dtype=object)
+
+    @property
+    def state_fractions(self) -> np.ndarray:
+        """Fractions of the period each contact with friction spends in stick, slip and
+        open (exact, they sum to 1), (contacts, 3); empty without friction."""
+        rows = self._data["solution"].get("state_fractions") or []
+        return np.array([[r["stick"], r["slip"], r["open"]] for r in rows]).reshape(-1, 3)
+
+    @property
+    def dissipated_energy(self) -> float | None:
+        """Energy the friction forces dissipate per period (force × length unit), or None
+        without friction on the contacts."""
+        return self._data["solution"].get("dissipated_energy")
+
+    def _contact_frictions(self) -> list:
+        s = self._data["solution"]
+        return [f for f in s.get("frictions", []) if "state" in f]
+
+    @property
     def harmonics_of_contacts(self) -> np.ndarray:
         """Fourier coefficients [a0, a1, b1, …, aH, bH] of each contact displacement."""
         return np.array([c["coefficients"] for c in self._data["solution"]["contacts"]])
@@ -140,13 +174,18 @@ class Solution(_Result):
 
     def to_dict(self) -> dict:
         """The time series over one period as columns, as ``mshbm solve --output``:
-        ``time_s``, then ``q_dof{d}``, ``gap_c{k}``, ``force_c{k}`` per contact."""
+        ``time_s``, then ``q_dof{d}``, ``gap_c{k}``, ``force_c{k}`` per contact (with
+        friction also ``friction_c{k}`` and ``state_c{k}``)."""
         s = self._data["solution"]
         columns = {"time_s": s["time_s"]}
+        frictions = self._contact_frictions()
         for k, c in enumerate(s["contacts"]):
             columns[f"q_dof{c['dof']}"] = c["displacement"]
             columns[f"gap_c{k}"] = c["gap"]
             columns[f"force_c{k}"] = c["force"]
+            if k < len(frictions):
+                columns[f"friction_c{k}"] = frictions[k]["force"]
+                columns[f"state_c{k}"] = frictions[k]["state"]
         return columns
 
     def to_dataframe(self):
@@ -172,6 +211,10 @@ _BRANCH_COLUMNS = (
     "stable",
     "max_multiplier",
     "max_penetration",
+    "dissipated_energy",
+    "stick",
+    "slip",
+    "open",
 )
 
 
@@ -180,8 +223,11 @@ class Branch(_Result):
     ``min_qn`` (extremes of the response DOF, length unit), ``amplitude_h1``,
     ``residual_norm``, ``newton_iterations``, ``fold`` (bool: a located fold),
     ``stable`` (1.0, 0.0, NaN when not computed), ``max_multiplier`` and
-    ``max_penetration`` (NaN when not computed); and ``harmonics``, ``method``,
-    ``label``, ``penalty``, ``stop`` (why it ended), ``completed``."""
+    ``max_penetration`` (NaN when not computed), ``dissipated_energy`` (per period) and
+    ``stick``, ``slip``, ``open`` (fractions of the period, mean over the contacts; NaN
+    without friction on the contacts), ``state_fractions`` ((points, contacts, 3): stick,
+    slip, open per contact, or None); and ``harmonics``, ``method``, ``label``,
+    ``penalty``, ``stop`` (why it ended), ``completed``."""
 
     def __getattr__(self, name):
         data = object.__getattribute__(self, "_data")
@@ -230,7 +276,8 @@ class FrequencyResponse(_Result):
     def to_dict(self) -> dict:
         """Every point of every branch as columns (the CLI's CSV columns ``frequency_hz,
         harmonics, max_qn, min_qn, amplitude_h1, residual_norm, newton_iterations, fold,
-        stable, max_multiplier``, then ``max_penetration, method, penalty, label``)."""
+        stable, max_multiplier``, then ``max_penetration, dissipated_energy, stick, slip,
+        open, method, penalty, label``)."""
         branches = self._data["branches"]
         columns: dict[str, Any] = {}
         n = [len(b["frequency_hz"]) for b in branches]
