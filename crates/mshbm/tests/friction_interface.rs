@@ -173,6 +173,31 @@ fn a_friction_damper_converges_with_stick_and_slip_and_its_jacobian_equals_centr
     }
 }
 
+/// A heavy preload (20 N, μ = 0.1) at 100 Hz: the three middle contacts stick all period
+/// (centred in their cones, (T157)) while the outer two slip. The fixed point of the
+/// contact state cycled here before its Newton was safeguarded and every peak of (T157)
+/// refined (docs/theory.md (T156)–(T157)).
+#[test]
+fn contacts_stuck_all_period_beside_slipping_ones_reach_their_periodic_state() {
+    let model = damper(Some(0.1), 20.0);
+    let dof = tip_dof(&model);
+    let mut p = ms_hbm(&model, 3);
+    let (_, out) = solve_at_frequency(&mut p, hz(100.0), dof, &NewtonOptions::default()).unwrap();
+    assert!(out.converged, "{:?}", out.reason);
+    let sol = p.solution(&out.x, hz(100.0), dof).unwrap();
+    let fractions = sol
+        .state_fractions
+        .expect("frictional solutions report fractions");
+    let stuck_all_period = fractions.iter().filter(|f| f.stick == 1.0).count();
+    let slipping = fractions.iter().filter(|f| f.slip > 0.0).count();
+    assert_eq!((stuck_all_period, slipping), (3, 2), "{fractions:?}");
+    for fr in &sol.frictions {
+        for (t, l) in fr.force.iter().zip(&fr.limit) {
+            assert!(t.abs() <= l * (1.0 + 1e-9), "outside the cone: {t} > {l}");
+        }
+    }
+}
+
 #[test]
 fn the_memory_plan_counts_the_frictional_law() {
     use mshbm::limits::Limits;

@@ -138,7 +138,12 @@ impl<P: PeriodicProblem + ?Sized, G: ClosingEquation> NewtonSystem for Bordered<
         );
         match linearized {
             Ok(()) => {}
-            Err(e) if e.kind() == ErrorKind::Singular => return Ok(false),
+            // a point the method cannot evaluate (a singular system, a frictional law
+            // without a periodic state) refuses the step: the step is reduced, and the
+            // branch stops with what it found at the smallest step
+            Err(e) if matches!(e.kind(), ErrorKind::Singular | ErrorKind::Numerical) => {
+                return Ok(false)
+            }
             Err(e) => return Err(e),
         }
         self.residual_norm = max_abs(f) / self.sc.length;

@@ -45,7 +45,11 @@ impl March<'_> {
     }
 
     /// The largest of `sign · h` over the period (`h` of [`March::cone_side`]): the phase and
-    /// the instant, by 8 points per phase refined by golden-section search.
+    /// the instant. Each phase is sampled at `max(8, 4H·width/π)` points (a trigonometric
+    /// polynomial of degree `H` has at most `2H` maxima per period), and every sampled
+    /// local maximum is refined by golden-section search: refining only the largest sample
+    /// can pick the lower of two nearly equal peaks, which makes (T157) jump as the anchors
+    /// move and the fixed point's Newton cycle.
     fn extreme(&self, phases: &[Phase], c: usize, s: f64, sign: f64) -> (usize, f64) {
         let mut best = (0, 0.0, f64::NEG_INFINITY);
         for (p, phase) in phases.iter().enumerate() {
@@ -53,28 +57,45 @@ impl March<'_> {
                 continue;
             }
             let width = phase.end - phase.start;
-            for l in 0..=8 {
-                let tau = phase.start + width * l as f64 / 8.0;
-                let v = sign * self.cone_side(phase, c, s, tau, None);
+            let points = ((4 * self.harmonics) as f64 * width / std::f64::consts::PI)
+                .ceil()
+                .max(8.0) as usize;
+            let taus: Vec<f64> = (0..=points)
+                .map(|l| phase.start + width * l as f64 / points as f64)
+                .collect();
+            let values: Vec<f64> = taus
+                .iter()
+                .map(|&t| sign * self.cone_side(phase, c, s, t, None))
+                .collect();
+            for l in 0..=points {
+                let left = if l > 0 {
+                    values[l - 1]
+                } else {
+                    f64::NEG_INFINITY
+                };
+                let right = if l < points {
+                    values[l + 1]
+                } else {
+                    f64::NEG_INFINITY
+                };
+                if values[l] < left || values[l] < right {
+                    continue;
+                }
+                if values[l] > best.2 {
+                    best = (p, taus[l], values[l]);
+                }
+                let (lo, hi) = (taus[l.saturating_sub(1)], taus[(l + 1).min(points)]);
+                let (t, v) = crate::harmonic::golden_section_argmax(
+                    |t| sign * self.cone_side(phase, c, s, t, None),
+                    lo,
+                    hi,
+                );
                 if v > best.2 {
-                    best = (p, tau, v);
+                    best = (p, t, v);
                 }
             }
         }
-        let (p, tau, _) = best;
-        let phase = &phases[p];
-        let step = (phase.end - phase.start) / 8.0;
-        let (lo, hi) = ((tau - step).max(phase.start), (tau + step).min(phase.end));
-        let (t, v) = crate::harmonic::golden_section_argmax(
-            |t| sign * self.cone_side(phase, c, s, t, None),
-            lo,
-            hi,
-        );
-        if v > best.2 {
-            (p, t)
-        } else {
-            (p, tau)
-        }
+        (best.0, best.1)
     }
 
     /// (T157): for a contact stuck all period, `max_τ (λ_T − μ λ_N) + min_τ (λ_T + μ λ_N)`

@@ -88,11 +88,23 @@ pub struct PeriodicContact {
     data: Vec<[Vec<f64>; 4]>,
 }
 
+/// The last point the safeguarded Newton of the anchors accepted (T156).
+struct Accepted {
+    anchors: Vec<f64>,
+    /// Which rows were periodicity rows (`true`) or centring rows (T157).
+    rows: Vec<bool>,
+    /// `max_i |r_i / J_ii|`.
+    merit: f64,
+    /// The Newton step from `anchors` and the fraction of it being tried.
+    step: Vec<f64>,
+    fraction: f64,
+}
+
 /// Relative tolerance of the indicators (T153).
 const INDICATOR_TOLERANCE: f64 = 1e-11;
 
 /// Passes of one period before the fixed point of the state at `τ = 0` is given up.
-const MAX_PASSES: usize = 50;
+const MAX_PASSES: usize = 100;
 
 impl Phase {
     fn of(
@@ -214,11 +226,13 @@ impl FrictionalContacts {
             .fold(0.0f64, |s, v| s.max(v.abs()))
             .max(f64::MIN_POSITIVE);
         let mut march = March::new(self, harmonics, gamma, cells.max(1));
+        let mut accepted: Option<Accepted> = None;
         for pass in 1..=MAX_PASSES {
             let out = march.run(&modes0, &anchors0)?;
             if out.modes_end != modes0 {
                 modes0 = out.modes_end.clone();
                 anchors0 = out.anchors_end.clone();
+                accepted = None;
                 continue;
             }
             // (T156)–(T158): residual of the stuck contacts' anchors at τ = 0
@@ -270,8 +284,46 @@ impl FrictionalContacts {
             };
             let step = (0..ns).fold(0.0f64, |s, i| s.max(solved[(i, 0)].abs()));
             let size = anchors0.iter().fold(scale, |s, a| s.max(a.abs()));
-            if step <= 1e-12 * size || pass == MAX_PASSES {
-                if step > 1e-12 * size {
+            // the merit in anchor units: each row's residual over its diagonal
+            let merit = (0..ns).fold(0.0f64, |s, i| {
+                let d = j_a[i * ns + i];
+                s.max(if d != 0.0 {
+                    (residual[i] / d).abs()
+                } else {
+                    residual[i].abs()
+                })
+            });
+            let tolerance = 1e-12 * size;
+            let converged = step <= tolerance || merit <= tolerance;
+            if !converged && pass < MAX_PASSES {
+                let rows: Vec<bool> = stuck.iter().map(|&c| out.released[c]).collect();
+                if let Some(a) = accepted.as_mut().filter(|a| a.rows == rows) {
+                    if merit > (1.0 - 1e-4 * a.fraction) * a.merit && a.fraction > 1e-6 {
+                        // no decrease with the same rows: a kink of (T157) between the two
+                        // points (its extreme instants jumped); halve the step
+                        a.fraction *= 0.5;
+                        for (i, &c) in stuck.iter().enumerate() {
+                            anchors0[c] = a.anchors[c] - a.fraction * a.step[i];
+                        }
+                        continue;
+                    }
+                }
+                let step: Vec<f64> = (0..ns).map(|i| solved[(i, 0)]).collect();
+                let base = anchors0.clone();
+                for (i, &c) in stuck.iter().enumerate() {
+                    anchors0[c] -= step[i];
+                }
+                accepted = Some(Accepted {
+                    anchors: base,
+                    rows,
+                    merit,
+                    step,
+                    fraction: 1.0,
+                });
+                continue;
+            }
+            {
+                if !converged {
                     return Err(Error::Numerical(format!(
                         "friction: no periodic contact state after {MAX_PASSES} periods (anchor change {step:e})"
                     )));
@@ -300,9 +352,6 @@ impl FrictionalContacts {
                         .map(|d| [d.f.clone(), d.g.clone(), d.yf.clone(), d.yg.clone()])
                         .collect(),
                 });
-            }
-            for (i, &c) in stuck.iter().enumerate() {
-                anchors0[c] -= solved[(i, 0)];
             }
         }
         Err(Error::Numerical(format!(
