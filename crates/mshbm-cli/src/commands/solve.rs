@@ -267,6 +267,7 @@ impl MethodArgs {
                             MassArg::Redistributed => MassKind::Redistributed,
                         },
                         penalty,
+                        tangential_penalty: None,
                         quadrature: quadrature(QuadratureArg::Sampled),
                     })
                 })

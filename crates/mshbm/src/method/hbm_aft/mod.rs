@@ -86,6 +86,7 @@
 
 mod floquet;
 mod homotopy;
+pub mod jenkins;
 mod penalty;
 
 use penalty::{ContactState, PenaltyGroup};
@@ -145,6 +146,11 @@ pub struct HbmAftOptions {
     /// Mass matrix (the classical method: [`MassKind::Consistent`]).
     pub mass: MassKind,
     pub penalty: Penalty,
+    /// The tangential penalty `k_t` of the Jenkins element of every frictional contact
+    /// (docs/theory.md (T161)): a stiffness, or a multiple of the structure's stiffness along
+    /// the contact's tangent (`t_cᵀ K_NN t_c / (t_cᵀ t_c)²`); `None`: `k_t = k_p` of the same
+    /// contact. Ignored without friction.
+    pub tangential_penalty: Option<Penalty>,
     /// Fourier coefficients of the penalty force: [`Quadrature::Sampled`] is the classical
     /// AFT (DFT of the force samples); [`Quadrature::Exact`] integrates the force in closed
     /// form between the located penetration times of the series `q_N(τ)`.
@@ -159,6 +165,7 @@ impl HbmAftOptions {
             samples: None,
             mass: MassKind::Consistent,
             penalty: Penalty::default(),
+            tangential_penalty: None,
             quadrature: Quadrature::Sampled,
         }
     }
@@ -194,6 +201,9 @@ pub struct HbmAft {
     guess_iterations: usize,
     /// The variational system of the Floquet analysis (built when first asked).
     stability: Option<floquet::PenaltyStability>,
+    /// The Jenkins elements of the frictional contacts (docs/theory.md §21); `None` without
+    /// friction.
+    jenkins: Option<jenkins::Jenkins>,
 }
 
 fn mat_vec(a: &Mat<c64>, x: &[c64]) -> Vec<c64> {
@@ -235,7 +245,21 @@ impl HbmAft {
                 "the HBM-AFT baseline has penalty normal contact only and does not support friction; use the general MS-HBM",
             ));
         }
-        model.refuse_contact_friction("the HBM-AFT baseline")?;
+        let frictional = model.contacts.iter().any(|c| c.friction.is_some());
+        if frictional && options.quadrature == Quadrature::Exact {
+            return Err(Error::argument(
+                "quadrature",
+                "the exact quadrature of the HBM-AFT integrates the normal penalty force only; with friction on contacts (Jenkins elements) use the sampled AFT",
+            ));
+        }
+        if let Some(Penalty::Stiffness(v) | Penalty::Relative(v)) = options.tangential_penalty {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::argument(
+                    "tangential penalty",
+                    format!("the tangential penalty stiffness must be a positive number, got {v}"),
+                ));
+            }
+        }
         let system = model.system(options.mass)?;
         super::memory::hbm_aft(&system, h, samples).check(
             &format!("HBM-AFT with {h} harmonics and {samples} samples"),
@@ -267,6 +291,17 @@ impl HbmAft {
             Penalty::Stiffness(kp) => vec![kp; nc],
             Penalty::Relative(f) => contact_stiffness.iter().map(|k| f * k).collect(),
         };
+        let jenkins = if frictional {
+            Some(jenkins_elements(
+                &system,
+                &model.source,
+                &k_nn,
+                &penalty,
+                options.tangential_penalty,
+            )?)
+        } else {
+            None
+        };
         let reference_stiffness = (0..n).fold(0.0f64, |m, i| m.max(k_nn.get(i, i)));
         let condensation =
             ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Stored)?;
@@ -286,6 +321,7 @@ impl HbmAft {
             frequency: None,
             guess_iterations: 0,
             stability: None,
+            jenkins,
             system,
         })
     }
@@ -310,6 +346,15 @@ impl HbmAft {
     /// Penalty stiffness `k_p` of each contact (force per length).
     pub fn penalties(&self) -> &[f64] {
         &self.penalty
+    }
+
+    /// Tangential penalty `k_t` of each contact's Jenkins element (force per length; 0 for a
+    /// contact without friction); empty without friction.
+    pub fn tangential_penalties(&self) -> &[f64] {
+        self.jenkins
+            .as_ref()
+            .map(|j| j.stiffness.as_slice())
+            .unwrap_or(&[])
     }
 
     /// Stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` of each contact, the unit of
@@ -525,9 +570,13 @@ impl PeriodicProblem for HbmAft {
         })
     }
 
-    /// The monodromy of the penalty system along the orbit (docs/theory.md (T142)).
+    /// The monodromy of the penalty system along the orbit (docs/theory.md (T142)); none
+    /// with friction (the slider positions would be part of the state; not implemented).
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
         check_dimension(x, self.dimension())?;
+        if self.jenkins.is_some() {
+            return Ok(None);
+        }
         self.penalty_floquet(x, omega).map(Some)
     }
 
@@ -585,7 +634,7 @@ impl PeriodicProblem for HbmAft {
                 taus: &self.sampling.taus,
                 residual: &residual,
                 contacts,
-                frictions: vec![],
+                frictions: self.friction_series(&state),
                 response: DofResponse {
                     dof: response_dof,
                     coefficients,
@@ -595,4 +644,76 @@ impl PeriodicProblem for HbmAft {
             },
         ))
     }
+}
+
+/// The Jenkins elements of `system`'s frictional contacts (docs/theory.md (T161)): the unit
+/// tangents in `N` numbering, `μ`, and `k_t` from `tangential` (`None`: the contact's normal
+/// penalty `penalty[c]`).
+fn jenkins_elements(
+    system: &System,
+    source: &std::path::Path,
+    k_nn: &crate::sparse::SparseMatrix,
+    penalty: &[f64],
+    tangential: Option<Penalty>,
+) -> Result<jenkins::Jenkins> {
+    let n = system.nonlinear_dofs.len();
+    let nc = system.contacts.len();
+    let mut tangent = vec![0.0; n * nc];
+    let mut mu = vec![0.0; nc];
+    let mut stiffness = vec![0.0; nc];
+    for (c, contact) in system.contacts.iter().enumerate() {
+        let Some(friction) = &contact.friction else {
+            continue;
+        };
+        if !(friction.mu.is_finite() && friction.mu >= 0.0) {
+            return Err(Error::field(
+                source,
+                "mu",
+                format!(
+                    "contact {c}: the friction coefficient must be finite and ≥ 0, got {}",
+                    friction.mu
+                ),
+            ));
+        }
+        if friction.w.is_empty() {
+            return Err(Error::field(
+                source,
+                "mu",
+                format!("the tangent of contact {c} has no free DOF"),
+            ));
+        }
+        for &(dof, coeff) in &friction.w {
+            let Some(i) = system.nonlinear_dofs.iter().position(|&d| d == dof) else {
+                return Err(Error::field(
+                    source,
+                    "mu",
+                    format!("the tangent of contact {c} acts on system DOF {dof}, which is not a DOF of a contact node"),
+                ));
+            };
+            tangent[i * nc + c] += coeff;
+        }
+        let t: Vec<f64> = (0..n).map(|i| tangent[i * nc + c]).collect();
+        let tt: f64 = t.iter().map(|v| v * v).sum();
+        let tkt: f64 = k_nn.iter().map(|(i, j, v)| t[i] * v * t[j]).sum();
+        mu[c] = friction.mu;
+        stiffness[c] = match tangential {
+            None => penalty[c],
+            Some(Penalty::Stiffness(v)) => v,
+            Some(Penalty::Relative(f)) => {
+                if tt == 0.0 || tkt.is_nan() || tkt <= 0.0 {
+                    return Err(Error::field(
+                        source,
+                        "mu",
+                        format!("contact {c}: the structure has no stiffness along its tangent (tᵀ K_NN t = {tkt:e}); a tangential penalty relative to it is undefined"),
+                    ));
+                }
+                f * tkt / (tt * tt)
+            }
+        };
+    }
+    Ok(jenkins::Jenkins {
+        tangent,
+        mu,
+        stiffness,
+    })
 }
