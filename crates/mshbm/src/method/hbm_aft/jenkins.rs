@@ -1,4 +1,4 @@
-//! Elastic dry friction of the HBM-AFT (docs/theory.md §21, (T161)–(T169)): a Jenkins element
+//! Elastic dry friction of the HBM-AFT (docs/theory.md §20 "HBM-AFT with Jenkins elements", (T161)–(T169)): a Jenkins element
 //! per frictional contact — a tangential penalty spring `k_t` in series with a Coulomb slider
 //! whose limit is `μ λ_N(τ)`, with `λ_N` the normal penalty force of the same contact.
 //!
@@ -18,8 +18,10 @@
 //! the coefficients through the basis at that sample.
 
 use super::penalty::{ContactState, PenaltyGroup};
-use super::HbmAft;
+use super::{HbmAft, Penalty};
+use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
+use crate::model::System;
 use crate::solution::FrictionSeries;
 
 /// The state of the slider of one contact at one sample (T162).
@@ -375,6 +377,78 @@ impl HbmAft {
         }
         groups
     }
+}
+
+/// The Jenkins elements of `system`'s frictional contacts (docs/theory.md (T161)): the unit
+/// tangents in `N` numbering, `μ`, and `k_t` from `tangential` (`None`: the contact's normal
+/// penalty `penalty[c]`).
+pub(super) fn jenkins_elements(
+    system: &System,
+    source: &std::path::Path,
+    k_nn: &crate::sparse::SparseMatrix,
+    penalty: &[f64],
+    tangential: Option<Penalty>,
+) -> Result<Jenkins> {
+    let n = system.nonlinear_dofs.len();
+    let nc = system.contacts.len();
+    let mut tangent = vec![0.0; n * nc];
+    let mut mu = vec![0.0; nc];
+    let mut stiffness = vec![0.0; nc];
+    for (c, contact) in system.contacts.iter().enumerate() {
+        let Some(friction) = &contact.friction else {
+            continue;
+        };
+        if !(friction.mu.is_finite() && friction.mu >= 0.0) {
+            return Err(Error::field(
+                source,
+                "mu",
+                format!(
+                    "contact {c}: the friction coefficient must be finite and ≥ 0, got {}",
+                    friction.mu
+                ),
+            ));
+        }
+        if friction.w.is_empty() {
+            return Err(Error::field(
+                source,
+                "mu",
+                format!("the tangent of contact {c} has no free DOF"),
+            ));
+        }
+        for &(dof, coeff) in &friction.w {
+            let Some(i) = system.nonlinear_dofs.iter().position(|&d| d == dof) else {
+                return Err(Error::field(
+                    source,
+                    "mu",
+                    format!("the tangent of contact {c} acts on system DOF {dof}, which is not a DOF of a contact node"),
+                ));
+            };
+            tangent[i * nc + c] += coeff;
+        }
+        let t: Vec<f64> = (0..n).map(|i| tangent[i * nc + c]).collect();
+        let tt: f64 = t.iter().map(|v| v * v).sum();
+        let tkt: f64 = k_nn.iter().map(|(i, j, v)| t[i] * v * t[j]).sum();
+        mu[c] = friction.mu;
+        stiffness[c] = match tangential {
+            None => penalty[c],
+            Some(Penalty::Stiffness(v)) => v,
+            Some(Penalty::Relative(f)) => {
+                if tt == 0.0 || tkt.is_nan() || tkt <= 0.0 {
+                    return Err(Error::field(
+                        source,
+                        "mu",
+                        format!("contact {c}: the structure has no stiffness along its tangent (tᵀ K_NN t = {tkt:e}); a tangential penalty relative to it is undefined"),
+                    ));
+                }
+                f * tkt / (tt * tt)
+            }
+        };
+    }
+    Ok(Jenkins {
+        tangent,
+        mu,
+        stiffness,
+    })
 }
 
 #[cfg(test)]

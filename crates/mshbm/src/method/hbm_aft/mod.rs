@@ -66,6 +66,16 @@
 //! ends, so the residual is continuously differentiable and `∂R/∂x` keeps the form above
 //! with interval Gram blocks. It is the limit of the sampled AFT as `N_s → ∞`.
 //!
+//! **Friction** (docs/theory.md §20, "HBM-AFT with Jenkins elements", (T161)–(T169)). A
+//! contact with friction gets a Jenkins element along its tangent: a tangential penalty
+//! spring `k_t` ([`HbmAftOptions::tangential_penalty`], default `k_t = k_p`) in series with a
+//! Coulomb slider of limit `μ λ_N`. `jenkins.rs` moves the slider over the samples by the
+//! return mapping, finds its periodic state without iteration (the period map is a
+//! projection onto an interval), and adds the slider's forces and their exact
+//! piecewise-linear derivative (per-sample stiffnesses, and per run of stuck samples the
+//! coupling to the sample where the slider stopped) to the residual and the Jacobian. Only
+//! the sampled quadrature; no Floquet multipliers with friction.
+//!
 //! **Starting point.** From the linear response, Newton on a stiff penalty cycles between
 //! contact states; [`PeriodicProblem::initial_guess`] is therefore a homotopy in `k_p`
 //! ([`HbmAft::penalty_homotopy`]).
@@ -81,8 +91,9 @@
 //! **Files**: this one holds the settings, the construction, the residual, the Jacobian,
 //! the linear response and the [`PeriodicProblem`] implementation; `penalty.rs` the penalty
 //! law at the samples and its exact quadrature between penetration times (the contact
-//! state, the penalty groups, the penetration); `homotopy.rs` the penalty homotopy of the
-//! initial guess.
+//! state, the penalty groups, the penetration); `jenkins.rs` the Jenkins elements of the
+//! frictional contacts; `homotopy.rs` the penalty homotopy of the initial guess (which scales
+//! `k_t` with `k_p`).
 
 mod floquet;
 mod homotopy;
@@ -201,7 +212,7 @@ pub struct HbmAft {
     guess_iterations: usize,
     /// The variational system of the Floquet analysis (built when first asked).
     stability: Option<floquet::PenaltyStability>,
-    /// The Jenkins elements of the frictional contacts (docs/theory.md §21); `None` without
+    /// The Jenkins elements of the frictional contacts (docs/theory.md §20, (T161)); `None` without
     /// friction.
     jenkins: Option<jenkins::Jenkins>,
 }
@@ -292,7 +303,7 @@ impl HbmAft {
             Penalty::Relative(f) => contact_stiffness.iter().map(|k| f * k).collect(),
         };
         let jenkins = if frictional {
-            Some(jenkins_elements(
+            Some(jenkins::jenkins_elements(
                 &system,
                 &model.source,
                 &k_nn,
@@ -644,76 +655,4 @@ impl PeriodicProblem for HbmAft {
             },
         ))
     }
-}
-
-/// The Jenkins elements of `system`'s frictional contacts (docs/theory.md (T161)): the unit
-/// tangents in `N` numbering, `μ`, and `k_t` from `tangential` (`None`: the contact's normal
-/// penalty `penalty[c]`).
-fn jenkins_elements(
-    system: &System,
-    source: &std::path::Path,
-    k_nn: &crate::sparse::SparseMatrix,
-    penalty: &[f64],
-    tangential: Option<Penalty>,
-) -> Result<jenkins::Jenkins> {
-    let n = system.nonlinear_dofs.len();
-    let nc = system.contacts.len();
-    let mut tangent = vec![0.0; n * nc];
-    let mut mu = vec![0.0; nc];
-    let mut stiffness = vec![0.0; nc];
-    for (c, contact) in system.contacts.iter().enumerate() {
-        let Some(friction) = &contact.friction else {
-            continue;
-        };
-        if !(friction.mu.is_finite() && friction.mu >= 0.0) {
-            return Err(Error::field(
-                source,
-                "mu",
-                format!(
-                    "contact {c}: the friction coefficient must be finite and ≥ 0, got {}",
-                    friction.mu
-                ),
-            ));
-        }
-        if friction.w.is_empty() {
-            return Err(Error::field(
-                source,
-                "mu",
-                format!("the tangent of contact {c} has no free DOF"),
-            ));
-        }
-        for &(dof, coeff) in &friction.w {
-            let Some(i) = system.nonlinear_dofs.iter().position(|&d| d == dof) else {
-                return Err(Error::field(
-                    source,
-                    "mu",
-                    format!("the tangent of contact {c} acts on system DOF {dof}, which is not a DOF of a contact node"),
-                ));
-            };
-            tangent[i * nc + c] += coeff;
-        }
-        let t: Vec<f64> = (0..n).map(|i| tangent[i * nc + c]).collect();
-        let tt: f64 = t.iter().map(|v| v * v).sum();
-        let tkt: f64 = k_nn.iter().map(|(i, j, v)| t[i] * v * t[j]).sum();
-        mu[c] = friction.mu;
-        stiffness[c] = match tangential {
-            None => penalty[c],
-            Some(Penalty::Stiffness(v)) => v,
-            Some(Penalty::Relative(f)) => {
-                if tt == 0.0 || tkt.is_nan() || tkt <= 0.0 {
-                    return Err(Error::field(
-                        source,
-                        "mu",
-                        format!("contact {c}: the structure has no stiffness along its tangent (tᵀ K_NN t = {tkt:e}); a tangential penalty relative to it is undefined"),
-                    ));
-                }
-                f * tkt / (tt * tt)
-            }
-        };
-    }
-    Ok(jenkins::Jenkins {
-        tangent,
-        mu,
-        stiffness,
-    })
 }
