@@ -253,7 +253,7 @@ impl HbmAft {
             return Err(Error::field(
                 &model.source,
                 "frictions",
-                "the HBM-AFT baseline has penalty normal contact only and does not support friction; use the general MS-HBM",
+                "the HBM-AFT baseline models friction on contacts (`mu` of an interface, as Jenkins elements) but not friction elements (`[[frictions]]`); use the general MS-HBM",
             ));
         }
         let frictional = model.contacts.iter().any(|c| c.friction.is_some());
