@@ -201,6 +201,7 @@ impl MethodArgs {
                         samples: self.samples,
                         mass: self.mass.unwrap_or(MassKind::Consistent),
                         penalty,
+                        tangential_penalty: None,
                         quadrature: quadrature(Quadrature::Sampled),
                     })
                 })

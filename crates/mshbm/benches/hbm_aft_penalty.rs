@@ -45,6 +45,7 @@ fn hbm_aft_options(kp: f64, quadrature: Quadrature) -> HbmAftOptions {
         samples: None,
         mass: MassKind::Consistent,
         penalty: Penalty::Stiffness(kp),
+        tangential_penalty: None,
         quadrature,
     }
 }

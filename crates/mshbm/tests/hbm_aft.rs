@@ -39,6 +39,7 @@ fn hbm_aft(
             samples: None,
             mass,
             penalty,
+            tangential_penalty: None,
             quadrature,
         },
     )

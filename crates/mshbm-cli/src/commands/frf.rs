@@ -435,6 +435,7 @@ pub fn frd_methods(args: &FrfArgs) -> Result<Vec<MethodSettings>> {
         let mut mshbm_args = args.method.clone();
         mshbm_args.method = Method::Redistributed;
         mshbm_args.penalty.clear();
+        mshbm_args.tangential_penalty = None;
         mshbm_args.mass = None;
         methods.insert(0, mshbm_args.single_method(h)?);
     }

@@ -152,6 +152,13 @@ pub struct MethodArgs {
     )]
     pub penalty: Vec<String>,
 
+    /// Tangential penalty kt of --method hbm-aft on contacts with friction (`mu` of an
+    /// interface): the spring of the Jenkins element in series with the Coulomb slider
+    /// (docs/theory.md (T161)), a stiffness [force/length] or a multiple of the structure's
+    /// stiffness along the contact's tangent written with a trailing x. Default: kt = kp.
+    #[arg(long, value_name = "KT", allow_hyphen_values = true)]
+    pub tangential_penalty: Option<String>,
+
     /// Newton tolerance: max-norm of the residual relative to the model's length scale
     /// (the largest gap or static deflection of the contact DOFs).
     #[arg(long, default_value_t = 1e-10, allow_negative_numbers = true)]
@@ -254,6 +261,16 @@ impl MethodArgs {
             QuadratureArg::Exact => Quadrature::Exact,
             QuadratureArg::Sampled => Quadrature::Sampled,
         };
+        let tangential_penalty = match &self.tangential_penalty {
+            Some(_) if self.method != Method::HbmAft => bail!(
+                "--tangential-penalty applies to --method hbm-aft only (the MS-HBM treats friction exactly)"
+            ),
+            Some(text) => Some(
+                parse_penalty(text)
+                    .map_err(|e| anyhow!("{}", e.to_string().replace("--penalty", "--tangential-penalty")))?,
+            ),
+            None => None,
+        };
         if self.method == Method::HbmAft {
             return Ok(self
                 .penalties()?
@@ -267,6 +284,7 @@ impl MethodArgs {
                             MassArg::Redistributed => MassKind::Redistributed,
                         },
                         penalty,
+                        tangential_penalty,
                         quadrature: quadrature(QuadratureArg::Sampled),
                     })
                 })

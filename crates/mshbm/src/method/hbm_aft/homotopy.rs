@@ -33,6 +33,8 @@ impl HbmAft {
             return Ok(linear);
         }
         let target = self.penalty.clone();
+        // the Jenkins elements' tangential penalties (docs/theory.md (T161)) grow with them
+        let tangential = self.jenkins.as_ref().map(|j| j.stiffness.clone());
         let options = crate::newton::NewtonOptions {
             tolerance: 1e-10,
             max_iterations: 50,
@@ -44,6 +46,9 @@ impl HbmAft {
         let mut ratio = 10.0f64;
         let result = loop {
             self.penalty = target.iter().map(|kp| kp * next).collect();
+            if let (Some(j), Some(kt)) = (self.jenkins.as_mut(), &tangential) {
+                j.stiffness = kt.iter().map(|k| k * next).collect();
+            }
             let out = match crate::newton::solve(self, &x, omega, &options) {
                 Ok(o) => o,
                 Err(e) => break Err(e),
@@ -63,6 +68,9 @@ impl HbmAft {
             next = (current * ratio).min(1.0);
         };
         self.penalty = target;
+        if let (Some(j), Some(kt)) = (self.jenkins.as_mut(), tangential) {
+            j.stiffness = kt;
+        }
         result.map(|_| x)
     }
 }

@@ -66,6 +66,16 @@
 //! ends, so the residual is continuously differentiable and `∂R/∂x` keeps the form above
 //! with interval Gram blocks. It is the limit of the sampled AFT as `N_s → ∞`.
 //!
+//! **Friction** (docs/theory.md §20, "HBM-AFT with Jenkins elements", (T161)–(T169)). A
+//! contact with friction gets a Jenkins element along its tangent: a tangential penalty
+//! spring `k_t` ([`HbmAftOptions::tangential_penalty`], default `k_t = k_p`) in series with a
+//! Coulomb slider of limit `μ λ_N`. `jenkins.rs` moves the slider over the samples by the
+//! return mapping, finds its periodic state without iteration (the period map is a
+//! projection onto an interval), and adds the slider's forces and their exact
+//! piecewise-linear derivative (per-sample stiffnesses, and per run of stuck samples the
+//! coupling to the sample where the slider stopped) to the residual and the Jacobian. Only
+//! the sampled quadrature; no Floquet multipliers with friction.
+//!
 //! **Starting point.** From the linear response, Newton on a stiff penalty cycles between
 //! contact states; [`PeriodicProblem::initial_guess`] is therefore a homotopy in `k_p`
 //! ([`HbmAft::penalty_homotopy`]).
@@ -81,11 +91,13 @@
 //! **Files**: this one holds the settings, the construction, the residual, the Jacobian,
 //! the linear response and the [`PeriodicProblem`] implementation; `penalty.rs` the penalty
 //! law at the samples and its exact quadrature between penetration times (the contact
-//! state, the penalty groups, the penetration); `homotopy.rs` the penalty homotopy of the
-//! initial guess.
+//! state, the penalty groups, the penetration); `jenkins.rs` the Jenkins elements of the
+//! frictional contacts; `homotopy.rs` the penalty homotopy of the initial guess (which scales
+//! `k_t` with `k_p`).
 
 mod floquet;
 mod homotopy;
+pub mod jenkins;
 mod penalty;
 
 use penalty::{ContactState, PenaltyGroup};
@@ -145,6 +157,11 @@ pub struct HbmAftOptions {
     /// Mass matrix (the classical method: [`MassKind::Consistent`]).
     pub mass: MassKind,
     pub penalty: Penalty,
+    /// The tangential penalty `k_t` of the Jenkins element of every frictional contact
+    /// (docs/theory.md (T161)): a stiffness, or a multiple of the structure's stiffness along
+    /// the contact's tangent (`t_cᵀ K_NN t_c / (t_cᵀ t_c)²`); `None`: `k_t = k_p` of the same
+    /// contact. Ignored without friction.
+    pub tangential_penalty: Option<Penalty>,
     /// Fourier coefficients of the penalty force: [`Quadrature::Sampled`] is the classical
     /// AFT (DFT of the force samples); [`Quadrature::Exact`] integrates the force in closed
     /// form between the located penetration times of the series `q_N(τ)`.
@@ -159,6 +176,7 @@ impl HbmAftOptions {
             samples: None,
             mass: MassKind::Consistent,
             penalty: Penalty::default(),
+            tangential_penalty: None,
             quadrature: Quadrature::Sampled,
         }
     }
@@ -194,6 +212,9 @@ pub struct HbmAft {
     guess_iterations: usize,
     /// The variational system of the Floquet analysis (built when first asked).
     stability: Option<floquet::PenaltyStability>,
+    /// The Jenkins elements of the frictional contacts (docs/theory.md §20, (T161)); `None` without
+    /// friction.
+    jenkins: Option<jenkins::Jenkins>,
 }
 
 fn mat_vec(a: &Mat<c64>, x: &[c64]) -> Vec<c64> {
@@ -232,10 +253,24 @@ impl HbmAft {
             return Err(Error::field(
                 &model.source,
                 "frictions",
-                "the HBM-AFT baseline has penalty normal contact only and does not support friction; use the general MS-HBM",
+                "the HBM-AFT baseline models friction on contacts (`mu` of an interface, as Jenkins elements) but not friction elements (`[[frictions]]`); use the general MS-HBM",
             ));
         }
-        model.refuse_contact_friction("the HBM-AFT baseline")?;
+        let frictional = model.contacts.iter().any(|c| c.friction.is_some());
+        if frictional && options.quadrature == Quadrature::Exact {
+            return Err(Error::argument(
+                "quadrature",
+                "the exact quadrature of the HBM-AFT integrates the normal penalty force only; with friction on contacts (Jenkins elements) use the sampled AFT",
+            ));
+        }
+        if let Some(Penalty::Stiffness(v) | Penalty::Relative(v)) = options.tangential_penalty {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::argument(
+                    "tangential penalty",
+                    format!("the tangential penalty stiffness must be a positive number, got {v}"),
+                ));
+            }
+        }
         let system = model.system(options.mass)?;
         super::memory::hbm_aft(&system, h, samples).check(
             &format!("HBM-AFT with {h} harmonics and {samples} samples"),
@@ -267,6 +302,17 @@ impl HbmAft {
             Penalty::Stiffness(kp) => vec![kp; nc],
             Penalty::Relative(f) => contact_stiffness.iter().map(|k| f * k).collect(),
         };
+        let jenkins = if frictional {
+            Some(jenkins::jenkins_elements(
+                &system,
+                &model.source,
+                &k_nn,
+                &penalty,
+                options.tangential_penalty,
+            )?)
+        } else {
+            None
+        };
         let reference_stiffness = (0..n).fold(0.0f64, |m, i| m.max(k_nn.get(i, i)));
         let condensation =
             ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Stored)?;
@@ -286,6 +332,7 @@ impl HbmAft {
             frequency: None,
             guess_iterations: 0,
             stability: None,
+            jenkins,
             system,
         })
     }
@@ -310,6 +357,15 @@ impl HbmAft {
     /// Penalty stiffness `k_p` of each contact (force per length).
     pub fn penalties(&self) -> &[f64] {
         &self.penalty
+    }
+
+    /// Tangential penalty `k_t` of each contact's Jenkins element (force per length; 0 for a
+    /// contact without friction); empty without friction.
+    pub fn tangential_penalties(&self) -> &[f64] {
+        self.jenkins
+            .as_ref()
+            .map(|j| j.stiffness.as_slice())
+            .unwrap_or(&[])
     }
 
     /// Stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` of each contact, the unit of
@@ -525,9 +581,13 @@ impl PeriodicProblem for HbmAft {
         })
     }
 
-    /// The monodromy of the penalty system along the orbit (docs/theory.md (T142)).
+    /// The monodromy of the penalty system along the orbit (docs/theory.md (T142)); none
+    /// with friction (the slider positions would be part of the state; not implemented).
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
         check_dimension(x, self.dimension())?;
+        if self.jenkins.is_some() {
+            return Ok(None);
+        }
         self.penalty_floquet(x, omega).map(Some)
     }
 
@@ -585,7 +645,7 @@ impl PeriodicProblem for HbmAft {
                 taus: &self.sampling.taus,
                 residual: &residual,
                 contacts,
-                frictions: vec![],
+                frictions: self.friction_series(&state),
                 response: DofResponse {
                     dof: response_dof,
                     coefficients,

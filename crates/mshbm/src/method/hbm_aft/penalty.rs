@@ -5,6 +5,7 @@
 
 use std::collections::HashMap;
 
+use super::jenkins::SliderState;
 use super::HbmAft;
 use crate::error::Result;
 use crate::harmonic::{
@@ -22,6 +23,9 @@ pub(super) struct ContactState {
     pub(super) gap: Vec<f64>,
     /// `q_N(τ_j)` (`j·n + i`).
     pub(super) displacement: Vec<f64>,
+    /// The Jenkins elements of the frictional contacts (docs/theory.md (T162)); `None`
+    /// without friction.
+    pub(super) slider: Option<SliderState>,
 }
 
 /// Samples (sampled quadrature) or intervals (exact) over which the same penalty springs act:
@@ -50,14 +54,20 @@ impl HbmAft {
                 force[j * nc + c] = self.penalty[c] * (-g).max(0.0);
             }
         }
-        ContactState {
+        let mut state = ContactState {
             force,
             gap,
             displacement,
+            slider: None,
+        };
+        if let Some(jenkins) = &self.jenkins {
+            state.slider = Some(self.slider_state(jenkins, &state));
         }
+        state
     }
 
-    /// Fourier coefficients of the contact force on the N DOFs, `F̂_c = E_dft [W λ_j]`.
+    /// Fourier coefficients of the contact force on the N DOFs, `F̂_c = E_dft [W λ_j]`
+    /// (with friction `E_dft [W λ_N,j + T λ_T,j]`, docs/theory.md (T164)).
     pub(super) fn contact_force_coefficients(&self, state: &ContactState) -> Vec<f64> {
         let (n, nc, ns) = (self.n(), self.n_contacts(), self.sampling.len());
         let mut f = vec![0.0; ns * n];
@@ -67,6 +77,18 @@ impl HbmAft {
                 if l != 0.0 {
                     for i in 0..n {
                         f[j * n + i] += self.w[i * nc + c] * l;
+                    }
+                }
+            }
+        }
+        if let (Some(jenkins), Some(slider)) = (&self.jenkins, &state.slider) {
+            for j in 0..ns {
+                for c in 0..nc {
+                    let l = slider.force[j * nc + c];
+                    if l != 0.0 {
+                        for i in 0..n {
+                            f[j * n + i] += jenkins.tangent[i * nc + c] * l;
+                        }
                     }
                 }
             }
@@ -95,6 +117,9 @@ impl HbmAft {
     /// Samples grouped by their set of penetrating contacts (`g < 0`; a sample with
     /// `g = 0` counts as open), with the DFT Gram block of each group.
     pub(super) fn sample_groups(&self, state: &ContactState) -> Vec<PenaltyGroup> {
+        if let (Some(jenkins), Some(slider)) = (&self.jenkins, &state.slider) {
+            return self.jenkins_groups(jenkins, state, slider);
+        }
         let ncon = self.n_contacts();
         let nc = n_coefficients(self.harmonics);
         let mut grams: HashMap<Vec<bool>, Vec<f64>> = HashMap::new();
