@@ -216,3 +216,86 @@ fn the_memory_plan_counts_the_frictional_law() {
         .expect("refused within 40 MB");
     assert!(refused.to_string().contains("friction"), "{refused}");
 }
+
+/// Friction on the contacts of a `kind = "matrices"` model (`mu`, `tangent_dofs`,
+/// `tangent_w`): the damper exported as Matrix Market matrices and read back has the same
+/// contacts and frictions, and the same periodic solution as the solid model.
+#[test]
+fn the_damper_as_matrices_with_friction_on_its_contacts_gives_the_same_solution() {
+    let model = damper(Some(0.1), 20.0);
+    let dir = std::env::temp_dir().join(format!("mshbm_damper_export_{}", std::process::id()));
+    let path = mshbm::model::export::export_matrices(&model, &dir).unwrap();
+    let back = mshbm::model::file::load_model(&path, &[]).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(text.contains("tangent_dofs"), "{text}");
+    assert_eq!(back.contacts, model.contacts);
+    let dof = tip_dof(&model);
+    let solution = |m: &Model| {
+        let mut p = ms_hbm(m, 3);
+        let (_, out) =
+            solve_at_frequency(&mut p, hz(100.0), dof, &NewtonOptions::default()).unwrap();
+        assert!(out.converged, "{:?}", out.reason);
+        p.solution(&out.x, hz(100.0), dof).unwrap()
+    };
+    let (a, b) = (solution(&model), solution(&back));
+    let scale = a
+        .response
+        .coefficients
+        .iter()
+        .fold(0.0f64, |s, v| s.max(v.abs()));
+    for (x, y) in a.response.coefficients.iter().zip(&b.response.coefficients) {
+        assert!((x - y).abs() <= 1e-10 * scale, "{x} against {y}");
+    }
+    assert_eq!(a.state_fractions, b.state_fractions);
+}
+
+/// A matrices model's contact friction is checked: each bad field named (the damper
+/// exported, its first contact's friction replaced).
+#[test]
+fn bad_friction_on_a_matrices_contact_is_refused_naming_the_field() {
+    let model = damper(Some(0.1), 2.0);
+    let dir = std::env::temp_dir().join(format!("mshbm_damper_bad_{}", std::process::id()));
+    let path = mshbm::model::export::export_matrices(&model, &dir).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    // the first contact: normal DOF 40 (node 20, x), tangent DOF 41 (y)
+    let first = "mu = 0.1\ntangent_dofs = [41]\ntangent_w = [-1.0]";
+    assert!(text.contains(first), "{text}");
+    for (replacement, field, words) in [
+        (
+            "mu = 0.3",
+            "contacts[0].tangent_dofs",
+            "missing: tangent_dofs, tangent_w",
+        ),
+        (
+            "mu = -0.3\ntangent_dofs = [41]\ntangent_w = [1.0]",
+            "contacts[0].mu",
+            "finite and ≥ 0",
+        ),
+        (
+            "mu = 0.3\ntangent_dofs = [40, 41]\ntangent_w = [0.6, 0.8]",
+            "contacts[0].tangent_w",
+            "not orthogonal",
+        ),
+        (
+            "mu = 0.3\ntangent_dofs = [41]\ntangent_w = [2.0]",
+            "contacts[0].tangent_w",
+            "norm",
+        ),
+        (
+            "mu = 0.3\ntangent_dofs = [999999]\ntangent_w = [1.0]",
+            "contacts[0].tangent_dofs",
+            "",
+        ),
+    ] {
+        std::fs::write(&path, text.replacen(first, replacement, 1)).unwrap();
+        let error = mshbm::model::file::load_model(&path, &[])
+            .expect_err(replacement)
+            .to_string();
+        assert!(
+            error.contains("model.toml") && error.contains(field) && error.contains(words),
+            "{replacement}: {error}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -101,6 +101,16 @@ pub fn export_files(model: &Model) -> Vec<ExportedFile> {
             w.join(", "),
             c.gap
         );
+        if let Some(fr) = &c.friction {
+            let tw: Vec<String> = fr.w.iter().map(|x| format!("{x:?}")).collect();
+            let _ = writeln!(
+                t,
+                "mu = {:?}\ntangent_dofs = {:?}\ntangent_w = [{}]",
+                fr.mu,
+                fr.dofs,
+                tw.join(", ")
+            );
+        }
     }
     for f in &model.frictions {
         let w: Vec<String> = f.w.iter().map(|x| format!("{x:?}")).collect();

@@ -46,6 +46,9 @@
 //!   dofs = [100]
 //!   w = [-1.0]
 //!   gap = 0.2
+//!   # mu = 0.3                  # Coulomb friction along a tangent (redistributed MS-HBM,
+//!   # tangent_dofs = [101]      # docs/theory.md §20): y_T = sum_i tangent_w_i q_(dofs_i),
+//!   # tangent_w = [1.0]         # orthogonal to w and of the same norm
 //!   # contacts_file = "contacts.csv"   # more contacts, one per line: gap, dof, w[, dof, w …]
 //!   # [[node_sets]]             # named node sets: nodes = [..], or file = "set.csv" (node
 //!   # name = "stop"             # numbers separated by commas, blanks or line breaks)
@@ -258,6 +261,10 @@ struct ContactSection {
     dofs: Vec<usize>,
     w: Vec<f64>,
     gap: f64,
+    /// Coulomb friction along the tangent `tangent_dofs`/`tangent_w` (docs/theory.md §20).
+    mu: Option<f64>,
+    tangent_dofs: Option<Vec<usize>>,
+    tangent_w: Option<Vec<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -730,16 +737,38 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
             normal,
         });
     }
-    let mut contacts: Vec<Contact> = f
-        .contacts
-        .into_iter()
-        .map(|c| Contact {
+    let mut contacts = Vec::with_capacity(f.contacts.len());
+    for (k, c) in f.contacts.into_iter().enumerate() {
+        let friction = match (c.mu, c.tangent_dofs, c.tangent_w) {
+            (None, None, None) => None,
+            (Some(mu), Some(dofs), Some(w)) => Some(crate::model::ContactFriction { dofs, w, mu }),
+            (mu, dofs, w) => {
+                let missing: Vec<&str> = [
+                    (mu.is_none(), "mu"),
+                    (dofs.is_none(), "tangent_dofs"),
+                    (w.is_none(), "tangent_w"),
+                ]
+                .iter()
+                .filter(|(absent, _)| *absent)
+                .map(|(_, name)| *name)
+                .collect();
+                return Err(Error::field(
+                    path,
+                    format!("contacts[{k}].{}", missing[0]),
+                    format!(
+                        "a contact with friction needs `mu`, `tangent_dofs` and `tangent_w` (the tangential displacement y_T = sum_i tangent_w_i q_(tangent_dofs_i)); missing: {}",
+                        missing.join(", ")
+                    ),
+                ));
+            }
+        };
+        contacts.push(Contact {
             dofs: c.dofs,
             w: c.w,
             gap: c.gap,
-            friction: None,
-        })
-        .collect();
+            friction,
+        });
+    }
     if let Some(file) = &f.contacts_file {
         contacts.extend(read_contacts(inputs, path, file)?);
     }

@@ -257,7 +257,11 @@ impl Model {
         let mut nodes: Vec<usize> = self
             .contacts
             .iter()
-            .flat_map(|c| c.dofs.iter())
+            .flat_map(|c| {
+                c.dofs
+                    .iter()
+                    .chain(c.friction.iter().flat_map(|f| f.dofs.iter()))
+            })
             .chain(self.frictions.iter().flat_map(|f| f.dofs.iter()))
             .map(|&d| d / self.dofs_per_node)
             .collect();
@@ -275,6 +279,64 @@ impl Model {
     /// The coefficients of a DOF that appears more than once are summed; the direction
     /// must not vanish after that (`dofs = [3, 3]`, `w = [-1, 1]` would be a contact that
     /// never acts). Returns the merged direction ([`merged_direction`]).
+    /// Check the Coulomb friction of contact `k` (docs/theory.md (T150)): `μ` finite and
+    /// non-negative; the tangent a valid direction ([`Model::check_direction`]), orthogonal
+    /// to the contact's normal `normal` (merged) and of its norm, so that the friction force
+    /// and its bound `μ λ_N` are measured alike.
+    fn check_contact_friction(
+        &self,
+        dirichlet: &HashSet<usize>,
+        k: usize,
+        friction: &ContactFriction,
+        normal: &[(usize, f64)],
+    ) -> Result<()> {
+        let file = &self.source;
+        let field = |f: &str| format!("contacts[{k}].tangent_{f}");
+        if !(friction.mu.is_finite() && friction.mu >= 0.0) {
+            return Err(Error::field(
+                file,
+                format!("contacts[{k}].mu"),
+                format!(
+                    "the friction coefficient must be finite and ≥ 0, got {}",
+                    friction.mu
+                ),
+            ));
+        }
+        let tangent = self.check_direction(
+            dirichlet,
+            &friction.dofs,
+            &friction.w,
+            field,
+            "the tangent of a contact with friction",
+            "the tangent",
+        )?;
+        let norm = |v: &[(usize, f64)]| v.iter().map(|(_, x)| x * x).sum::<f64>().sqrt();
+        let (nn, nt) = (norm(normal), norm(&tangent));
+        let dot: f64 = tangent
+            .iter()
+            .filter_map(|(d, t)| normal.iter().find(|(e, _)| e == d).map(|(_, n)| n * t))
+            .sum();
+        if dot.abs() > 1e-9 * nn * nt {
+            return Err(Error::field(
+                file,
+                format!("contacts[{k}].tangent_w"),
+                format!(
+                    "the tangent is not orthogonal to the contact's normal w (their product is {dot:e}, the norms {nn:e} and {nt:e})"
+                ),
+            ));
+        }
+        if (nt - nn).abs() > 1e-9 * nn {
+            return Err(Error::field(
+                file,
+                format!("contacts[{k}].tangent_w"),
+                format!(
+                    "the tangent's norm {nt:e} differs from the normal's {nn:e}: the friction force and its bound mu * lambda_N would be measured in different units"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn check_direction(
         &self,
         dirichlet: &HashSet<usize>,
@@ -483,6 +545,14 @@ impl Model {
             )?);
             if !c.gap.is_finite() {
                 return Err(Error::field(file, field("gap"), "must be finite"));
+            }
+            if let Some(fr) = &c.friction {
+                self.check_contact_friction(
+                    &dirichlet,
+                    k,
+                    fr,
+                    contact_directions.last().expect("just pushed"),
+                )?;
             }
         }
         // two opposing contacts on the same DOFs (a clearance between two stops) are
