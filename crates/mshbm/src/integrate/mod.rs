@@ -55,6 +55,7 @@
 //! [`initial`] builds the initial state of a harmonic solution (e.g. from `mshbm solve`);
 //! [`crate::analytic`] has the closed-form references.
 
+mod coulomb;
 mod data;
 pub mod initial;
 mod integrator;
