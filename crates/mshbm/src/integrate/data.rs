@@ -4,16 +4,53 @@
 
 use crate::sparse::SparseMatrix;
 
-/// Contacts in system numbering: `g = Σ w q + g0`.
+/// Contacts in system numbering: `g = Σ w q + g0`, with Coulomb friction along a tangent
+/// `y_T = Σ w_T q` where given (docs/theory.md (T170)).
 #[derive(Clone, Debug)]
 pub(crate) struct Contacts {
     pub(crate) w: Vec<Vec<(usize, f64)>>,
     pub(crate) gap: Vec<f64>,
+    /// Per contact: the tangent `w_T` and `μ` of its friction, `None` without.
+    pub(crate) friction: Vec<Option<(Vec<(usize, f64)>, f64)>>,
 }
 
 impl Contacts {
     pub(crate) fn len(&self) -> usize {
         self.gap.len()
+    }
+
+    /// Some contact has Coulomb friction (possibly `μ = 0`).
+    pub(crate) fn has_friction(&self) -> bool {
+        self.friction.iter().any(Option::is_some)
+    }
+
+    /// `μ` per contact, `None` without friction.
+    pub(crate) fn mu(&self) -> Vec<Option<f64>> {
+        self.friction
+            .iter()
+            .map(|f| f.as_ref().map(|f| f.1))
+            .collect()
+    }
+
+    /// The tangential coordinate `w_Tᵀ x` of contact `i` (0 without friction).
+    pub(crate) fn tangent_dot(&self, i: usize, x: &[f64]) -> f64 {
+        self.friction[i]
+            .as_ref()
+            .map_or(0.0, |(w, _)| w.iter().map(|&(d, w)| w * x[d]).sum())
+    }
+
+    /// The columns `[W, W_T]` of the contact coordinates (T170): every normal, then the
+    /// tangent of every frictional contact, each dense of length `n`.
+    pub(crate) fn coordinate_columns(&self, n: usize) -> Vec<Vec<f64>> {
+        let mut columns: Vec<Vec<f64>> = (0..self.len()).map(|i| self.column(i, n)).collect();
+        for (w, _) in self.friction.iter().flatten() {
+            let mut c = vec![0.0; n];
+            for &(d, v) in w {
+                c[d] += v;
+            }
+            columns.push(c);
+        }
+        columns
     }
 
     /// `Wᵢᵀ x` (without `g0`).
@@ -112,6 +149,9 @@ pub(crate) struct State {
     pub(crate) forces: Vec<f64>,
     /// Friction forces (impulse of the last step / h).
     pub(crate) friction_forces: Vec<f64>,
+    /// Tangential forces `λ_T` of the contacts at the current time (zero without friction;
+    /// docs/theory.md (T171)).
+    pub(crate) tangential_forces: Vec<f64>,
 }
 
 impl State {

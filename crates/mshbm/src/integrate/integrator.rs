@@ -1,13 +1,14 @@
 //! The [`Integrator`]: set-up of a scheme for one system, the stepping loop, the static
 //! equilibrium of the massless DOFs, loads, contact options and the reported state.
 
+use super::coulomb::CoulombContacts;
 use super::data::{Contacts, Data, Frictions, State};
 use super::{check_moreau_jean, moreau, newmark, Scheme, Settings};
 use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
 use crate::model::System;
 use crate::modes::massless_dofs;
-use crate::sparse::SparseMatrix;
+use crate::sparse::{SparseCholesky, SparseMatrix};
 
 enum Kernel {
     Moreau(Box<moreau::MoreauJean>),
@@ -40,10 +41,23 @@ impl Integrator {
         if n == 0 {
             return Err(Error::argument("system", "the system has no free DOFs"));
         }
-        if system.contacts.iter().any(|c| c.friction.is_some()) {
+        let contact_friction = system.contacts.iter().any(|c| c.friction.is_some());
+        if contact_friction && settings.scheme != Scheme::PositionNewmark {
             return Err(Error::argument(
-                "model",
-                "the model's contacts have friction (`mu` of an interface); the time integration models frictionless contact only (friction on contacts is solved by the redistributed MS-HBM)",
+                "scheme",
+                "the model's contacts have Coulomb friction (`mu` of an interface), which the position-level scheme \
+                 on the redistributed mass integrates (`Scheme::PositionNewmark`, `mshbm simulate --scheme redistributed`); \
+                 the Moreau-Jean scheme models friction elements only",
+            ));
+        }
+        if let Some(c) = system.contacts.iter().position(|c| {
+            c.friction
+                .as_ref()
+                .is_some_and(|f| !(f.mu.is_finite() && f.mu >= 0.0) || f.w.is_empty())
+        }) {
+            return Err(Error::argument(
+                "friction",
+                format!("the friction of contact {c} needs a finite mu >= 0 and a tangent with a free DOF"),
             ));
         }
         let dt = settings.dt;
@@ -83,6 +97,11 @@ impl Integrator {
         let contacts = Contacts {
             w: system.contacts.iter().map(|c| c.w.clone()).collect(),
             gap: system.contacts.iter().map(|c| c.gap).collect(),
+            friction: system
+                .contacts
+                .iter()
+                .map(|c| c.friction.as_ref().map(|f| (f.w.clone(), f.mu)))
+                .collect(),
         };
         let frictions = Frictions {
             w: system.frictions.iter().map(|f| f.w.clone()).collect(),
@@ -164,6 +183,7 @@ impl Integrator {
                 gaps: vec![0.0; nc],
                 forces: vec![0.0; nc],
                 friction_forces: vec![0.0; data.frictions.len()],
+                tangential_forces: vec![0.0; nc],
             },
             data,
             kernel,
@@ -201,7 +221,12 @@ impl Integrator {
         s.v.copy_from_slice(v);
         s.forces.iter_mut().for_each(|f| *f = 0.0);
         s.friction_forces.iter_mut().for_each(|f| *f = 0.0);
-        self.static_massless()?;
+        s.tangential_forces.iter_mut().for_each(|f| *f = 0.0);
+        if self.data.contacts.has_friction() {
+            self.static_massless_frictional()?;
+        } else {
+            self.static_massless()?;
+        }
         for &i in &self.data.massless {
             self.state.v[i] = 0.0;
         }
@@ -255,6 +280,77 @@ impl Integrator {
         }
         for (k, &c) in involved.iter().enumerate() {
             self.state.forces[c] = lambda[k];
+        }
+        Ok(())
+    }
+
+    /// [`Integrator::static_massless`] with Coulomb friction on the contacts (docs/theory.md
+    /// (T174)): the step problem (T170)–(T171) with `K_ZZ` in place of `Â` and the anchors
+    /// at the given positions' tangential coordinates, so that a stuck contact stays where
+    /// the given state has it. Every contact DOF is massless (the position-level scheme).
+    fn static_massless_frictional(&mut self) -> Result<()> {
+        let d = &self.data;
+        let z = &d.massless;
+        let nz = z.len();
+        let mut pos = vec![usize::MAX; d.n];
+        z.iter().enumerate().for_each(|(k, &i)| pos[i] = k);
+        let mut k_zz = SparseCholesky::new(
+            &self.stiffness_nn,
+            "the stiffness of the massless DOFs (they must be held by the stiffness)",
+        )?;
+        // K_ZZ⁻¹ [W, W_T]_Z
+        let mut columns: Vec<Vec<f64>> = d
+            .contacts
+            .coordinate_columns(d.n)
+            .iter()
+            .map(|c| z.iter().map(|&i| c[i]).collect())
+            .collect();
+        for c in &mut columns {
+            k_zz.solve(c);
+        }
+        // the free positions q_Z = K_ZZ⁻¹ (f_Z − K_ZM q_M)
+        let t = self.state.time(d.dt);
+        let mut f = vec![0.0; d.n];
+        d.load_into(t, &mut f);
+        let qm: Vec<f64> = d.massive.iter().map(|&i| self.state.q[i]).collect();
+        let kq = self.stiffness_nm.mul_vec(&qm);
+        let mut qz: Vec<f64> = (0..nz).map(|k| f[z[k]] - kq[k]).collect();
+        k_zz.solve(&mut qz);
+        let mut free = self.state.q.clone();
+        z.iter().zip(&qz).for_each(|(&i, &v)| free[i] = v);
+        let m = columns.len();
+        let nc = d.contacts.len();
+        let dense = |c: &[f64]| -> Vec<f64> {
+            let mut x = vec![0.0; d.n];
+            z.iter().zip(c).for_each(|(&i, &v)| x[i] = v);
+            x
+        };
+        let full: Vec<Vec<f64>> = columns.iter().map(|c| dense(c)).collect();
+        let mut delassus = vec![0.0; m * m];
+        for a in 0..m {
+            for b in 0..m {
+                delassus[a * m + b] = newmark::coordinate(d, a, &full[b]);
+            }
+        }
+        let y_free: Vec<f64> = (0..m)
+            .map(|r| {
+                newmark::coordinate(d, r, &free) + d.contacts.gap.get(r).copied().unwrap_or(0.0)
+            })
+            .collect();
+        let anchor: Vec<f64> = (0..nc)
+            .map(|c| d.contacts.tangent_dot(c, &self.state.q))
+            .collect();
+        let mut problem = CoulombContacts::new(&d.contacts.mu(), delassus);
+        problem.solve(&y_free, &anchor).map_err(|e| {
+            Error::Numerical(format!("static frictional contact problem at t = {t}: {e}"))
+        })?;
+        let lambda = problem.lambda();
+        for (k, &i) in z.iter().enumerate() {
+            self.state.q[i] = qz[k] + (0..m).map(|r| columns[r][k] * lambda[r]).sum::<f64>();
+        }
+        for c in 0..nc {
+            self.state.forces[c] = lambda[c];
+            self.state.tangential_forces[c] = problem.tangent_row(c).map_or(0.0, |r| lambda[r]);
         }
         Ok(())
     }
@@ -339,6 +435,32 @@ impl Integrator {
         if let Kernel::Moreau(k) = &mut self.kernel {
             k.project = on;
         }
+    }
+
+    /// Tangential (friction) forces `λ_T` of the contacts at the current time, along their
+    /// tangents, one per contact (zero for a contact without friction; `|λ_T| ≤ μ λ_N`;
+    /// docs/theory.md (T171)). Position-level scheme only.
+    pub fn tangential_forces(&self) -> &[f64] {
+        &self.state.tangential_forces
+    }
+
+    /// Per contact: `μ` of its Coulomb friction and the model DOF of its tangent's first
+    /// DOF, `None` without friction.
+    pub fn contact_frictions(&self) -> Vec<Option<(f64, usize)>> {
+        self.data
+            .contacts
+            .friction
+            .iter()
+            .map(|f| f.as_ref().map(|(w, mu)| (*mu, self.model_dof[w[0].0])))
+            .collect()
+    }
+
+    /// The tangential coordinates `y_T = w_Tᵀ q` of the contacts (zero without friction):
+    /// the anchors of the stuck ones.
+    pub fn tangents(&self) -> Vec<f64> {
+        (0..self.data.contacts.len())
+            .map(|c| self.data.contacts.tangent_dot(c, &self.state.q))
+            .collect()
     }
 
     /// Friction forces `P_T/h` of the last step, one per friction element (`|·| ≤ μ F_N`).

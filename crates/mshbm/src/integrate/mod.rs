@@ -34,6 +34,15 @@
 //! step. `|P_T| ≤ b` holds exactly (clamped). [`Integrator::friction_forces`] reports
 //! `P_T/h`.
 //!
+//! **Coulomb friction on the contacts** (docs/theory.md (T170)–(T175), position-level scheme
+//! only): a contact with friction ([`crate::model::SystemContactFriction`], `mu` of an
+//! interface) adds its tangential coordinate `y_T = w_Tᵀ u` to the step's contact problem,
+//! `y = y_free + D λ` over normals and tangents, with the incremental Coulomb law
+//! `λ_T ∈ −μ λ_N Sign(y_T,k+1 − y_T,k)` (backward Euler of the sweeping process of the
+//! MS-HBM's law (T151)); solved by trying the last step's stick/slip/open modes, else block
+//! Gauss–Seidel with each contact exact, polished by an exact solve (`coulomb`).
+//! [`Integrator::tangential_forces`] reports `λ_T`. The Moreau–Jean scheme refuses it.
+//!
 //! **Periodic load** ([`Integrator::set_periodic_load`]): a trigonometric polynomial load
 //! `Σ_c F_c b_c(ωt)` can be added to `f(t)` — the coupling force of the linear subsystem on
 //! the nonlinear one in the general MS-HBM (paper eq. 10).
@@ -55,6 +64,7 @@
 //! [`initial`] builds the initial state of a harmonic solution (e.g. from `mshbm solve`);
 //! [`crate::analytic`] has the closed-form references.
 
+mod coulomb;
 mod data;
 pub mod initial;
 mod integrator;

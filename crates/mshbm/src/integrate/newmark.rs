@@ -12,6 +12,12 @@
 //! a_{k+1} = (4/h²)(u_{k+1} − u_k − h v_k) − a_k,   v_{k+1} = v_k + h/2 (a_k + a_{k+1})
 //! ```
 //!
+//! With Coulomb friction on the contacts (docs/theory.md (T170)–(T174)) the LCP becomes the
+//! frictional problem of [`super::coulomb`] in the coordinates `y = [W, W_T]ᵀ u + [g0; 0]`:
+//! `y = y_free + D λ`, `D = [W, W_T]ᵀ Â⁻¹ [W, W_T]`, with the incremental Coulomb law on
+//! `y_T,k+1 − y_T,k` (T171); the positions `u_k` of the massless contact nodes carry the
+//! anchors, so the scheme's state is unchanged.
+//!
 //! (on the massive DOFs; the update makes `R a + C v + K u = f + W λ` hold at every step
 //! end, so it is the `a_{k+1,L} = R̄_LL⁻¹ (f − C v − K u)_L` of docs/theory.md (T67) without a
 //! second factorization). For the massless DOFs `v = Δu/h` is a diagnostic and `a = 0`;
@@ -22,15 +28,21 @@ use crate::error::{Error, Result};
 use crate::model::System;
 use crate::sparse::{SparseCholesky, SparseMatrix};
 
+use super::coulomb::CoulombContacts;
 use super::{Data, State};
 
 pub(crate) struct PositionNewmark {
     ahat: SparseCholesky,
     /// Cholesky of the mass on the massive DOFs (initial accelerations).
     mass_mm: Option<SparseCholesky>,
-    /// `Â⁻¹ W_i` per contact.
+    /// `Â⁻¹ W_i` per contact (then `Â⁻¹ W_T` per frictional contact, with friction).
     aw: Vec<Vec<f64>>,
     lcp: Option<LcpSolver>,
+    /// The frictional problem of a step (T171), when a contact has friction (then no `lcp`).
+    coulomb: Option<CoulombContacts>,
+    /// `y_free` and the anchors of the frictional problem.
+    y_free: Vec<f64>,
+    anchor: Vec<f64>,
     /// Accelerations (zero on massless DOFs).
     a: Vec<f64>,
     b: Vec<f64>,
@@ -45,7 +57,13 @@ impl PositionNewmark {
         let mut is_massless = vec![false; n];
         data.massless.iter().for_each(|&i| is_massless[i] = true);
         for (c, contact) in system.contacts.iter().enumerate() {
-            if contact.w.iter().any(|&(i, _)| !is_massless[i]) {
+            let tangent = contact.friction.iter().flat_map(|f| f.w.iter());
+            if contact
+                .w
+                .iter()
+                .chain(tangent)
+                .any(|&(i, _)| !is_massless[i])
+            {
                 return Err(Error::argument(
                     "scheme",
                     format!(
@@ -90,18 +108,27 @@ impl PositionNewmark {
             )?)
         };
         let nc = data.contacts.len();
-        let mut aw = Vec::with_capacity(nc);
-        for i in 0..nc {
-            let mut c = data.contacts.column(i, n);
-            ahat.solve(&mut c);
+        let mut aw = data.contacts.coordinate_columns(n);
+        for c in &mut aw {
+            ahat.solve(c);
             if c.iter().any(|x| !x.is_finite()) {
                 return Err(Error::Singular(
                     "the Newmark iteration matrix is singular".into(),
                 ));
             }
-            aw.push(c);
         }
-        let lcp = (nc > 0).then(|| {
+        let m = aw.len();
+        let coulomb = data.contacts.has_friction().then(|| {
+            // D of (T170) over the normal and tangential coordinates
+            let mut d = vec![0.0; m * m];
+            for a in 0..m {
+                for b in 0..m {
+                    d[a * m + b] = coordinate(data, a, &aw[b]);
+                }
+            }
+            CoulombContacts::new(&data.contacts.mu(), d)
+        });
+        let lcp = (nc > 0 && coulomb.is_none()).then(|| {
             let mut d = vec![0.0; nc * nc];
             for a in 0..nc {
                 for b in 0..nc {
@@ -115,6 +142,9 @@ impl PositionNewmark {
             mass_mm,
             aw,
             lcp,
+            coulomb,
+            y_free: vec![0.0; m],
+            anchor: vec![0.0; nc],
             a: vec![0.0; n],
             b: vec![0.0; n],
             work: vec![0.0; n],
@@ -179,6 +209,32 @@ impl PositionNewmark {
             // the gaps of the LCP solution: exactly complementary, never negative
             s.gaps.copy_from_slice(&sol.w);
         }
+        if let Some(coulomb) = &mut self.coulomb {
+            // (T170)–(T171): the anchors are the tangential positions at the start of the step
+            for (r, y) in self.y_free.iter_mut().enumerate() {
+                *y = coordinate(d, r, u) + d.contacts.gap.get(r).copied().unwrap_or(0.0);
+            }
+            for (c, a) in self.anchor.iter_mut().enumerate() {
+                *a = d.contacts.tangent_dot(c, &s.q);
+            }
+            coulomb.solve(&self.y_free, &self.anchor).map_err(|e| {
+                Error::Numerical(format!("frictional contact problem at t = {t1}: {e}"))
+            })?;
+            for (r, &l) in coulomb.lambda().iter().enumerate() {
+                if l != 0.0 {
+                    for (uj, awj) in u.iter_mut().zip(&self.aw[r]) {
+                        *uj += awj * l;
+                    }
+                }
+            }
+            let nc = d.contacts.len();
+            s.forces.copy_from_slice(&coulomb.lambda()[..nc]);
+            s.gaps.copy_from_slice(&coulomb.y()[..nc]);
+            for c in 0..nc {
+                s.tangential_forces[c] =
+                    coulomb.tangent_row(c).map_or(0.0, |t| coulomb.lambda()[t]);
+            }
+        }
         for &i in &d.massive {
             let a_new = 4.0 / (h * h) * (u[i] - s.q[i] - h * s.v[i]) - self.a[i];
             s.v[i] += 0.5 * h * (self.a[i] + a_new);
@@ -191,4 +247,21 @@ impl PositionNewmark {
         }
         Ok(())
     }
+}
+
+/// Coordinate `r` of (T170) of `x` without `g0`: the normal `Wᵀ x` of contact `r < n_c`, else
+/// the tangent `W_Tᵀ x` of the `(r − n_c)`-th frictional contact.
+pub(crate) fn coordinate(d: &Data, r: usize, x: &[f64]) -> f64 {
+    let nc = d.contacts.len();
+    if r < nc {
+        return d.contacts.dot(r, x);
+    }
+    let (w, _) = d
+        .contacts
+        .friction
+        .iter()
+        .flatten()
+        .nth(r - nc)
+        .expect("a tangential coordinate belongs to a frictional contact");
+    w.iter().map(|&(i, v)| v * x[i]).sum()
 }

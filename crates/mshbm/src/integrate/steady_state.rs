@@ -52,7 +52,7 @@ use std::collections::VecDeque;
 
 use crate::error::{Error, Result};
 use crate::harmonic::{n_coefficients, Sampling};
-use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::solution::{ContactSeries, DofResponse, FrictionSeries, PeriodicSolution};
 
 use super::periodicity::PeriodRecord;
 pub use super::periodicity::Periodicity;
@@ -196,11 +196,25 @@ pub fn simulate_to_steady_state(
         .iter()
         .fold(0.0f64, |m, g| m.max(g.abs()));
     let sampling = Sampling::new(h, n);
-    let state_record = |it: &Integrator| PeriodRecord::State {
-        q: massive.iter().map(|&i| it.q()[i]).collect(),
-        v: massive.iter().map(|&i| it.v()[i]).collect(),
+    // with Coulomb friction the stuck contacts' anchors are state too (docs/theory.md (T175))
+    let frictions = integrator.contact_frictions();
+    let frictional: Vec<usize> = (0..frictions.len())
+        .filter(|&c| frictions[c].is_some())
+        .collect();
+    let state_record = |it: &Integrator| {
+        let tangents = it.tangents();
+        PeriodRecord::State {
+            q: massive
+                .iter()
+                .map(|&i| it.q()[i])
+                .chain(frictional.iter().map(|&c| tangents[c]))
+                .collect(),
+            v: massive.iter().map(|&i| it.v()[i]).collect(),
+        }
     };
     let nc = system_contacts.len();
+    let mut tangents = vec![vec![0.0; n]; frictional.len()];
+    let mut tangential = vec![vec![0.0; n]; frictional.len()];
     let mut disp = vec![vec![0.0; n]; nc];
     let mut gaps = vec![vec![0.0; n]; nc];
     let mut forces = vec![vec![0.0; n]; nc];
@@ -238,6 +252,13 @@ pub fn simulate_to_steady_state(
                 forces[c][j] = integrator.forces()[c];
             }
             response[j] = response_system.map_or(0.0, |d| integrator.q()[d]);
+            if !frictional.is_empty() {
+                let y = integrator.tangents();
+                for (k, &c) in frictional.iter().enumerate() {
+                    tangents[k][j] = y[c];
+                    tangential[k][j] = integrator.tangential_forces()[c];
+                }
+            }
             for (series, &dof) in nonlinear.iter_mut().zip(&unknown_dofs) {
                 series[j] = integrator.q()[dof];
             }
@@ -257,10 +278,12 @@ pub fn simulate_to_steady_state(
         let now = match options.periodicity {
             Periodicity::State => state_record(integrator),
             Periodicity::Response => {
-                // the reported DOFs: every contact's first DOF and the response DOF
+                // the reported DOFs: every contact's first DOF and the response DOF, and the
+                // tangential coordinates of the frictional contacts (T175)
                 let reported = disp
                     .iter()
                     .chain(response_system.map(|_| &response))
+                    .chain(&tangents)
                     .map(Vec::as_slice);
                 let mut coefficients = Vec::with_capacity(nc + 1);
                 let mut magnitude = 0.0f64;
@@ -376,7 +399,38 @@ pub fn simulate_to_steady_state(
             time_s,
             contact_dofs: system_contacts.iter().map(|c| c.0).collect(),
             contacts,
-            frictions: vec![],
+            frictions: frictional
+                .iter()
+                .enumerate()
+                .map(|(k, &c)| {
+                    let (mu, dof) = frictions[c].expect("a frictional contact");
+                    let force = tangential[k].clone();
+                    let limit: Vec<f64> = forces[c].iter().map(|l| mu * l).collect();
+                    // the state of each step from its forces: no normal force, on the
+                    // cone, inside it
+                    let state = forces[c]
+                        .iter()
+                        .zip(force.iter().zip(&limit))
+                        .map(|(&normal, (&t, &l))| {
+                            if normal <= 0.0 {
+                                crate::solution::ContactState::Open
+                            } else if t.abs() >= l * (1.0 - 1e-9) {
+                                crate::solution::ContactState::Slip
+                            } else {
+                                crate::solution::ContactState::Stick
+                            }
+                        })
+                        .collect();
+                    FrictionSeries {
+                        dof,
+                        max: force.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                        min: force.iter().copied().fold(f64::INFINITY, f64::min),
+                        limit,
+                        force,
+                        state,
+                    }
+                })
+                .collect(),
             response: DofResponse {
                 dof: options.response_dof,
                 coefficients: sampling.dft(&response),
