@@ -464,7 +464,8 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     let report = match traced {
         Ok(report) => report,
         Err(e) => {
-            let Some(signal) = output.interrupted else {
+            // the observer saw the signal, or the library stopped inside a point
+            let Some(signal) = output.interrupted.or_else(interrupt::requested) else {
                 // an error (a write error included): the temporary CSV is removed
                 return Err(e.into());
             };

@@ -200,10 +200,15 @@ impl Model {
     /// [`Model::compare_masses`], refusing before allocating when the eigensolver's memory
     /// exceeds `limits` ([`eigenfrequencies_hz_within`]).
     pub fn compare_masses_within(&self, count: usize, limits: &Limits) -> Result<MassComparison> {
+        // the caller's request to stop is checked between the phases
+        limits.cancel.check()?;
         let consistent = self.system(MassKind::Consistent)?;
+        limits.cancel.check()?;
         let redistributed = self.system(MassKind::Redistributed)?;
+        limits.cancel.check()?;
         let original_hz =
             eigenfrequencies_hz_within(&consistent.mass, &consistent.stiffness, count, limits)?;
+        limits.cancel.check()?;
         let redistributed_hz = eigenfrequencies_hz_within(
             &redistributed.mass,
             &redistributed.stiffness,

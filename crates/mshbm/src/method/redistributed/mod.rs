@@ -369,6 +369,7 @@ impl RedistributedMsHbm {
             )
         });
         let system = model.system(MassKind::Redistributed)?;
+        limits.cancel.check()?;
         // with friction the contact coordinates are the normals, then the tangents (T150)
         let (system, friction) = frictional::with_tangent_coordinates(system, &model.source)?;
         super::memory::redistributed(&system, h, samples).check(
@@ -413,7 +414,9 @@ impl RedistributedMsHbm {
         let n_contacts = system.contacts.len();
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
+        limits.cancel.check()?;
         let receptance = options.receptance.build(&system, observer)?;
+        limits.cancel.check()?;
         let static_maps = receptance.static_plus_low_rank().and_then(|parts| {
             StaticMaps::new(&parts, contact.delassus(), &residual_scale).map(Rc::new)
         });
