@@ -212,6 +212,7 @@ impl ReceptanceChoice {
         self,
         system: &System,
         observer: Option<&SetupObserver>,
+        cancel: crate::limits::Cancel,
     ) -> Result<Box<dyn Receptance>> {
         let massive = system.n_dofs() - crate::modes::massless_dofs(&system.mass).len();
         let costly = || -> Result<bool> {
@@ -265,7 +266,7 @@ impl ReceptanceChoice {
                         system.n_dofs()
                     )
                 });
-                Box::new(ExactReceptance::new(system)?)
+                Box::new(ExactReceptance::new(system)?.cancellable(cancel))
             }
         })
     }
@@ -415,7 +416,7 @@ impl RedistributedMsHbm {
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
         limits.cancel.check()?;
-        let receptance = options.receptance.build(&system, observer)?;
+        let receptance = options.receptance.build(&system, observer, limits.cancel)?;
         limits.cancel.check()?;
         let static_maps = receptance.static_plus_low_rank().and_then(|parts| {
             StaticMaps::new(&parts, contact.delassus(), &residual_scale).map(Rc::new)
