@@ -59,6 +59,8 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    #[cfg(unix)]
+    out_of_memory_net();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => return usage_error(&e),
@@ -78,9 +80,43 @@ fn main() -> ExitCode {
     // exit statuses: docs/safety.md and `output::status` (0, 1 error, 2 not converged,
     // 130 interrupted)
     if let Err(e) = &result {
-        crate::note!("error: {e:#}");
+        if output::status::is_cancelled(e) {
+            crate::note!(
+                "error: interrupted by {}: nothing more was written",
+                output::interrupt::requested().unwrap_or("a signal")
+            );
+        } else {
+            crate::note!("error: {e:#}");
+        }
     }
     ExitCode::from(output::status::exit_status(&result))
+}
+
+/// The last resort when an allocation fails anyway (the memory plans and the budget,
+/// docs/safety.md, are meant to refuse first): Rust's allocator prints `memory allocation
+/// of N bytes failed` and aborts; the abort is turned into an error line, the temporary
+/// files are removed and the process exits with status 1 instead of dying by SIGABRT.
+#[cfg(unix)]
+fn out_of_memory_net() {
+    extern "C" fn on_abort(_: libc::c_int) {
+        const MESSAGE: &[u8] = b"error: out of memory or an internal failure (the line above says which); stopped, temporary files removed. If an allocation failed, lower the model or the options, or give --max-memory GIB below the memory this process may use\n";
+        // SAFETY: write(2) and _exit(2) are async-signal-safe; the temporary files are
+        // removed best effort (the failed allocation holds no lock of the allocator)
+        unsafe {
+            libc::write(2, MESSAGE.as_ptr().cast(), MESSAGE.len());
+        }
+        output::interrupt::remove_temporaries();
+        unsafe { libc::_exit(i32::from(output::status::ERROR)) }
+    }
+    // SAFETY: installing a handler at start-up; SA_RESETHAND: an abort inside the handler
+    // ends the process as before
+    unsafe {
+        let mut action: libc::sigaction = std::mem::zeroed();
+        action.sa_sigaction = on_abort as extern "C" fn(libc::c_int) as usize;
+        action.sa_flags = libc::SA_RESETHAND;
+        libc::sigemptyset(&mut action.sa_mask);
+        libc::sigaction(libc::SIGABRT, &action, std::ptr::null_mut());
+    }
 }
 
 /// A command line clap refused, or `--help`/`--version`. Help and version are printed as

@@ -19,7 +19,51 @@ use vtkio::model::{
 
 use crate::output::{write_atomic, OutputKind};
 
-/// The files of a collection in `dir`: `<stem>_0000.vtu …` and `<stem>.pvd`.
+/// Memory of one file of a collection while it is planned and listed (its path in the list,
+/// in the output plan and canonical there, and the plan's index), bytes beyond the path.
+const BYTES_PER_FILE: u64 = 512;
+
+/// Memory of one grid while it is built and encoded, per node (coordinates and a vector
+/// field as `f64`, their base64 text, the XML) and per cell vertex (connectivity, offsets).
+const GRID_BYTES_PER_NODE: u64 = 512;
+const GRID_BYTES_PER_VERTEX: u64 = 32;
+
+/// Check, before anything is allocated, that a collection of `count` files of `model`'s
+/// mesh in `dir` fits the memory budget: the files' names (listed, planned) and one grid at
+/// a time (the grids are written as they are built). `option` names the argument that
+/// sets `count` (`--vtk-samples 100000000`) in the refusal.
+pub fn check_collection_memory(
+    option: &str,
+    dir: &Path,
+    count: usize,
+    model: &Model,
+    limits: &mshbm::limits::Limits,
+) -> Result<()> {
+    let path_bytes = dir.as_os_str().len() as u64 + 16;
+    let files = (count as u64)
+        .checked_add(1)
+        .and_then(|n| n.checked_mul(path_bytes.checked_mul(3)?.checked_add(BYTES_PER_FILE)?));
+    let vertices = model
+        .cells
+        .as_ref()
+        .map_or(model.n_nodes(), |c| c.connectivity.len()) as u64;
+    let grid = (model.n_nodes() as u64)
+        .checked_mul(GRID_BYTES_PER_NODE)
+        .zip(vertices.checked_mul(GRID_BYTES_PER_VERTEX))
+        .and_then(|(a, b)| a.checked_add(b));
+    limits.check_memory(
+        &format!(
+            "{option} ({count} VTK files of {} nodes in {})",
+            model.n_nodes(),
+            dir.display()
+        ),
+        files.zip(grid).and_then(|(a, b)| a.checked_add(b)),
+    )?;
+    Ok(())
+}
+
+/// The files of a collection in `dir`: `<stem>_0000.vtu …` and `<stem>.pvd` (the count is
+/// checked first by [`check_collection_memory`]).
 pub fn collection_paths(dir: &Path, stem: &str, count: usize) -> (Vec<PathBuf>, PathBuf) {
     let files = (0..count)
         .map(|k| dir.join(format!("{stem}_{k:04}.vtu")))
@@ -84,13 +128,23 @@ pub fn unstructured_grid(model: &Model, fields: &[(&str, &[f64])]) -> Result<Vec
     Ok(bytes)
 }
 
-/// Write a collection: each `(value, grid)` to its `.vtu`, then the `.pvd` that lists them
-/// with `value` as ParaView's time step.
-pub fn write_collection(files: &[PathBuf], pvd: &Path, grids: Vec<(f64, Vec<u8>)>) -> Result<()> {
+/// Write a collection: `grid(k)` gives the `(value, grid)` of file `k`, written to its
+/// `.vtu` as soon as it is built (one grid in memory at a time), then the `.pvd` that
+/// lists them with `value` as ParaView's time step. A signal stops it before the next file.
+pub fn write_collection(
+    files: &[PathBuf],
+    pvd: &Path,
+    mut grid: impl FnMut(usize) -> Result<(f64, Vec<u8>)>,
+) -> Result<()> {
     let mut text = String::from(
         "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n",
     );
-    for (path, (value, bytes)) in files.iter().zip(grids) {
+    for (k, path) in files.iter().enumerate() {
+        crate::output::interrupt::check(&format!(
+            "{k} of the {} VTK files were written, no .pvd",
+            files.len()
+        ))?;
+        let (value, bytes) = grid(k)?;
         write_atomic(path, &bytes, OutputKind::Text)?;
         let name = path
             .file_name()

@@ -411,3 +411,55 @@ fn usage_errors_exit_with_1_in_at_most_three_lines() {
         assert!(!out.stdout.is_empty(), "{args:?}");
     }
 }
+
+/// Issue 46, item 5: a parameter whose product overflows is named, not the damping it spoils
+/// (`--set bar.young=1e308` blamed "stiffness-proportional damping (beta)" with beta = 0).
+#[test]
+fn overflowing_parameters_are_named() {
+    // E·A/h = 1e308 / 0.2 overflows
+    for (set, field) in [("bar.young=1e308", "bar.young")] {
+        let err = fails(&[
+            "solve",
+            &example("clamped_bar.toml"),
+            "--frequency",
+            "30000",
+            "--set",
+            set,
+        ]);
+        assert!(err.contains(field) && err.contains("overflows"), "{err}");
+        assert!(!err.contains("damping"), "{err}");
+    }
+}
+
+/// Issue 46, item 5: a negative mass diagonal is refused naming the matrix, by `modes`
+/// (which blamed the mass redistribution) and by `solve --method hbm-aft` (which solved).
+#[test]
+fn negative_mass_diagonal_is_refused() {
+    let m = GeneralModel::new();
+    let mass = std::fs::read_to_string(examples().join("bar_matrices/mass.mtx")).unwrap();
+    let negative = mass.replacen("\n2 2 ", "\n2 2 -", 1);
+    assert_ne!(negative, mass, "fixture lacks entry (2, 2)");
+    m.write("mass.mtx", &negative);
+    for args in [
+        vec!["modes", "MODEL"],
+        vec![
+            "solve",
+            "MODEL",
+            "--frequency",
+            "30000",
+            "--method",
+            "hbm-aft",
+        ],
+    ] {
+        let toml = m.toml();
+        let args: Vec<&str> = args
+            .iter()
+            .map(|a| if *a == "MODEL" { toml.as_str() } else { a })
+            .collect();
+        let err = fails(&args);
+        assert!(
+            err.contains("matrices.mass") && err.contains("(2, 2)") && err.contains("negative"),
+            "{err}"
+        );
+    }
+}

@@ -361,3 +361,38 @@ fn the_friction_damper_diagram_completes() {
     }
     assert!(json["dissipated_energy"].as_f64().unwrap() > 0.0);
 }
+
+/// Issue 46, item 5: frequencies far below 1 Hz are written with their digits, not as
+/// `0.000000000` in every row.
+#[test]
+fn tiny_frequencies_keep_their_digits() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("tiny.csv");
+    let out = common::command()
+        .args([
+            "frf",
+            &common::example("clamped_bar.toml"),
+            "--from",
+            "1e-300",
+            "--to",
+            "1e-299",
+            "--harmonics",
+            "1",
+            "--output",
+        ])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    common::assert_success(&out);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let frequencies: Vec<f64> = text
+        .lines()
+        .skip(1)
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| l.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert!(frequencies.len() > 2, "{text}");
+    for f in &frequencies {
+        assert!((1e-300..=1.0000001e-299).contains(f), "{f:e} in {text}");
+    }
+}

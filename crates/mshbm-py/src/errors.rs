@@ -56,6 +56,8 @@ pub fn to_py(e: Error) -> PyErr {
         Error::Singular(_) | Error::SingularSystem(_) | Error::Numerical(_) => {
             NotConvergedError::new_err(message)
         }
+        // Python never asks the library to cancel (`Limits::cancel` stays `NEVER`)
+        Error::Cancelled => pyo3::exceptions::PyKeyboardInterrupt::new_err(message),
     }
 }
 

@@ -159,7 +159,7 @@ impl NativeModel {
         };
         py.detach(|| {
             // the steps of `load_model_with`, keeping the text for pickling
-            let text = mshbm::limits::read_text_file(&path, &options.limits)?;
+            let text = mshbm::limits::read_model_file(&path, &options.limits)?;
             let mut model =
                 mshbm::model::file::parse_model_with(&text, &path, &overrides, &options)?;
             let canonical = path

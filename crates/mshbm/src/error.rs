@@ -67,6 +67,10 @@ pub enum Error {
     /// singular at the current point.
     #[error("{0}")]
     SingularSystem(SingularSystem),
+
+    /// The caller asked the computation to stop ([`crate::limits::Cancel`]).
+    #[error("cancelled")]
+    Cancelled,
 }
 
 /// Which linear system of Newton's method or of the continuation is singular.
@@ -117,6 +121,8 @@ impl Error {
             | Error::InvalidArgument { .. }
             | Error::Redistribution(_)
             | Error::ResourceLimit { .. } => ErrorKind::Input,
+            // no other point helps either: the caller wants no more points
+            Error::Cancelled => ErrorKind::Input,
         }
     }
 

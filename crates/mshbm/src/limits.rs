@@ -6,6 +6,7 @@
 
 use std::io::Read;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::error::{Error, Result};
 
@@ -15,24 +16,99 @@ pub const GIB: u64 = 1 << 30;
 /// Memory assumed when the machine's memory cannot be read (not Linux).
 const FALLBACK_MEMORY_BYTES: u64 = 8 * GIB;
 
-/// Default largest input file (model file, Matrix Market file, coordinates, vectors).
+/// Default largest input file (Matrix Market file, coordinates, vectors).
 pub const DEFAULT_MAX_FILE_BYTES: u64 = GIB;
 
-/// The limits a computation is checked against. The defaults are the machine's physical
-/// memory and 1 GiB per input file; the CLI raises or lowers them with `--max-memory`.
+/// Largest model file (TOML) that is read: 4 MiB. A model file describes a model and names
+/// the files that hold its data (matrices, coordinates, contacts); the TOML parser needs
+/// about 50 times the file's size (measured: 700 MB for a 13 MB array), so a larger file is
+/// refused before it is parsed, naming the file.
+pub const MAX_MODEL_FILE_BYTES: u64 = 4 << 20;
+
+/// Peak memory of parsing a TOML model file per byte of the file (measured: 52 bytes).
+pub const TOML_BYTES_PER_FILE_BYTE: u64 = 64;
+
+/// A request to stop a long computation, given by the caller (the CLI sets it on SIGINT or
+/// SIGTERM; the library knows nothing of signals). Long loops (Newton's iterations and line
+/// search, the set-up phases of a method, the iterations of an eigensolver) check it and
+/// return [`Error::Cancelled`]. The default never cancels.
+#[derive(Clone, Copy, Default)]
+pub struct Cancel(Option<&'static AtomicBool>);
+
+impl Cancel {
+    /// Never cancels.
+    pub const NEVER: Cancel = Cancel(None);
+
+    /// Cancels once `flag` is set.
+    pub fn on(flag: &'static AtomicBool) -> Self {
+        Cancel(Some(flag))
+    }
+
+    /// Whether the caller asked to stop.
+    pub fn requested(&self) -> bool {
+        self.0.is_some_and(|f| f.load(Ordering::Relaxed))
+    }
+
+    /// [`Error::Cancelled`] once the caller asked to stop.
+    pub fn check(&self) -> Result<()> {
+        if self.requested() {
+            Err(Error::Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// This request, or `other` when this one never cancels.
+    pub fn or(self, other: Cancel) -> Cancel {
+        if self.0.is_some() {
+            self
+        } else {
+            other
+        }
+    }
+}
+
+impl PartialEq for Cancel {
+    fn eq(&self, other: &Self) -> bool {
+        match (self.0, other.0) {
+            (None, None) => true,
+            (Some(a), Some(b)) => std::ptr::eq(a, b),
+            _ => false,
+        }
+    }
+}
+
+impl Eq for Cancel {}
+
+impl std::fmt::Debug for Cancel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            None => f.write_str("Cancel::NEVER"),
+            Some(flag) => write!(f, "Cancel({})", flag.load(Ordering::Relaxed)),
+        }
+    }
+}
+
+/// The limits a computation is checked against. The defaults are the memory this process
+/// may use ([`available_memory_bytes`]: the smallest of the machine's physical memory, the
+/// `RLIMIT_AS`/`RLIMIT_DATA` resource limits and the cgroup's memory limit) and 1 GiB per
+/// input file; the CLI raises or lowers the memory with `--max-memory`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Limits {
     /// Largest memory [bytes] a computation may plan to allocate.
     pub memory_bytes: u64,
     /// Largest input file [bytes] that is read.
     pub file_bytes: u64,
+    /// The caller's request to stop (default: never).
+    pub cancel: Cancel,
 }
 
 impl Default for Limits {
     fn default() -> Self {
         Limits {
-            memory_bytes: physical_memory_bytes().unwrap_or(FALLBACK_MEMORY_BYTES),
+            memory_bytes: available_memory_bytes(),
             file_bytes: DEFAULT_MAX_FILE_BYTES,
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -89,9 +165,119 @@ pub fn human_bytes(bytes: u64) -> String {
 /// The machine's physical memory from `/proc/meminfo` (`MemTotal`), `None` elsewhere.
 pub fn physical_memory_bytes() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    kib_field(&text, "MemTotal:")
+}
+
+/// The memory this process may use, the default budget: the smallest of the machine's
+/// physical memory (8 GiB when unknown), what is left of the address space under
+/// `RLIMIT_AS` (`ulimit -v`, `prlimit --as`) and of the data segment under `RLIMIT_DATA`
+/// (the limit less what the process maps already, `VmSize` or `VmData`), and the memory
+/// limit of the process's cgroup (`memory.max` of cgroup v2, `memory.limit_in_bytes` of
+/// v1). A budget taken from the machine alone let a run under `ulimit -v` abort on an
+/// allocation instead of being refused by its memory plan.
+pub fn available_memory_bytes() -> u64 {
+    let mut budget = physical_memory_bytes().unwrap_or(FALLBACK_MEMORY_BYTES);
+    for limit in [address_space_left(), cgroup_memory_limit()]
+        .into_iter()
+        .flatten()
+    {
+        budget = budget.min(limit);
+    }
+    budget
+}
+
+/// A `kB` field of a `/proc` file (`MemTotal:`, `VmSize:`) in bytes.
+fn kib_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     kib.checked_mul(1024)
+}
+
+/// What `RLIMIT_AS` and `RLIMIT_DATA` leave of the address space and the data segment.
+#[cfg(unix)]
+fn address_space_left() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let mut left: Option<u64> = None;
+    for (resource, used) in [
+        (libc::RLIMIT_AS, kib_field(&status, "VmSize:")),
+        (libc::RLIMIT_DATA, kib_field(&status, "VmData:")),
+    ] {
+        let mut limit = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit writes the one struct it is given.
+        if unsafe { libc::getrlimit(resource, &mut limit) } != 0
+            || limit.rlim_cur == libc::RLIM_INFINITY
+        {
+            continue;
+        }
+        let mut rest = (limit.rlim_cur as u64).saturating_sub(used.unwrap_or(0));
+        if resource == libc::RLIMIT_AS {
+            // the address space the dense kernels reserve on their first product, touched
+            // only as far as used: faer's packing workspace, twice the last-level cache
+            // (960 MiB on a machine reporting a 480 MiB L3)
+            rest = rest.saturating_sub(dense_workspace_bytes());
+        }
+        left = Some(left.map_or(rest, |l| l.min(rest)));
+    }
+    left
+}
+
+#[cfg(not(unix))]
+fn address_space_left() -> Option<u64> {
+    None
+}
+
+/// The address space the dense matrix products reserve on the main thread: twice the
+/// last-level cache (`/sys/devices/system/cpu/cpu0/cache/index3/size`, 32 MiB when
+/// unknown). Rayon's threads reserve as much when a product runs in parallel (large
+/// matrices); that is not counted, as the docs of the memory plans say.
+#[cfg(unix)]
+fn dense_workspace_bytes() -> u64 {
+    let l3 = std::fs::read_to_string("/sys/devices/system/cpu/cpu0/cache/index3/size")
+        .ok()
+        .and_then(|t| {
+            let t = t.trim();
+            let (number, unit) =
+                t.split_at(t.find(|c: char| !c.is_ascii_digit()).unwrap_or(t.len()));
+            let n: u64 = number.parse().ok()?;
+            Some(match unit {
+                "K" => n << 10,
+                "M" => n << 20,
+                "G" => n << 30,
+                _ => n,
+            })
+        })
+        .unwrap_or(32 << 20);
+    l3.saturating_mul(2)
+}
+
+/// The memory limit of this process's cgroup (v2 `memory.max`, v1
+/// `memory.limit_in_bytes`), `None` without one.
+fn cgroup_memory_limit() -> Option<u64> {
+    let read = |path: &str| -> Option<u64> {
+        let text = std::fs::read_to_string(path).ok()?;
+        text.trim().parse().ok() // "max" (no limit) does not parse
+    };
+    let own = std::fs::read_to_string("/proc/self/cgroup").unwrap_or_default();
+    let mut candidates: Vec<String> = Vec::new();
+    for line in own.lines() {
+        let mut parts = line.splitn(3, ':');
+        let (_, controllers, path) = (parts.next(), parts.next(), parts.next());
+        let (Some(controllers), Some(path)) = (controllers, path) else {
+            continue;
+        };
+        let path = path.trim_end_matches('/');
+        if controllers.is_empty() {
+            candidates.push(format!("/sys/fs/cgroup{path}/memory.max"));
+        } else if controllers.split(',').any(|c| c == "memory") {
+            candidates.push(format!("/sys/fs/cgroup/memory{path}/memory.limit_in_bytes"));
+        }
+    }
+    candidates.push("/sys/fs/cgroup/memory.max".into());
+    candidates.push("/sys/fs/cgroup/memory/memory.limit_in_bytes".into());
+    candidates.iter().filter_map(|p| read(p)).min()
 }
 
 /// Read a text input file: only regular files (never a device, FIFO or directory, which
@@ -102,6 +288,32 @@ pub fn physical_memory_bytes() -> Option<u64> {
 /// is then opened non-blocking and checked again, so a FIFO swapped in between cannot
 /// block the read either.
 pub fn read_text_file(path: &Path, limits: &Limits) -> Result<String> {
+    read_bounded(path, limits, limits.file_bytes, "the input file limit", 1)
+}
+
+/// Read a model file (TOML) as [`read_text_file`] reads any input, refusing one larger than
+/// [`MAX_MODEL_FILE_BYTES`] (or `limits.file_bytes`, if smaller), and one whose parsing
+/// ([`TOML_BYTES_PER_FILE_BYTE`] per byte) would not fit the memory budget.
+pub fn read_model_file(path: &Path, limits: &Limits) -> Result<String> {
+    read_bounded(
+        path,
+        limits,
+        MAX_MODEL_FILE_BYTES.min(limits.file_bytes),
+        "the limit of a model file (TOML; large data belongs in the files the model names: Matrix Market matrices, coordinates, contacts)",
+        TOML_BYTES_PER_FILE_BYTE,
+    )
+}
+
+/// Read a text file of at most `max_bytes` bytes (`limit_name` in the message), whose
+/// reading and processing take `bytes_per_byte` bytes of memory per byte of the file
+/// (checked against the memory budget before anything is read).
+pub fn read_bounded(
+    path: &Path,
+    limits: &Limits,
+    max_bytes: u64,
+    limit_name: &str,
+    bytes_per_byte: u64,
+) -> Result<String> {
     let before = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if !before.is_file() {
         return Err(Error::io(path, not_regular(&before)));
@@ -111,25 +323,35 @@ pub fn read_text_file(path: &Path, limits: &Limits) -> Result<String> {
     if !meta.is_file() {
         return Err(Error::io(path, not_regular(&meta)));
     }
-    if meta.len() > limits.file_bytes {
+    if meta.len() > max_bytes {
         return Err(Error::io(
             path,
             format!(
-                "{} is larger than the input file limit of {}",
+                "{} is larger than {limit_name} of {}",
                 human_bytes(meta.len()),
-                human_bytes(limits.file_bytes)
+                human_bytes(max_bytes)
             ),
         ));
     }
+    limits.check_memory(
+        &format!("reading {}", path.display()),
+        meta.len().checked_mul(bytes_per_byte.max(1)),
+    )?;
     let mut bytes = Vec::new();
-    bytes
-        .try_reserve_exact(meta.len() as usize)
-        .map_err(|_| Error::io(path, "cannot allocate memory to read the file"))?;
+    bytes.try_reserve_exact(meta.len() as usize).map_err(|_| {
+        Error::io(
+            path,
+            format!(
+                "cannot allocate {} to read the file",
+                human_bytes(meta.len())
+            ),
+        )
+    })?;
     // bounded even if the file grows while it is read
-    file.take(limits.file_bytes + 1)
+    file.take(max_bytes + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| Error::io(path, e))?;
-    if bytes.len() as u64 > limits.file_bytes {
+    if bytes.len() as u64 > max_bytes {
         return Err(Error::io(
             path,
             "the file grew beyond the input file limit while it was read",
@@ -203,6 +425,7 @@ mod tests {
         let limits = Limits {
             memory_bytes: GIB,
             file_bytes: GIB,
+            cancel: Cancel::NEVER,
         };
         assert!(limits.check_items("x", 1 << 20, 8).is_ok());
         let err = limits
@@ -223,6 +446,7 @@ mod tests {
         let limits = Limits {
             memory_bytes: GIB,
             file_bytes: 16,
+            cancel: Cancel::NEVER,
         };
         #[cfg(unix)]
         {

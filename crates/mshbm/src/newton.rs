@@ -4,6 +4,7 @@
 //! step).
 
 use crate::error::{Error, Result, SingularSystem};
+use crate::limits::Cancel;
 use crate::problem::{Jacobian, Linearization, PeriodicProblem};
 
 /// Newton settings. Norms are max-norms relative to the problem's length scale.
@@ -15,6 +16,10 @@ pub struct NewtonOptions {
     pub max_iterations: usize,
     /// Smallest line-search step factor (default `1/1024`; in `(0, 1]`).
     pub min_step: f64,
+    /// The caller's request to stop, checked at every iteration and line-search trial
+    /// ([`Error::Cancelled`]; default: never). [`crate::solve::solve_periodic`] and
+    /// [`crate::frd::trace_diagram`] set it from their `limits.cancel` when it is unset.
+    pub cancel: Cancel,
 }
 
 impl NewtonOptions {
@@ -70,6 +75,7 @@ impl Default for NewtonOptions {
             tolerance: 1e-10,
             max_iterations: 50,
             min_step: 1.0 / 1024.0,
+            cancel: Cancel::NEVER,
         }
     }
 }
@@ -209,8 +215,10 @@ pub(crate) fn iterate(
     mut y: Vec<f64>,
     max_iterations: usize,
     storage: &mut NewtonStorage,
+    cancel: Cancel,
 ) -> Result<Iterated> {
     for iterations in 0..=max_iterations {
+        cancel.check()?;
         let NewtonStorage {
             jacobian,
             f,
@@ -274,6 +282,7 @@ impl<P: PeriodicProblem + ?Sized> NewtonSystem for AtFrequency<'_, P> {
         let mut t = 1.0;
         let mut best: Option<(f64, Vec<f64>)> = None;
         loop {
+            self.options.cancel.check()?;
             let trial: Vec<f64> = x.iter().zip(d).map(|(a, b)| a + t * b).collect();
             let r = self.problem.residual(&trial, self.omega)?;
             let phi = sum_squares(&r);
@@ -322,6 +331,7 @@ pub fn solve_observed<P: PeriodicProblem + ?Sized>(
         x0.to_vec(),
         options.max_iterations,
         &mut NewtonStorage::default(),
+        options.cancel,
     )?;
     let history = system.history;
     let norm = *history.last().expect("at least the start is evaluated");

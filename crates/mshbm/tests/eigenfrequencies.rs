@@ -217,6 +217,7 @@ fn eigenfrequencies_over_the_memory_budget_are_refused() {
     let limits = mshbm::limits::Limits {
         memory_bytes: 1 << 20,
         file_bytes: 1 << 20,
+        cancel: Default::default(),
     };
     let err =
         mshbm::modes::eigenfrequencies_hz_within(&s.mass, &s.stiffness, 30, &limits).unwrap_err();

@@ -192,6 +192,7 @@ fn options() -> LoadOptions {
         limits: Limits {
             memory_bytes: 16 << 20,
             file_bytes: 1 << 20,
+            cancel: Default::default(),
         },
         allow_outside_paths: false,
     }

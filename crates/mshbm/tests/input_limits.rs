@@ -47,6 +47,7 @@ fn options(memory_bytes: u64) -> LoadOptions {
         limits: Limits {
             memory_bytes,
             file_bytes: 1 << 20,
+            cancel: Default::default(),
         },
         allow_outside_paths: false,
     }

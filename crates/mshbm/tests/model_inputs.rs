@@ -224,6 +224,7 @@ fn huge_declared_matrix_sizes_are_refused_before_allocating() {
     let limits = Limits {
         memory_bytes: 1 << 20,
         file_bytes: 1 << 20,
+        cancel: Default::default(),
     };
     for text in [
         "%%MatrixMarket matrix coordinate real general\n1000000000 1000000000 0\n",

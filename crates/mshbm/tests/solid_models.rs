@@ -949,3 +949,41 @@ fn moreau_jean_runs_on_the_cantilever_interface() {
     println!("tip max: Moreau–Jean {a:.5}, redistributed Newmark {b:.5}");
     assert!((a - b).abs() < 0.01 * b, "{a} vs {b}");
 }
+
+/// Issue 46, item 5: a `gap_file` line for a node that is not on the interface (or does
+/// not exist) is refused naming the file's line, not ignored.
+#[test]
+fn a_gap_file_line_for_another_node_is_refused() {
+    let dir = std::env::temp_dir().join(format!("mshbm-gaps-other-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let uniform = parse(BLOCK).unwrap();
+    let rows: String = uniform.interfaces[0]
+        .nodes
+        .iter()
+        .map(|n| format!("{}, 0.001\n", n[0]))
+        .collect();
+    let from_file = BLOCK.replacen("gap = 0.01", "gap_file = \"gaps.csv\"", 1);
+    std::fs::write(dir.join("block.toml"), &from_file).unwrap();
+    std::fs::write(dir.join("gaps.csv"), &rows).unwrap();
+    load_model(&dir.join("block.toml"), &[]).unwrap();
+    let last_line = rows.lines().count() + 1;
+    let off = (0..uniform.n_nodes())
+        .find(|p| uniform.interfaces[0].nodes.iter().all(|n| n[0] != *p))
+        .unwrap();
+    for extra in ["999999, 0.5\n".to_string(), format!("{off}, 0.5\n")] {
+        std::fs::write(dir.join("gaps.csv"), format!("{rows}{extra}")).unwrap();
+        let e = match load_model(&dir.join("block.toml"), &[]) {
+            Ok(_) => panic!("the line {extra:?} was accepted"),
+            Err(e) => e.to_string(),
+        };
+        let node = extra.split(',').next().unwrap();
+        for piece in [
+            "interfaces[0].gap_file",
+            &format!("gaps.csv, line {last_line}"),
+            &format!("node {node} is not a node of the interface"),
+        ] {
+            assert!(e.contains(piece), "{piece:?} not in {e}");
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -55,6 +55,7 @@ fn small(memory_bytes: u64) -> Limits {
     Limits {
         memory_bytes,
         file_bytes: GIB,
+        cancel: Default::default(),
     }
 }
 

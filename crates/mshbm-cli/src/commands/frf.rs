@@ -255,6 +255,17 @@ pub fn frd_csv_header(method_columns: bool) -> String {
 
 /// One CSV row (no newline) of `point` on a branch with `harmonics`; `method`: the method
 /// columns (method name, penalty) when the file has them.
+/// A frequency [Hz] with `decimals` decimals, or in scientific notation with 12 digits when
+/// that would hide it (below 10⁻³ Hz: `frf --from 1e-300` wrote `0.000000000` in every
+/// row).
+pub fn hz_text(hz: f64, decimals: usize) -> String {
+    if hz == 0.0 || hz.abs() >= 1e-3 {
+        format!("{hz:.decimals$}")
+    } else {
+        format!("{hz:.12e}")
+    }
+}
+
 pub fn frd_csv_row(
     point: &FrdPoint,
     harmonics: usize,
@@ -272,8 +283,8 @@ pub fn frd_csv_row(
         None => String::new(),
     };
     format!(
-        "{:.9},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{},{},{}{extra}",
-        point.frequency_hz,
+        "{},{},{:.12e},{:.12e},{:.12e},{:.3e},{},{},{},{}{extra}",
+        hz_text(point.frequency_hz, 9),
         harmonics,
         point.max_qn,
         point.min_qn,
@@ -495,7 +506,8 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     let report = match traced {
         Ok(report) => report,
         Err(e) => {
-            let Some(signal) = output.interrupted else {
+            // the observer saw the signal, or the library stopped inside a point
+            let Some(signal) = output.interrupted.or_else(interrupt::requested) else {
                 // an error (a write error included): the temporary CSV is removed
                 return Err(e.into());
             };
@@ -535,10 +547,10 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         // Neimark–Sacker bifurcation), between the two points of different verdicts
         for b in &report.bifurcations {
             csv.comment(&format!(
-                "bifurcation ({}): {} near {:.9} Hz, max {:.6e}, min {:.6e}",
+                "bifurcation ({}): {} near {} Hz, max {:.6e}, min {:.6e}",
                 b.label,
                 crossing_name(b.kind),
-                b.frequency_hz,
+                hz_text(b.frequency_hz, 9),
                 b.max_qn,
                 b.min_qn
             ))?;
@@ -566,9 +578,9 @@ pub fn run(args: &FrfArgs) -> Result<()> {
     } else {
         for f in &report.folds {
             crate::outln!(
-                "fold ({}): {:.3} Hz, max {:.6e}{}",
+                "fold ({}): {} Hz, max {:.6e}{}",
                 f.label,
-                f.frequency_hz,
+                hz_text(f.frequency_hz, 3),
                 f.max_qn,
                 if f.at_kink { " (at a kink)" } else { "" }
             )?;
@@ -578,10 +590,10 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         }
         for b in &report.bifurcations {
             crate::outln!(
-                "stability change ({}): {} near {:.3} Hz",
+                "stability change ({}): {} near {} Hz",
                 b.label,
                 crossing_name(b.kind),
-                b.frequency_hz
+                hz_text(b.frequency_hz, 3)
             )?;
         }
         if let Some(path) = &args.output {
@@ -610,10 +622,11 @@ fn stability_unknown_lines(branches: &[mshbm::frd::BranchReport]) -> Vec<String>
             });
             let (hz, why) = unknown.next()?;
             Some(format!(
-                "stability unknown ({}): {} of {} points, first at {hz:.3} Hz: {why}",
+                "stability unknown ({}): {} of {} points, first at {} Hz: {why}",
                 b.label,
                 1 + unknown.count(),
-                b.points.len()
+                b.points.len(),
+                hz_text(hz, 3)
             ))
         })
         .collect()

@@ -34,7 +34,9 @@ pub struct ModelArgs {
     pub allow_outside_paths: bool,
 
     /// Memory budget [GiB] that a model and a computation may plan to use; larger ones are
-    /// refused before anything is allocated. Default: the machine's physical memory.
+    /// refused before anything is allocated. Default: the memory this process may use, the
+    /// smallest of the machine's physical memory, `ulimit -v` (RLIMIT_AS) and `-d`
+    /// (RLIMIT_DATA) less what is mapped already, and the cgroup's memory limit.
     #[arg(long, value_name = "GIB", value_parser = parse_memory_gib, allow_negative_numbers = true)]
     pub max_memory: Option<f64>,
 }
@@ -53,7 +55,11 @@ fn parse_memory_gib(text: &str) -> std::result::Result<f64, String> {
 impl ModelArgs {
     /// The resource limits of this run (`--max-memory`), for the model and the solvers.
     pub fn limits(&self) -> mshbm::limits::Limits {
-        let limits = mshbm::limits::Limits::default();
+        // the first SIGINT/SIGTERM asks the library to stop (docs/safety.md, "Interrupts")
+        let limits = mshbm::limits::Limits {
+            cancel: crate::output::interrupt::cancel(),
+            ..mshbm::limits::Limits::default()
+        };
         match self.max_memory {
             Some(gib) => limits.with_memory_gib(gib),
             None => limits,
@@ -78,11 +84,27 @@ impl ModelArgs {
     }
 }
 
+/// Largest `--from-solution` file: 256 MiB (the JSON of a solution of the 3D plate with
+/// 1056 contacts is a few megabytes).
+pub const MAX_SOLUTION_FILE_BYTES: u64 = 256 << 20;
+
+/// Memory of reading a solution per byte of its JSON: the text and the parsed arrays.
+const SOLUTION_BYTES_PER_FILE_BYTE: u64 = 3;
+
 /// A periodic solution written by `mshbm solve --json` (the start of `simulate` or `solve`
-/// `--from-solution`).
-pub(crate) fn read_solution(path: &Path) -> Result<PeriodicSolution> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
+/// `--from-solution`), read bounded: a regular file of at most
+/// [`MAX_SOLUTION_FILE_BYTES`] whose reading fits the memory budget of `limits`.
+pub(crate) fn read_solution(
+    path: &Path,
+    limits: &mshbm::limits::Limits,
+) -> Result<PeriodicSolution> {
+    let text = mshbm::limits::read_bounded(
+        path,
+        limits,
+        MAX_SOLUTION_FILE_BYTES.min(limits.file_bytes),
+        "the limit of a --from-solution file",
+        SOLUTION_BYTES_PER_FILE_BYTE,
+    )?;
     serde_json::from_str(&text).with_context(|| {
         format!(
             "{}: not a periodic solution (JSON of `mshbm solve --json`)",

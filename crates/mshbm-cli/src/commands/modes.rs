@@ -67,6 +67,13 @@ pub fn run(args: &ModesArgs) -> Result<()> {
     let model = args.model.load()?;
     let vtk_files = match &args.vtk {
         Some(dir) => {
+            crate::vtk::check_collection_memory(
+                &format!("--count {} with --vtk", args.count),
+                dir,
+                args.count,
+                &model,
+                &args.model.limits(),
+            )?;
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("--vtk {}: cannot create the directory", dir.display()))?;
             Some(crate::vtk::collection_paths(dir, "mode", args.count))
@@ -83,10 +90,11 @@ pub fn run(args: &ModesArgs) -> Result<()> {
         .inputs("a file the model reads", &model.input_files)
         .output("--plot", args.plot.as_deref(), OutputKind::Plot)
         .check()?;
-    let report = model
-        .compare_masses_within(args.count, &args.model.limits())
-        .with_context(|| format!("{}: eigenfrequencies", args.model.model.display()))?;
+    let report = model.compare_masses_within(args.count, &args.model.limits());
+    // a signal stops the eigensolver (the library's `Cancelled`): report the interruption
     crate::output::interrupt::check("nothing was written")?;
+    let report =
+        report.with_context(|| format!("{}: eigenfrequencies", args.model.model.display()))?;
     // the table and the plot show the same numbers as the JSON: none may be NaN
     check_json("the eigenfrequencies", &report)?;
     if let Some(path) = &args.plot {
@@ -137,8 +145,7 @@ fn write_mode_shapes(
     let system = model.system(mshbm::MassKind::Consistent)?;
     let modes = mshbm::modes::lowest_modes(&system.mass, &system.stiffness, count)
         .context("mode shapes")?;
-    let mut grids = Vec::with_capacity(count);
-    for k in 0..count {
+    crate::vtk::write_collection(files, pvd, |k| {
         let mut shape = vec![0.0; model.n_dofs()];
         for (s, &d) in system.model_dof.iter().enumerate() {
             shape[d] = modes.shapes[(s, k)];
@@ -148,10 +155,9 @@ fn write_mode_shapes(
             shape.iter_mut().for_each(|v| *v /= largest);
         }
         let hz = modes.eigenvalues[k].sqrt() / (2.0 * std::f64::consts::PI);
-        grids.push((
+        Ok((
             hz,
             crate::vtk::unstructured_grid(model, &[("mode_shape", &shape)])?,
-        ));
-    }
-    crate::vtk::write_collection(files, pvd, grids)
+        ))
+    })
 }

@@ -396,7 +396,10 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     let analytic: Option<DroppedBarSolution> = dropped.as_ref().and_then(|p| p.analytic().ok());
     let forced = model.harmonic_load.iter().any(|&f| f != 0.0);
     let start = match &args.from_solution {
-        Some(path) => Some((path.clone(), super::read_solution(path)?)),
+        Some(path) => Some((
+            path.clone(),
+            super::read_solution(path, &args.model.limits())?,
+        )),
         None => None,
     };
     let frequency = match (&start, args.frequency) {
@@ -466,6 +469,17 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         0
     };
     let max_periods = args.periods.map_or(1000, |p| p as usize);
+    if args.steady_state {
+        // the steady state keeps one period of the contact and nonlinear DOFs' signals
+        // (and the reported solution's series): checked before the run
+        let per_step = (4 * system.contacts.len() + system.nonlinear_dofs.len() + 2) as u64 * 16;
+        args.model.limits().check_memory(
+            &format!(
+                "--steps-per-period {steps_per_period} (the steady state's period of signals)"
+            ),
+            (steps_per_period as u64).checked_mul(per_step),
+        )?;
+    }
 
     // --- integrator ---
     let omega = frequency.map(|f| 2.0 * std::f64::consts::PI * f);

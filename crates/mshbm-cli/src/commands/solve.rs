@@ -542,9 +542,9 @@ fn write_vtk(
     )?;
     let h = solution.harmonics;
     let period = 1.0 / solution.frequency_hz;
-    let mut grids = Vec::with_capacity(files.len());
-    for j in 0..files.len() {
-        let t = period * j as f64 / files.len() as f64;
+    let count = files.len();
+    crate::vtk::write_collection(files, pvd, |j| {
+        let t = period * j as f64 / count as f64;
         let displacement: Vec<f64> = field
             .iter()
             .map(|c| {
@@ -556,12 +556,64 @@ fn write_vtk(
                     .sum::<f64>()
             })
             .collect();
-        grids.push((
+        Ok((
             t,
             crate::vtk::unstructured_grid(model, &[("displacement", &displacement)])?,
+        ))
+    })
+}
+
+/// Bytes of text per contact and sample in `--contacts-csv` (a row of seven columns) and
+/// in `--output` (three numbers of 20 characters), and per sample of a plot's series.
+const CONTACTS_CSV_ROW_BYTES: u64 = 160;
+const OUTPUT_CSV_BYTES_PER_CONTACT: u64 = 64;
+const PLOT_BYTES_PER_SAMPLE: u64 = 64;
+
+/// Check, before solving, that the outputs built in memory (each CSV is formed whole, then
+/// written atomically) fit the memory budget: they grow with the samples (`--samples`) and
+/// the contacts. The method's own plan counts its arrays; this counts the text.
+fn check_output_memory(args: &SolveArgs, model: &Model) -> Result<()> {
+    let samples = args
+        .method
+        .samples
+        .unwrap_or_else(|| match args.method.method {
+            Method::Mshbm => mshbm::method::general::default_steps(args.harmonics),
+            _ => mshbm::method::default_samples(args.harmonics),
+        }) as u64;
+    let contacts = model.contacts.len().max(1) as u64;
+    let per_sample = |option: &str, bytes: u64| (option.to_string(), samples.checked_mul(bytes));
+    let mut outputs = Vec::new();
+    if args.output.is_some() {
+        outputs.push(per_sample(
+            "--output",
+            contacts
+                .saturating_mul(OUTPUT_CSV_BYTES_PER_CONTACT)
+                .saturating_add(24),
         ));
     }
-    crate::vtk::write_collection(files, pvd, grids)
+    if args.contacts_csv.is_some() {
+        outputs.push(per_sample(
+            "--contacts-csv",
+            contacts.saturating_mul(CONTACTS_CSV_ROW_BYTES),
+        ));
+    }
+    if args.contact_map.is_some() {
+        outputs.push(per_sample(
+            "--contact-map",
+            contacts.saturating_mul(PLOT_BYTES_PER_SAMPLE),
+        ));
+    }
+    if args.plot.is_some() {
+        outputs.push(per_sample("--plot", PLOT_BYTES_PER_SAMPLE));
+    }
+    let limits = args.model.limits();
+    for (option, bytes) in outputs {
+        limits.check_memory(
+            &format!("{option} ({samples} samples × {contacts} contacts)"),
+            bytes,
+        )?;
+    }
+    Ok(())
 }
 
 /// `", stable"` / `", unstable"` when the multipliers are known.
@@ -590,7 +642,7 @@ pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> 
 /// Where `mshbm solve` starts Newton (`--from-solution`, `--start`, `--sweep-from`).
 fn solve_start(args: &SolveArgs) -> Result<SolveStart> {
     if let Some(path) = &args.from_solution {
-        let s = super::read_solution(path)?;
+        let s = super::read_solution(path, &args.model.limits())?;
         let Some(x) = s.unknowns else {
             bail!("{}: the solution has no `unknowns` (written by an older mshbm, or not by `solve --json`); solve it again with `solve --json`", path.display());
         };
@@ -656,6 +708,13 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             if args.vtk_samples == 0 {
                 bail!("--vtk-samples must be at least 1");
             }
+            crate::vtk::check_collection_memory(
+                &format!("--vtk-samples {}", args.vtk_samples),
+                dir,
+                args.vtk_samples,
+                &model,
+                &args.model.limits(),
+            )?;
             std::fs::create_dir_all(dir)
                 .with_context(|| format!("--vtk {}: cannot create the directory", dir.display()))?;
             Some(crate::vtk::collection_paths(
@@ -666,6 +725,7 @@ pub fn run(args: &SolveArgs) -> Result<()> {
         }
         None => None,
     };
+    check_output_memory(args, &model)?;
     let mut plan = OutputPlan::new();
     if let Some((files, pvd)) = &vtk_files {
         for f in files.iter().chain(std::iter::once(pvd)) {

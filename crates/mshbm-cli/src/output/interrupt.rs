@@ -1,12 +1,17 @@
 //! SIGINT and SIGTERM: the first signal sets a flag that long runs check at their natural
 //! checkpoints (`frf` after each point, `simulate` after each step, every command before
-//! it writes a file); they then finish what they stream with an "incomplete" marker, write
-//! nothing else and exit with status 130. A second signal removes every temporary output
-//! file still registered and exits at once.
+//! it writes a file) and that the library checks inside its long computations (Newton's
+//! iterations, a method's set-up phases, the eigensolvers' phases: [`cancel`], given to
+//! the library as `Limits::cancel`); they then finish what they stream with an "incomplete"
+//! marker, write nothing else and exit with status 130. A command that streams no CSV and
+//! reaches no checkpoint within [`GRACE`] of the signal (a long factorization) is stopped
+//! then, as by a second signal. A second signal removes every temporary output file still
+//! registered and exits at once.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use anyhow::Result;
 
@@ -15,8 +20,48 @@ use super::status::{Interrupted, INTERRUPTED};
 /// The first signal received (0: none).
 static SIGNAL: AtomicI32 = AtomicI32::new(0);
 
+/// Set by the first signal: the library's cancellation request (`Limits::cancel`).
+static CANCEL: AtomicBool = AtomicBool::new(false);
+
+/// Whether the command streams a CSV (`frf`, `simulate`): then it is never stopped by the
+/// watchdog, whose exit would lose the rows found; its own checkpoints finish the file.
+static STREAMING: AtomicBool = AtomicBool::new(false);
+
+/// How long a command that streams nothing has, after the first signal, to stop at a
+/// checkpoint of its own before it is stopped at once.
+pub const GRACE: Duration = Duration::from_secs(1);
+
 /// Temporary files being written, removed by a second signal.
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// The library's cancellation request: set by the first SIGINT or SIGTERM.
+pub fn cancel() -> mshbm::limits::Cancel {
+    mshbm::limits::Cancel::on(&CANCEL)
+}
+
+/// The command streams a CSV from now on (the watchdog leaves it to its checkpoints).
+pub(super) fn streaming() {
+    STREAMING.store(true, Ordering::SeqCst);
+}
+
+/// After the first signal: stop the process once [`GRACE`] has passed, unless the command
+/// streams a CSV or has ended by then.
+fn watchdog(signal: i32) {
+    let start = Instant::now();
+    while start.elapsed() < GRACE {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    if STREAMING.load(Ordering::SeqCst) {
+        return;
+    }
+    remove_temporaries();
+    crate::note!(
+        "error: interrupted by {}: stopped {:.1} s after the signal, inside a computation that cannot stop itself sooner; nothing more was written (temporary files removed)",
+        name(signal),
+        start.elapsed().as_secs_f64()
+    );
+    std::process::exit(i32::from(INTERRUPTED));
+}
 
 /// Install the handlers (once, at start-up): a thread waits for the signals.
 #[cfg(unix)]
@@ -28,8 +73,11 @@ pub fn install() -> Result<()> {
         for signal in signals.forever() {
             if SIGNAL
                 .compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst)
-                .is_err()
+                .is_ok()
             {
+                CANCEL.store(true, Ordering::SeqCst);
+                std::thread::spawn(move || watchdog(signal));
+            } else {
                 remove_temporaries();
                 crate::note!(
                     "error: interrupted twice by {}: temporary files removed, stopped at once",

@@ -18,6 +18,7 @@
 //! file it writes, so that a file whose name is only known later (the paper's figures)
 //! follows the same policy.
 
+use std::collections::HashMap;
 use std::fs::{FileType, Metadata};
 use std::path::{Path, PathBuf};
 
@@ -263,7 +264,13 @@ impl OutputPlan {
             .iter()
             .map(|(w, p)| (w.as_str(), p.as_path(), Identity::of(p)))
             .collect();
-        let mut outputs: Vec<(&Planned, Identity)> = Vec::new();
+        // outputs met so far, indexed so that a collection of many files (`--vtk-samples`)
+        // is checked in linear time: `Identity::same` compares inodes when both files
+        // exist, paths otherwise
+        let mut outputs: Vec<&Planned> = Vec::new();
+        let mut by_inode: HashMap<(u64, u64), usize> = HashMap::new();
+        let mut by_path: HashMap<PathBuf, usize> = HashMap::new();
+        let mut by_path_without_inode: HashMap<PathBuf, usize> = HashMap::new();
         for o in &self.outputs {
             let shown = o.path.display();
             if o.must_be_new && std::fs::symlink_metadata(&o.path).is_ok() {
@@ -278,7 +285,14 @@ impl OutputPlan {
                     path.display()
                 );
             }
-            if let Some((other, _)) = outputs.iter().find(|(_, i)| i.same(&id)) {
+            let earlier = match id.inode {
+                Some(inode) => by_inode
+                    .get(&inode)
+                    .or_else(|| by_path_without_inode.get(&id.path)),
+                None => by_path.get(&id.path),
+            };
+            if let Some(&k) = earlier {
+                let other = outputs[k];
                 bail!(
                     "{} {shown}: is also the output of {} {}; give each output its own file",
                     o.option,
@@ -286,7 +300,17 @@ impl OutputPlan {
                     other.path.display()
                 );
             }
-            outputs.push((o, id));
+            let k = outputs.len();
+            match id.inode {
+                Some(inode) => {
+                    by_inode.insert(inode, k);
+                }
+                None => {
+                    by_path_without_inode.insert(id.path.clone(), k);
+                }
+            }
+            by_path.insert(id.path, k);
+            outputs.push(o);
         }
         Ok(())
     }

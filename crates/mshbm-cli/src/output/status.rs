@@ -44,8 +44,17 @@ impl std::error::Error for Interrupted {}
 pub fn exit_status(result: &anyhow::Result<()>) -> u8 {
     match result {
         Ok(()) => SUCCESS,
-        Err(e) if e.downcast_ref::<Interrupted>().is_some() => INTERRUPTED,
+        Err(e) if e.downcast_ref::<Interrupted>().is_some() || is_cancelled(e) => INTERRUPTED,
         Err(e) if e.downcast_ref::<NotConverged>().is_some() => NOT_CONVERGED,
         Err(_) => ERROR,
     }
+}
+
+/// The library stopped because the run was interrupted (`mshbm::Error::Cancelled`, the
+/// answer to `Limits::cancel`).
+pub fn is_cancelled(e: &anyhow::Error) -> bool {
+    matches!(
+        e.downcast_ref::<mshbm::Error>(),
+        Some(mshbm::Error::Cancelled)
+    )
 }

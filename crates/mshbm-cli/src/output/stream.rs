@@ -30,6 +30,7 @@ pub struct StreamedCsv {
 impl StreamedCsv {
     /// Create the temporary file of `path` and write `header`.
     pub fn create(path: &Path, header: &str, flush_rows: bool) -> Result<Self> {
+        super::interrupt::streaming();
         let mut file = AtomicFile::create(path, OutputKind::Data)?;
         file.write_all(header.as_bytes())?;
         file.write_all(b"\n")?;

@@ -88,6 +88,7 @@ impl FrdSettings {
         options.min_step = self.min_step;
         options.max_turn_deg = self.max_turn_deg;
         options.newton = self.newton.clone();
+        options.newton.cancel = self.newton.cancel.or(self.limits.cancel);
         options.max_points = self.max_points;
         options
     }

@@ -331,10 +331,21 @@ impl HarmonicFactors {
     /// [`HarmonicFactors::solve_batch`] for any collection of right-hand sides (the
     /// harmonic of each is its matrix).
     pub fn solve_systems<S: BatchSystems + ?Sized>(&self, systems: &mut S) -> Result<()> {
+        self.solve_systems_until(systems, crate::limits::Cancel::NEVER)
+    }
+
+    /// [`HarmonicFactors::solve_systems`], checking the caller's request to stop before
+    /// each sparse solve (hundreds of columns of a large structure take seconds).
+    pub fn solve_systems_until<S: BatchSystems + ?Sized>(
+        &self,
+        systems: &mut S,
+        cancel: crate::limits::Cancel,
+    ) -> Result<()> {
         match &self.factors {
             Factors::Banded(batch) => batch.solve_systems(systems),
             Factors::Sparse(lus) => {
                 for s in 0..systems.count() {
+                    cancel.check()?;
                     let k = systems.matrix(s);
                     let b = systems.column(s);
                     let n = b.len();

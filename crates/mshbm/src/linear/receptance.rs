@@ -201,6 +201,8 @@ struct ExactParts {
     load: PartLoad,
     /// Whether `K`, `M` and `C` are symmetric (so `A_k` is complex symmetric).
     symmetric: bool,
+    /// The caller's request to stop, checked between the columns' solves.
+    cancel: crate::limits::Cancel,
 }
 
 /// Largest number of complex values `n (n_c + 1)(H + 1)` of the solved columns an
@@ -222,8 +224,17 @@ impl ExactReceptance {
                 contacts: ContactCoordinates::of(system),
                 load: PartLoad::restrict(system, &all),
                 symmetric,
+                cancel: crate::limits::Cancel::NEVER,
             }),
         })
+    }
+
+    /// This receptance, its columns' solves stopping at the caller's request (`cancel`).
+    pub fn cancellable(mut self, cancel: crate::limits::Cancel) -> Self {
+        if let Some(parts) = Arc::get_mut(&mut self.shared) {
+            parts.cancel = cancel;
+        }
+        self
     }
 }
 
@@ -338,11 +349,14 @@ impl ExactReceptanceAt {
             let solved = if loaded { nc + 1 } else { nc };
             self.solved.extend((0..solved).map(|j| (k, j)));
         }
-        self.factors.solve_systems(&mut SolvedColumns {
-            columns: &mut self.columns,
-            list: &self.solved,
-            n,
-        })?;
+        self.factors.solve_systems_until(
+            &mut SolvedColumns {
+                columns: &mut self.columns,
+                list: &self.solved,
+                n,
+            },
+            parts.cancel,
+        )?;
         let blocks = self.columns.iter().zip(&mut self.receptance);
         for ((block, r), load) in blocks.zip(&mut self.load_response) {
             for (j, column) in block.chunks_exact(n).enumerate() {

@@ -129,7 +129,8 @@ impl MethodSettings {
         observer: Option<&SetupObserver>,
     ) -> Result<BuiltMethod> {
         self.validate()?;
-        Ok(match self {
+        limits.cancel.check()?;
+        let built = match self {
             MethodSettings::Redistributed { options, stability } => {
                 let mut problem =
                     RedistributedMsHbm::within_observed(model, options, limits, observer)?;
@@ -154,6 +155,8 @@ impl MethodSettings {
                     problem: Box::new(problem),
                 }
             }
-        })
+        };
+        limits.cancel.check()?;
+        Ok(built)
     }
 }

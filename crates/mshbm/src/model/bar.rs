@@ -148,6 +148,29 @@ impl BarParameters {
         let n = ne + 1;
         let (mass, stiffness) =
             bar1d::assemble(ne, self.length, self.density, self.young, self.area)?;
+        // parameters whose products overflow (`bar.young = 1e308`: E·A/h is infinite) are
+        // named here, not blamed later on what the infinity spoils (the damping)
+        let h = self.length / ne as f64;
+        for (field, matrix, product) in [
+            (
+                "bar.young",
+                &stiffness,
+                format!("E·A/h = {:e}·{:e}/{h:e}", self.young, self.area),
+            ),
+            (
+                "bar.density",
+                &mass,
+                format!("ρ·A·h = {:e}·{:e}·{h:e}", self.density, self.area),
+            ),
+        ] {
+            if matrix.iter().any(|(_, _, v)| !v.is_finite()) {
+                return Err(Error::field(
+                    source,
+                    field,
+                    format!("{product} overflows: the bar's matrices would not be finite"),
+                ));
+            }
+        }
         let mut harmonic_load = vec![0.0; n];
         match self.force_location {
             ForceLocation::Node(k) => {

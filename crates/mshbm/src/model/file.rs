@@ -93,7 +93,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
-use crate::limits::{read_text_file, Limits};
+use crate::limits::{read_model_file, Limits};
 use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
 use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::excerpt::{data_excerpt, excerpt, sanitize_message};
@@ -310,7 +310,7 @@ pub fn load_model(path: &Path, overrides: &[String]) -> Result<Model> {
 /// `options.limits.memory_bytes` before anything is allocated. The files read are
 /// recorded in [`Model::input_files`].
 pub fn load_model_with(path: &Path, overrides: &[String], options: &LoadOptions) -> Result<Model> {
-    let text = read_text_file(path, &options.limits)?;
+    let text = read_model_file(path, &options.limits)?;
     let mut model = parse_model_with(&text, path, overrides, options)?;
     let canonical = path.canonicalize().map_err(|e| Error::io(path, e))?;
     model.input_files.insert(0, canonical);
@@ -418,7 +418,7 @@ pub fn load_dropped_bar_with(
     overrides: &[String],
     options: &LoadOptions,
 ) -> Result<Option<DroppedBarParameters>> {
-    let text = read_text_file(path, &options.limits)?;
+    let text = read_model_file(path, &options.limits)?;
     let mut value = parse_toml(&text, path)?;
     for o in overrides {
         apply_override(&mut value, o)?;

@@ -90,53 +90,60 @@ fn parse_header<'t>(
     let (hline, header) = lines
         .next()
         .ok_or_else(|| mm_error(file, 1, "empty file (expected a `%%MatrixMarket` header)"))?;
-    let words: Vec<String> = header
-        .split_whitespace()
-        .map(|w| w.to_ascii_lowercase())
-        .collect();
-    if words.len() != 5 || words[0] != "%%matrixmarket" || words[1] != "matrix" {
+    // at most six words, compared without copying: the first line of a hostile file may be
+    // the whole file (a gibibyte without a line break), and it is never copied
+    let words: Vec<&str> = header.split_whitespace().take(6).collect();
+    if words.len() != 5
+        || !words[0].eq_ignore_ascii_case("%%matrixmarket")
+        || !words[1].eq_ignore_ascii_case("matrix")
+    {
         return Err(mm_error(
             file,
             hline,
             "expected header `%%MatrixMarket matrix <coordinate|array> <real|integer|pattern> <general|symmetric|skew-symmetric>`",
         ));
     }
-    let layout = match words[2].as_str() {
-        "coordinate" => Layout::Coordinate,
-        "array" => Layout::Array,
-        other => {
-            return Err(mm_error(
-                file,
-                hline,
-                format!("unsupported format {}", excerpt(other)),
-            ))
-        }
+    let is = |word: &str, name: &str| word.eq_ignore_ascii_case(name);
+    let layout = if is(words[2], "coordinate") {
+        Layout::Coordinate
+    } else if is(words[2], "array") {
+        Layout::Array
+    } else {
+        return Err(mm_error(
+            file,
+            hline,
+            format!("unsupported format {}", excerpt(words[2])),
+        ));
     };
-    let field = match words[3].as_str() {
-        "real" | "integer" | "double" => Field::Real,
-        "pattern" if layout == Layout::Coordinate => Field::Pattern,
-        other => {
-            return Err(mm_error(
-                file,
-                hline,
-                format!(
-                    "unsupported field {} (complex matrices are not supported)",
-                    excerpt(other)
-                ),
-            ))
-        }
+    let field = if ["real", "integer", "double"]
+        .iter()
+        .any(|n| is(words[3], n))
+    {
+        Field::Real
+    } else if is(words[3], "pattern") && layout == Layout::Coordinate {
+        Field::Pattern
+    } else {
+        return Err(mm_error(
+            file,
+            hline,
+            format!(
+                "unsupported field {} (complex matrices are not supported)",
+                excerpt(words[3])
+            ),
+        ));
     };
-    let symmetry = match words[4].as_str() {
-        "general" => Symmetry::General,
-        "symmetric" => Symmetry::Symmetric,
-        "skew-symmetric" => Symmetry::SkewSymmetric,
-        other => {
-            return Err(mm_error(
-                file,
-                hline,
-                format!("unsupported symmetry {}", excerpt(other)),
-            ))
-        }
+    let symmetry = if is(words[4], "general") {
+        Symmetry::General
+    } else if is(words[4], "symmetric") {
+        Symmetry::Symmetric
+    } else if is(words[4], "skew-symmetric") {
+        Symmetry::SkewSymmetric
+    } else {
+        return Err(mm_error(
+            file,
+            hline,
+            format!("unsupported symmetry {}", excerpt(words[4])),
+        ));
     };
     let (sline, size) = lines
         .find(|(_, l)| {
@@ -144,8 +151,10 @@ fn parse_header<'t>(
             !t.is_empty() && !t.starts_with('%')
         })
         .ok_or_else(|| mm_error(file, hline, "missing size line"))?;
+    // at most four numbers (three are expected): a size line may be the rest of the file
     let sizes: Vec<usize> = size
         .split_whitespace()
+        .take(4)
         .map(|w| w.parse::<usize>())
         .collect::<std::result::Result<_, _>>()
         .map_err(|_| {

@@ -205,10 +205,15 @@ impl Model {
     /// [`Model::compare_masses`], refusing before allocating when the eigensolver's memory
     /// exceeds `limits` ([`eigenfrequencies_hz_within`]).
     pub fn compare_masses_within(&self, count: usize, limits: &Limits) -> Result<MassComparison> {
+        // the caller's request to stop is checked between the phases
+        limits.cancel.check()?;
         let consistent = self.system(MassKind::Consistent)?;
+        limits.cancel.check()?;
         let redistributed = self.system(MassKind::Redistributed)?;
+        limits.cancel.check()?;
         let original_hz =
             eigenfrequencies_hz_within(&consistent.mass, &consistent.stiffness, count, limits)?;
+        limits.cancel.check()?;
         let redistributed_hz = eigenfrequencies_hz_within(
             &redistributed.mass,
             &redistributed.stiffness,
@@ -464,6 +469,17 @@ impl Model {
                     ),
                 ));
             }
+            if let Some((i, j, v)) = a.iter().find(|(_, _, v)| !v.is_finite()) {
+                return Err(Error::field(
+                    file,
+                    name,
+                    format!(
+                        "entry ({}, {}) is {v:e}: every entry must be finite (1-based)",
+                        i + 1,
+                        j + 1
+                    ),
+                ));
+            }
             if let Some((i, j)) = a.asymmetry(1e-10) {
                 return Err(Error::field(
                     file,
@@ -475,6 +491,22 @@ impl Model {
         };
         square("matrices.stiffness", &self.stiffness)?;
         square("matrices.mass", &self.mass)?;
+        // a mass matrix is positive semidefinite: no negative diagonal entry (it was blamed
+        // on the mass redistribution's correction, and HBM-AFT solved with it)
+        if let Some((i, v)) = (0..self.mass.nrows())
+            .map(|i| (i, self.mass.get(i, i)))
+            .find(|&(_, v)| v < 0.0)
+        {
+            return Err(Error::field(
+                file,
+                "matrices.mass",
+                format!(
+                    "diagonal entry ({}, {}) = {v:e} is negative: a mass matrix has no negative diagonal entry (1-based)",
+                    i + 1,
+                    i + 1
+                ),
+            ));
+        }
         if let Some(c) = &self.damping_matrix {
             square("matrices.damping", c)?;
         }

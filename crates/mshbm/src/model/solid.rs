@@ -530,7 +530,8 @@ pub(super) fn build_interfaces(
     for (k, sec) in sections.iter().enumerate() {
         let field = |f: &str| format!("interfaces[{k}].{f}");
         let normal = unit_normal(&sec.normal, d, path, &field("normal"))?;
-        let gap_of = interface_gaps(sec, x, d, path, &format!("interfaces[{k}]"), inputs)?;
+        let (gap_of, listed) =
+            interface_gaps(sec, x, d, path, &format!("interfaces[{k}]"), inputs)?;
         let get = |name: &str, f: String| {
             node_sets
                 .get(name)
@@ -567,7 +568,19 @@ pub(super) fn build_interfaces(
                 let key = |p: usize| -> Vec<i64> {
                     x[p].iter().map(|v| (v * 1e9).round() as i64).collect()
                 };
-                let partner: HashMap<Vec<i64>, usize> = nb.iter().map(|&q| (key(q), q)).collect();
+                let mut partner: HashMap<Vec<i64>, usize> = HashMap::with_capacity(nb.len());
+                for &q in nb {
+                    if let Some(other) = partner.insert(key(q), q) {
+                        return Err(Error::field(
+                            path,
+                            field("sets"),
+                            format!(
+                                "nodes {other} and {q} of {b:?} are at the same place {:?}: each node of {a:?} needs one partner",
+                                x[q]
+                            ),
+                        ));
+                    }
+                }
                 let mut pairs = Vec::with_capacity(na.len());
                 for &p in na {
                     let q = partner.get(&key(p)).ok_or_else(|| {
@@ -599,6 +612,19 @@ pub(super) fn build_interfaces(
                 )
             }
         };
+        // every line of a gap file is for a node of the interface (a line for another
+        // node, or one that does not exist, was ignored)
+        if !listed.is_empty() {
+            let on_interface: std::collections::HashSet<usize> =
+                nodes.iter().map(|n| n[0]).collect();
+            if let Some((node, at)) = listed.iter().find(|(p, _)| !on_interface.contains(p)) {
+                return Err(Error::field(
+                    path,
+                    field("gap_file"),
+                    format!("{at}: node {node} is not a node of the interface"),
+                ));
+            }
+        }
         if let Some(c) = new.iter().find(|c| {
             c.dofs
                 .iter()
@@ -633,6 +659,10 @@ pub(super) fn build_interfaces(
     Ok((contacts, interfaces))
 }
 
+/// The gap of each node of an interface, and the nodes a `gap_file` lists (with where), so
+/// that a line for a node that is not on the interface is refused, not ignored.
+type InterfaceGaps<'a> = (Box<dyn Fn(usize) -> Result<f64> + 'a>, Vec<(usize, String)>);
+
 /// The initial gap `g0` of an interface's node (the first node of a pair), from exactly one
 /// of: `gap` (uniform), `gap` plus `gap_gradient` (`g0 = gap + gradient · x`, the linear
 /// formula of a tilted or offset obstacle), or `gap_file` (CSV lines `node, gap`, one for
@@ -644,7 +674,7 @@ fn interface_gaps<'a>(
     path: &'a Path,
     table: &str,
     inputs: &mut InputFiles,
-) -> Result<Box<dyn Fn(usize) -> Result<f64> + 'a>> {
+) -> Result<InterfaceGaps<'a>> {
     let field = |f: &str| format!("{table}.{f}");
     match (sec.gap, &sec.gap_gradient, &sec.gap_file) {
         (Some(g0), gradient, None) => {
@@ -662,14 +692,18 @@ fn interface_gaps<'a>(
                     ))
                 }
             };
-            Ok(Box::new(move |p| {
-                Ok(g0 + gradient.iter().zip(&x[p]).map(|(a, b)| a * b).sum::<f64>())
-            }))
+            Ok((
+                Box::new(move |p| {
+                    Ok(g0 + gradient.iter().zip(&x[p]).map(|(a, b)| a * b).sum::<f64>())
+                }),
+                Vec::new(),
+            ))
         }
         (None, None, Some(file)) => {
             let field = field("gap_file");
             let (shown, text) = inputs.read(&field, file)?;
             let mut gaps = HashMap::new();
+            let mut listed = Vec::new();
             for (line_number, line) in text.lines().enumerate() {
                 let line = line.trim();
                 if line.is_empty() || line.starts_with('#') {
@@ -705,17 +739,24 @@ fn interface_gaps<'a>(
                 if gaps.insert(node, gap).is_some() {
                     return Err(at(format!("node {node} given twice")));
                 }
+                listed.push((
+                    node,
+                    format!("{}, line {}", shown.display(), line_number + 1),
+                ));
             }
             let shown = shown.display().to_string();
-            Ok(Box::new(move |p| {
-                gaps.get(&p).copied().ok_or_else(|| {
-                    Error::field(
-                        path,
-                        field.clone(),
-                        format!("{shown} has no gap for node {p} of the interface"),
-                    )
-                })
-            }))
+            Ok((
+                Box::new(move |p| {
+                    gaps.get(&p).copied().ok_or_else(|| {
+                        Error::field(
+                            path,
+                            field.clone(),
+                            format!("{shown} has no gap for node {p} of the interface"),
+                        )
+                    })
+                }),
+                listed,
+            ))
         }
         _ => Err(Error::field(
             path,

@@ -148,6 +148,14 @@ pub fn solve_periodic(
             ));
         }
     }
+    // Newton stops when the caller asks (the limits' request, unless Newton has its own)
+    let settings = &SolveSettings {
+        newton: NewtonOptions {
+            cancel: settings.newton.cancel.or(settings.limits.cancel),
+            ..settings.newton.clone()
+        },
+        ..settings.clone()
+    };
     let dof = response_dof(model, settings.response_dof)?;
     let built = method.build_observed(model, &settings.limits, settings.setup_observer.as_ref())?;
     let mut problem = built.problem;
@@ -159,6 +167,7 @@ pub fn solve_periodic(
     solution.iterations = outcome.iterations;
     solution.residual_norm = outcome.residual_norm;
     let mut stability_error = None;
+    settings.limits.cancel.check()?;
     if outcome.converged && settings.stability {
         match problem.floquet(&outcome.x, omega) {
             Ok(st) => solution.stability = st,

@@ -228,7 +228,13 @@ impl Corrector<'_> {
             storage: system_storage,
         };
         Ok(
-            match newton::iterate(&mut system, xs, self.newton.max_iterations, newton_storage)? {
+            match newton::iterate(
+                &mut system,
+                xs,
+                self.newton.max_iterations,
+                newton_storage,
+                self.newton.cancel,
+            )? {
                 Iterated::Converged { y, iterations } => Some(Corrected {
                     xs: y,
                     iterations,

@@ -212,6 +212,7 @@ impl ReceptanceChoice {
         self,
         system: &System,
         observer: Option<&SetupObserver>,
+        cancel: crate::limits::Cancel,
     ) -> Result<Box<dyn Receptance>> {
         let massive = system.n_dofs() - crate::modes::massless_dofs(&system.mass).len();
         let costly = || -> Result<bool> {
@@ -265,7 +266,7 @@ impl ReceptanceChoice {
                         system.n_dofs()
                     )
                 });
-                Box::new(ExactReceptance::new(system)?)
+                Box::new(ExactReceptance::new(system)?.cancellable(cancel))
             }
         })
     }
@@ -369,6 +370,7 @@ impl RedistributedMsHbm {
             )
         });
         let system = model.system(MassKind::Redistributed)?;
+        limits.cancel.check()?;
         // with friction the contact coordinates are the normals, then the tangents (T150)
         let (system, friction) = frictional::with_tangent_coordinates(system, &model.source)?;
         super::memory::redistributed(&system, h, samples).check(
@@ -413,7 +415,9 @@ impl RedistributedMsHbm {
         let n_contacts = system.contacts.len();
         // the MS-HBM needs the structure held (K positive definite)
         let partition = Partition::new(&system, SingularStiffness::Refuse)?;
-        let receptance = options.receptance.build(&system, observer)?;
+        limits.cancel.check()?;
+        let receptance = options.receptance.build(&system, observer, limits.cancel)?;
+        limits.cancel.check()?;
         let static_maps = receptance.static_plus_low_rank().and_then(|parts| {
             StaticMaps::new(&parts, contact.delassus(), &residual_scale).map(Rc::new)
         });
