@@ -299,3 +299,77 @@ fn bad_friction_on_a_matrices_contact_is_refused_naming_the_field() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A friction coefficient per node (`mu_file`): equal coefficients give the model of `mu`;
+/// a missing node, a node off the interface, a negative coefficient and `mu` with
+/// `mu_file` are refused naming the file, the line or the node.
+#[test]
+fn a_friction_coefficient_per_node_from_a_file() {
+    let dir = std::env::temp_dir().join(format!("mshbm_mu_file_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let uniform = damper(Some(0.1), 2.0);
+    let nodes: Vec<usize> = uniform
+        .contacts
+        .iter()
+        .map(|c| c.dofs[0] / uniform.dofs_per_node)
+        .collect();
+    assert_eq!(nodes.len(), 5);
+    let model_text = |extra: &str| {
+        let text = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/friction_damper/model.toml"),
+        )
+        .unwrap();
+        text.replace("mu = 0.1 ", &format!("{extra} "))
+    };
+    let load = |extra: &str, table: &str| {
+        std::fs::write(dir.join("mu.csv"), table).unwrap();
+        let path = dir.join("model.toml");
+        std::fs::write(&path, model_text(extra)).unwrap();
+        mshbm::model::file::load_model(&path, &["loads.0.constant=[2.0, 0.0]".into()])
+    };
+    let table = |mus: &[f64]| -> String {
+        nodes
+            .iter()
+            .zip(mus)
+            .map(|(n, m)| format!("{n}, {m}\n"))
+            .collect()
+    };
+    let same = load("mu_file = \"mu.csv\"", &table(&[0.1; 5])).unwrap();
+    assert_eq!(same.contacts, uniform.contacts);
+    let varied = load("mu_file = \"mu.csv\"", &table(&[0.1, 0.2, 0.3, 0.4, 0.5])).unwrap();
+    let mus: Vec<f64> = varied
+        .contacts
+        .iter()
+        .map(|c| c.friction.as_ref().unwrap().mu)
+        .collect();
+    assert_eq!(mus, [0.1, 0.2, 0.3, 0.4, 0.5]);
+    for (extra, text, words) in [
+        (
+            "mu_file = \"mu.csv\"",
+            table(&[0.1; 4]),
+            "has no friction coefficient for node",
+        ),
+        (
+            "mu_file = \"mu.csv\"",
+            table(&[0.1; 5]) + "7, 0.1\n",
+            "line 6: node 7 is not a node of the interface",
+        ),
+        (
+            "mu_file = \"mu.csv\"",
+            table(&[0.1, 0.1, -0.1, 0.1, 0.1]),
+            "line 3",
+        ),
+        (
+            "mu = 0.1\nmu_file = \"mu.csv\"",
+            table(&[0.1; 5]),
+            "not both",
+        ),
+    ] {
+        let error = load(extra, &text).expect_err(extra).to_string();
+        assert!(
+            error.contains("interfaces[0].mu_file") && error.contains(words),
+            "{extra} / {text}: {error}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -40,6 +40,7 @@
 //! #                             #   (for pairs: the node of the first set)
 //! # mu = 0.3                   # Coulomb friction along the tangent (−n_y, n_x) (plane
 //! #                             #   interfaces; redistributed MS-HBM, docs/theory.md §20)
+//! # mu_file = "mu.csv"          #   instead of `mu`: lines `node, mu`, one per node
 //! # [[interfaces]] kind = "pairs", sets = ["crack_a", "crack_b"], normal = [1.0, 0.0]:
 //! # node-to-node contacts g = n·(u_b − u_a) + g0 between coinciding nodes of the two sets
 //! [damping]                     # as for the other kinds
@@ -156,6 +157,8 @@ pub(super) struct InterfaceSection {
     gap_file: Option<String>,
     /// Coulomb friction coefficient (plane interfaces; docs/theory.md §20).
     mu: Option<f64>,
+    /// Instead of `mu`: one coefficient per node (CSV lines `node, mu`).
+    mu_file: Option<String>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq)]
@@ -452,7 +455,7 @@ fn add_node_sets(
     Ok(())
 }
 
-/// Coulomb friction with coefficient `mu` on the contacts `new` of an interface, along the
+/// Coulomb friction with coefficients `mus` (one per contact) on the contacts `new` of an interface, along the
 /// tangent `t = (−n_y, n_x)` of its unit normal `n` (plane interfaces, docs/theory.md
 /// (T150)): the tangential displacement `tᵀ u_p` of an obstacle contact's node, `tᵀ (u_b − u_a)`
 /// of a pair's.
@@ -460,12 +463,12 @@ fn add_friction(
     new: &mut [crate::model::Contact],
     nodes: &[Vec<usize>],
     normal: &[f64],
-    mu: f64,
+    mus: &[f64],
     dofs_per_node: usize,
     path: &Path,
     field: &str,
 ) -> Result<()> {
-    if !(mu.is_finite() && mu >= 0.0) {
+    if let Some(mu) = mus.iter().find(|m| !(m.is_finite() && **m >= 0.0)) {
         return Err(Error::field(
             path,
             field,
@@ -480,7 +483,7 @@ fn add_friction(
         ));
     }
     let tangent = [-normal[1], normal[0]];
-    for (contact, nodes) in new.iter_mut().zip(nodes) {
+    for ((contact, nodes), &mu) in new.iter_mut().zip(nodes).zip(mus) {
         let mut dofs = Vec::new();
         let mut w = Vec::new();
         // nodes: [p] against an obstacle, [a, b] for a pair (tᵀ (u_b − u_a))
@@ -639,8 +642,52 @@ pub(super) fn build_interfaces(
                 ),
             ));
         }
-        if let Some(mu) = sec.mu {
-            add_friction(&mut new, &nodes, &normal, mu, d, path, &field("mu"))?;
+        let mus: Option<Vec<f64>> = match (sec.mu, &sec.mu_file) {
+            (None, None) => None,
+            (Some(mu), None) => Some(vec![mu; nodes.len()]),
+            (None, Some(file)) => {
+                let name = field("mu_file");
+                let (values, listed, shown) =
+                    read_node_table(inputs, path, &name, file, "friction coefficient", |m| {
+                        m.is_finite() && m >= 0.0
+                    })?;
+                let on_interface: std::collections::HashSet<usize> =
+                    nodes.iter().map(|n| n[0]).collect();
+                if let Some((node, at)) = listed.iter().find(|(p, _)| !on_interface.contains(p)) {
+                    return Err(Error::field(
+                        path,
+                        name,
+                        format!("{at}: node {node} is not a node of the interface"),
+                    ));
+                }
+                Some(
+                    nodes
+                        .iter()
+                        .map(|n| {
+                            values.get(&n[0]).copied().ok_or_else(|| {
+                                Error::field(
+                                    path,
+                                    name.clone(),
+                                    format!(
+                                        "{shown} has no friction coefficient for node {} of the interface",
+                                        n[0]
+                                    ),
+                                )
+                            })
+                        })
+                        .collect::<Result<_>>()?,
+                )
+            }
+            (Some(_), Some(_)) => {
+                return Err(Error::field(
+                    path,
+                    field("mu_file"),
+                    "give `mu` or `mu_file`, not both",
+                ))
+            }
+        };
+        if let Some(mus) = mus {
+            add_friction(&mut new, &nodes, &normal, &mus, d, path, &field("mu"))?;
         }
         // position along the interface: the coordinate that varies most over its nodes
         let lead: Vec<usize> = nodes.iter().map(|n| n[0]).collect();
@@ -701,50 +748,8 @@ fn interface_gaps<'a>(
         }
         (None, None, Some(file)) => {
             let field = field("gap_file");
-            let (shown, text) = inputs.read(&field, file)?;
-            let mut gaps = HashMap::new();
-            let mut listed = Vec::new();
-            for (line_number, line) in text.lines().enumerate() {
-                let line = line.trim();
-                if line.is_empty() || line.starts_with('#') {
-                    continue;
-                }
-                let at = |what: String| {
-                    Error::field(
-                        path,
-                        field.clone(),
-                        format!("{}, line {}: {what}", shown.display(), line_number + 1),
-                    )
-                };
-                let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-                let [node, gap] = fields[..] else {
-                    return Err(at(format!(
-                        "expected `node, gap`, found {} fields",
-                        fields.len()
-                    )));
-                };
-                let node: usize = node.parse().map_err(|_| {
-                    at(format!(
-                        "node {} is not a non-negative integer",
-                        data_excerpt(node)
-                    ))
-                })?;
-                let gap: f64 = gap
-                    .parse()
-                    .ok()
-                    .filter(|g: &f64| g.is_finite())
-                    .ok_or_else(|| {
-                        at(format!("gap {} is not a finite number", data_excerpt(gap)))
-                    })?;
-                if gaps.insert(node, gap).is_some() {
-                    return Err(at(format!("node {node} given twice")));
-                }
-                listed.push((
-                    node,
-                    format!("{}, line {}", shown.display(), line_number + 1),
-                ));
-            }
-            let shown = shown.display().to_string();
+            let (gaps, listed, shown) =
+                read_node_table(inputs, path, &field, file, "gap", |g| g.is_finite())?;
             Ok((
                 Box::new(move |p| {
                     gaps.get(&p).copied().ok_or_else(|| {
@@ -764,6 +769,66 @@ fn interface_gaps<'a>(
             "give `gap` (optionally with `gap_gradient`) or `gap_file`, not both",
         )),
     }
+}
+
+/// A per-node table (`gap_file`, `mu_file`): CSV lines `node, value` (`#` starts a comment
+/// line), each node once, each value `valid`. Returns the values, the nodes listed with
+/// where (file and line), and the file as shown in messages.
+fn read_node_table(
+    inputs: &mut InputFiles,
+    path: &Path,
+    field: &str,
+    file: &str,
+    value: &str,
+    valid: fn(f64) -> bool,
+) -> Result<(HashMap<usize, f64>, Vec<(usize, String)>, String)> {
+    let (shown, text) = inputs.read(field, file)?;
+    let mut values = HashMap::new();
+    let mut listed = Vec::new();
+    for (line_number, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let at = |what: String| {
+            Error::field(
+                path,
+                field.to_string(),
+                format!("{}, line {}: {what}", shown.display(), line_number + 1),
+            )
+        };
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let [node, number] = fields[..] else {
+            return Err(at(format!(
+                "expected `node, {value}`, found {} fields",
+                fields.len()
+            )));
+        };
+        let node: usize = node.parse().map_err(|_| {
+            at(format!(
+                "node {} is not a non-negative integer",
+                data_excerpt(node)
+            ))
+        })?;
+        let number: f64 = number
+            .parse()
+            .ok()
+            .filter(|v: &f64| valid(*v))
+            .ok_or_else(|| {
+                at(format!(
+                    "{value} {} is not a valid number here",
+                    data_excerpt(number)
+                ))
+            })?;
+        if values.insert(node, number).is_some() {
+            return Err(at(format!("node {node} given twice")));
+        }
+        listed.push((
+            node,
+            format!("{}, line {}", shown.display(), line_number + 1),
+        ));
+    }
+    Ok((values, listed, shown.display().to_string()))
 }
 
 fn spread(x: &[Vec<f64>], nodes: &[usize], axis: usize) -> f64 {
