@@ -647,10 +647,14 @@ pub(super) fn build_interfaces(
             (Some(mu), None) => Some(vec![mu; nodes.len()]),
             (None, Some(file)) => {
                 let name = field("mu_file");
-                let (values, listed, shown) =
-                    read_node_table(inputs, path, &name, file, "friction coefficient", |m| {
-                        m.is_finite() && m >= 0.0
-                    })?;
+                let (values, listed, shown) = read_node_table(
+                    inputs,
+                    path,
+                    &name,
+                    file,
+                    "friction coefficient",
+                    (|m| m.is_finite() && m >= 0.0, "a finite number ≥ 0"),
+                )?;
                 let on_interface: std::collections::HashSet<usize> =
                     nodes.iter().map(|n| n[0]).collect();
                 if let Some((node, at)) = listed.iter().find(|(p, _)| !on_interface.contains(p)) {
@@ -748,8 +752,14 @@ fn interface_gaps<'a>(
         }
         (None, None, Some(file)) => {
             let field = field("gap_file");
-            let (gaps, listed, shown) =
-                read_node_table(inputs, path, &field, file, "gap", |g| g.is_finite())?;
+            let (gaps, listed, shown) = read_node_table(
+                inputs,
+                path,
+                &field,
+                file,
+                "gap",
+                (|g| g.is_finite(), "a finite number"),
+            )?;
             Ok((
                 Box::new(move |p| {
                     gaps.get(&p).copied().ok_or_else(|| {
@@ -772,7 +782,7 @@ fn interface_gaps<'a>(
 }
 
 /// A per-node table (`gap_file`, `mu_file`): CSV lines `node, value` (`#` starts a comment
-/// line), each node once, each value `valid`. Returns the values, the nodes listed with
+/// line), each node once, each value `valid` (described as `requirement` in messages). Returns the values, the nodes listed with
 /// where (file and line), and the file as shown in messages.
 fn read_node_table(
     inputs: &mut InputFiles,
@@ -780,7 +790,7 @@ fn read_node_table(
     field: &str,
     file: &str,
     value: &str,
-    valid: fn(f64) -> bool,
+    (valid, requirement): (fn(f64) -> bool, &str),
 ) -> Result<(HashMap<usize, f64>, Vec<(usize, String)>, String)> {
     let (shown, text) = inputs.read(field, file)?;
     let mut values = HashMap::new();
@@ -816,7 +826,7 @@ fn read_node_table(
             .filter(|v: &f64| valid(*v))
             .ok_or_else(|| {
                 at(format!(
-                    "{value} {} is not a valid number here",
+                    "{value} {} is not {requirement}",
                     data_excerpt(number)
                 ))
             })?;
