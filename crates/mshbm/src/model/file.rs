@@ -217,7 +217,7 @@ struct MatricesFile {
     #[serde(default)]
     node_sets: Vec<NodeSetSection>,
     #[serde(default)]
-    interfaces: Vec<super::solid::InterfaceSection>,
+    interfaces: Vec<super::interface::InterfaceSection>,
     #[serde(default)]
     frictions: Vec<FrictionSection>,
     #[serde(default)]
@@ -806,9 +806,9 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
     }
     let mut dirichlet_sorted = f.mesh.dirichlet.clone();
     dirichlet_sorted.sort_unstable();
-    let (interface_contacts, interfaces) = super::solid::build_interfaces(
+    let (interface_contacts, interfaces) = super::interface::build_interfaces(
         &f.interfaces,
-        &super::solid::InterfaceMesh {
+        &super::interface::InterfaceMesh {
             x: &coordinates,
             node_sets: &node_sets,
             dofs_per_node: f.mesh.dofs_per_node,
