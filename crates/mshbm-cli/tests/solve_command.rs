@@ -243,6 +243,38 @@ fn a_solve_starts_from_an_earlier_solution() {
         err.contains("broken.json") && err.contains("whole number"),
         "{err}"
     );
+    // another method's solution (the HBM-AFT's unknowns mean something else) and another
+    // model's (its contacts elsewhere) are refused, naming the file and the reason
+    let mut aft = v.clone();
+    aft["method"] = "hbm-aft".into();
+    let aft_file = dir.path().join("aft.json");
+    std::fs::write(&aft_file, aft.to_string()).unwrap();
+    let err = one_error_line(&run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--from-solution",
+        &aft_file.display().to_string(),
+    ]));
+    assert!(
+        err.contains("aft.json") && err.contains("method hbm-aft, not of redistributed"),
+        "{err}"
+    );
+    let mut other = v.clone();
+    other["contact_dofs"] = serde_json::json!([7]);
+    let other_file = dir.path().join("other.json");
+    std::fs::write(&other_file, other.to_string()).unwrap();
+    let err = one_error_line(&run(&[
+        &bar(),
+        "--frequency",
+        "60000",
+        "--from-solution",
+        &other_file.display().to_string(),
+    ]));
+    assert!(
+        err.contains("other.json") && err.contains("another model") && err.contains("DOFs [7]"),
+        "{err}"
+    );
     let overwrite = run(&[
         &bar(),
         "--frequency",

@@ -225,6 +225,36 @@ pub struct PeriodicSolution {
     pub state_fractions: Option<Vec<StateFractions>>,
 }
 
+impl PeriodicSolution {
+    /// Why this solution cannot start Newton for `method` on `model`
+    /// (`mshbm solve --from-solution`), or `None` when it can: its unknowns are those of
+    /// another method (the HBM-AFT's harmonics of the nonlinear DOFs are not the redistributed
+    /// MS-HBM's free gap), or its contacts are not the model's (another model's solution
+    /// with as many unknowns would be accepted silently otherwise).
+    pub fn unusable_start(&self, model: &crate::Model, method: MethodKind) -> Option<String> {
+        if self.method != method {
+            return Some(format!(
+                "it is a solution of the method {}, not of {method}: its unknowns mean something else",
+                self.method
+            ));
+        }
+        let contacts: Vec<usize> = model.contacts.iter().map(|c| c.dofs[0]).collect();
+        if self.contact_dofs != contacts {
+            let shown = |v: &[usize]| -> String {
+                let head: Vec<String> = v.iter().take(5).map(|d| d.to_string()).collect();
+                let more = if v.len() > 5 { ", …" } else { "" };
+                format!("{} contacts at DOFs [{}{more}]", v.len(), head.join(", "))
+            };
+            return Some(format!(
+                "it belongs to another model: it has {}, the model {}",
+                shown(&self.contact_dofs),
+                shown(&contacts)
+            ));
+        }
+        None
+    }
+}
+
 impl DofResponse {
     /// `√(a1² + b1²)`, the first-harmonic amplitude.
     pub fn amplitude_h1(&self) -> f64 {

@@ -633,16 +633,20 @@ pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> 
         response_dof: Some(args.method.response_dof(model)?),
         limits: args.model.limits(),
         observer: Some(crate::progress::newton_progress()),
-        start: solve_start(args)?,
+        start: solve_start(args, model)?,
         branch_observer: Some(crate::progress::branch_progress()),
         setup_observer: Some(crate::progress::setup_progress()),
     })
 }
 
 /// Where `mshbm solve` starts Newton (`--from-solution`, `--start`, `--sweep-from`).
-fn solve_start(args: &SolveArgs) -> Result<SolveStart> {
+fn solve_start(args: &SolveArgs, model: &Model) -> Result<SolveStart> {
     if let Some(path) = &args.from_solution {
         let s = super::read_solution(path, &args.model.limits())?;
+        let method = args.method.single_method(args.harmonics)?.kind();
+        if let Some(why) = s.unusable_start(model, method) {
+            bail!("{}: cannot start from this solution: {why}", path.display());
+        }
         let Some(x) = s.unknowns else {
             bail!("{}: the solution has no `unknowns` (written by an older mshbm, or not by `solve --json`); solve it again with `solve --json`", path.display());
         };
