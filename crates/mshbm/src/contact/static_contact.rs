@@ -325,6 +325,18 @@ impl StaticContact {
         q
     }
 
+    /// `K_NN⁻¹ W` (`n × n_c`): the contact-node displacements per unit contact force.
+    pub fn force_compliance(&self) -> MatRef<'_, f64> {
+        MatRef::from_row_major_slice(&self.compliance_w, self.n, self.n_contacts)
+    }
+
+    /// `K_NN⁻¹`, dense, by `n` solves (for the Floquet analysis of small interfaces).
+    pub fn stiffness_inverse(&self) -> Mat<f64> {
+        let mut inverse = Mat::<f64>::identity(self.n, self.n);
+        self.factor.solve_in_place(inverse.as_mut());
+        inverse
+    }
+
     /// Row `i` of `K_NN⁻¹ W` (`n_c`): the displacement of contact-node DOF `i` per unit
     /// contact force.
     pub fn compliance_row(&self, i: usize) -> &[f64] {

@@ -12,7 +12,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::sparse::SparseMatrix;
 
+mod held;
 mod piecewise;
+
+pub use held::HeldPhase;
 
 pub use piecewise::{piecewise_monodromy, PiecewiseLinearSystems, RealModalForm};
 

@@ -29,6 +29,7 @@ mod evaluation;
 mod frequency_maps;
 pub mod friction;
 mod frictional;
+mod frictional_floquet;
 mod interval_signal;
 mod jacobian;
 mod outputs;
@@ -1030,8 +1031,7 @@ impl PeriodicProblem for RedistributedMsHbm {
     /// truncation error), as [`RedistributedMsHbm::set_stability_options`] chooses.
     fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
         if self.friction.is_some() {
-            // stick–slip switching in the monodromy is not implemented yet (docs/theory.md §20)
-            return Ok(None);
+            return self.frictional_floquet(x, omega);
         }
         let reduced = self.stability_system()?;
         let integration = Rc::clone(&self.evaluation(x, omega)?.integration);

@@ -26,6 +26,24 @@ pub(super) struct Marched {
     /// `2n(2H+1) × (2n(2H+1) + n)`.
     pub(super) d_forces: Vec<f64>,
     pub(super) phases: Vec<Phase>,
+    /// The anchors set during the period, in order.
+    pub(super) events: Vec<AnchorEvent>,
+}
+
+/// Contact `contact` sticks at `tau`, after the first `after` phases of the period: its new
+/// anchor's first-order dependence on the state just before the switches at that instant
+/// (T154), in the time domain of the Floquet analysis (T182):
+/// `δa_c = gᵀ δγ(τ) + vᵀ δγ'(τ) + sᵀ δa`, with `δγ'` the derivative in `τ` and `δa` the
+/// anchors before the instant, the modes before it being the set `data`.
+#[derive(Clone, Debug)]
+pub struct AnchorEvent {
+    pub tau: f64,
+    pub after: usize,
+    pub contact: usize,
+    pub(super) data: usize,
+    pub gap: Vec<f64>,
+    pub rate: Vec<f64>,
+    pub anchors: Vec<f64>,
 }
 
 pub(super) struct March<'a> {
@@ -198,6 +216,7 @@ impl<'a> March<'a> {
         let mut forces = vec![0.0; nu];
         let mut d_forces = vec![0.0; nu * nv];
         let mut phases = Vec::new();
+        let mut events = Vec::new();
         let mut scan = CellScan::new(h);
         let (mut coefs, mut scratch, mut gram) = (Vec::new(), Vec::new(), Vec::new());
         let mut current = self.data_of(&modes)?;
@@ -279,6 +298,10 @@ impl<'a> March<'a> {
                     modes[contact] = chosen.0;
                     anchors = chosen.1;
                     d_anchors = chosen.2;
+                    if let Some(mut event) = chosen.3 {
+                        event.after = phases.len();
+                        events.push(event);
+                    }
                     current = self.data_of(&modes)?;
                     phase_start = t;
                     tau = probe;
@@ -286,7 +309,9 @@ impl<'a> March<'a> {
                 }
                 if next == Mode::Stick {
                     // (T154): the anchor is the tangential displacement at the instant
-                    self.stick(cascade, contact, t, &mut anchors, &mut d_anchors);
+                    let mut event = self.stick(cascade, contact, t, &mut anchors, &mut d_anchors);
+                    event.after = phases.len();
+                    events.push(event);
                 }
                 modes[contact] = next;
                 current = self.data_of(&modes)?;
@@ -307,6 +332,7 @@ impl<'a> March<'a> {
             forces,
             d_forces,
             phases,
+            events,
         })
     }
 
@@ -326,7 +352,7 @@ impl<'a> March<'a> {
         modes: &[Mode],
         anchors: &[f64],
         d_anchors: &[f64],
-    ) -> Result<(Mode, Vec<f64>, Vec<f64>)> {
+    ) -> Result<(Mode, Vec<f64>, Vec<f64>, Option<AnchorEvent>)> {
         let candidates: &[Mode] = if self.contacts.mu[c] > 0.0 {
             &[
                 Mode::Open,
@@ -352,14 +378,13 @@ impl<'a> March<'a> {
         };
         let before = force_of(self, cascade.data, &cascade.anchors);
         let size = before[0].abs() + before[1].abs();
-        let mut best: Option<(bool, f64, Mode, Vec<f64>, Vec<f64>)> = None;
+        let mut best: Option<(bool, f64, Mode, Vec<f64>, Vec<f64>, Option<AnchorEvent>)> = None;
         for &candidate in candidates {
             let mut trial = modes.to_vec();
             trial[c] = candidate;
             let (mut a, mut da) = (anchors.to_vec(), d_anchors.to_vec());
-            if candidate == Mode::Stick {
-                self.stick(cascade, c, t, &mut a, &mut da);
-            }
+            let event =
+                (candidate == Mode::Stick).then(|| self.stick(cascade, c, t, &mut a, &mut da));
             let data = self.data_of(&trial)?;
             self.indicator_coefficients(data, &a, &mut coefs, &mut scratch);
             let worst = self.data[data]
@@ -383,11 +408,11 @@ impl<'a> March<'a> {
                 .as_ref()
                 .is_none_or(|(cont, w, ..)| (continuous, worst) > (*cont, *w))
             {
-                best = Some((continuous, worst, candidate, a, da));
+                best = Some((continuous, worst, candidate, a, da, event));
             }
         }
-        let (_, _, mode, a, da) = best.expect("at least one candidate");
-        Ok((mode, a, da))
+        let (_, _, mode, a, da, event) = best.expect("at least one candidate");
+        Ok((mode, a, da, event))
     }
 
     /// Contact `c` sticks at `t`, in the cascade of switches `cascade` started at that
@@ -402,7 +427,7 @@ impl<'a> March<'a> {
         t: f64,
         anchors: &mut [f64],
         d_anchors: &mut [f64],
-    ) {
+    ) -> AnchorEvent {
         let n = self.contacts.n;
         let m = 2 * n;
         let ncoef = n_coefficients(self.harmonics);
@@ -433,6 +458,15 @@ impl<'a> March<'a> {
         let trigger = &d.indicators[cascade.indicator];
         // dτ = −dh/ḣ with h = κᵀγ + θᵀa, or h = κᵀγ̇ for a velocity
         let velocity = trigger.kind == Kind::Velocity;
+        let mut event = AnchorEvent {
+            tau: t,
+            after: 0,
+            contact: c,
+            data: cascade.data,
+            gap: rho.to_vec(),
+            rate: vec![0.0; m],
+            anchors: sigma.to_vec(),
+        };
         let (h_row, hdot) = {
             let db = basis_derivative(self.harmonics, cascade.tau);
             let mut bt = vec![0.0; ncoef];
@@ -460,6 +494,19 @@ impl<'a> March<'a> {
         };
         if hdot != 0.0 && ydot != 0.0 {
             let factor = -ydot / hdot;
+            let target = if velocity {
+                &mut event.rate
+            } else {
+                &mut event.gap
+            };
+            for (e, k) in target.iter_mut().zip(&trigger.kappa) {
+                *e += factor * k;
+            }
+            if !velocity {
+                for (e, th) in event.anchors.iter_mut().zip(&trigger.theta) {
+                    *e += factor * th;
+                }
+            }
             for k in 0..ncoef {
                 for r in 0..m {
                     row[k * m + r] += factor * h_row[k] * trigger.kappa[r];
@@ -477,6 +524,7 @@ impl<'a> March<'a> {
         }
         anchors[c] = value;
         d_anchors[c * nv..(c + 1) * nv].copy_from_slice(&row);
+        event
     }
 }
 

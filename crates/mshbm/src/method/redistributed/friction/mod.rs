@@ -32,6 +32,7 @@ use crate::dense::solve_small_lu_columns;
 use crate::error::{Error, Result};
 use crate::harmonic::{add_interval_gram, basis_into, n_coefficients};
 use crate::solution::{ContactState, StateFractions};
+pub use march::AnchorEvent;
 use march::March;
 
 /// The state of one contact (docs/theory.md (T151)).
@@ -83,6 +84,8 @@ pub struct PeriodicContact {
     pub phases: Vec<Phase>,
     /// Marches of one period the fixed point needed.
     pub passes: usize,
+    /// The anchors set during the period, in order (the Floquet analysis's jumps, (T182)).
+    pub events: Vec<AnchorEvent>,
     gamma: Vec<f64>,
     /// `(F, G, Y_F, Y_G)` of each set of modes met (T152).
     data: Vec<[Vec<f64>; 4]>,
@@ -345,6 +348,7 @@ impl FrictionalContacts {
                     jacobian,
                     phases: out.phases,
                     passes: pass,
+                    events: out.events,
                     gamma: gamma.to_vec(),
                     data: march
                         .data
@@ -400,6 +404,29 @@ impl PeriodicContact {
             .iter()
             .find(|p| tau >= p.start && tau <= p.end)
             .unwrap_or(&self.phases[self.phases.len() - 1])
+    }
+
+    /// `(F, G)` of `phase`'s modes (T152): `λ = F γ + G a`, `2n × 2n` and `2n × n`,
+    /// row-major.
+    pub fn force_maps(&self, phase: &Phase) -> (&[f64], &[f64]) {
+        let [f, g, _, _] = &self.data[phase.data];
+        (f, g)
+    }
+
+    /// `(F, G)` of the modes before the switches of `event` (T152).
+    pub fn force_maps_before(&self, event: &AnchorEvent) -> (&[f64], &[f64]) {
+        let [f, g, _, _] = &self.data[event.data];
+        (f, g)
+    }
+
+    /// The mode set of `phase` (an index shared by the phases and events with equal modes).
+    pub fn mode_set(phase: &Phase) -> usize {
+        phase.data
+    }
+
+    /// The mode set before the switches of `event`.
+    pub fn mode_set_before(event: &AnchorEvent) -> usize {
+        event.data
     }
 
     /// The modes of every contact at `τ`.
