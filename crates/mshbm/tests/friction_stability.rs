@@ -449,3 +449,308 @@ fn the_verdicts_agree_with_time_integration_on_the_friction_damper() {
     let least = changes_u[5..].iter().fold(f64::INFINITY, |m, c| m.min(*c));
     assert!(least >= 1e-2, "unstable orbit kept: {least:e}");
 }
+
+/// A mass with two DOFs `(x, y)` on springs `k_x`, `k_y` to ground (coupled by `K_xy = k_x/4`,
+/// so that the normal motion feels the tangential one), joined by springs `k_c`
+/// along both to a massless node that hits a rigid stop after a gap `g` (in `y`) with friction
+/// `μ` (along `x`), forced by `(F_x, F_y) cos ωt`, mass-proportional damping `α`. DOFs: the
+/// mass's `x`, `y`, the node's `x`, `y`. Each period the node closes (and sticks at once:
+/// the anchor of a closing contact, with its instant's sensitivity), slips as the cone
+/// shrinks, and opens.
+#[allow(clippy::too_many_arguments)]
+fn stop_oscillator(
+    k_x: f64,
+    k_y: f64,
+    k_c: f64,
+    gap: f64,
+    mu: f64,
+    force: [f64; 2],
+    alpha: f64,
+) -> Model {
+    Model {
+        source: PathBuf::from("stop oscillator"),
+        input_files: vec![],
+        cells: None,
+        node_sets: Default::default(),
+        interfaces: vec![],
+        name: "stop oscillator".into(),
+        mass: SparseMatrix::from_triplets(4, 4, &[(0, 0, 1.0), (1, 1, 1.0)]),
+        stiffness: SparseMatrix::from_triplets(
+            4,
+            4,
+            &[
+                (0, 0, k_x + k_c),
+                (0, 2, -k_c),
+                (2, 0, -k_c),
+                (2, 2, k_c),
+                (1, 1, k_y + k_c),
+                (0, 1, 0.25 * k_x),
+                (1, 0, 0.25 * k_x),
+                (1, 3, -k_c),
+                (3, 1, -k_c),
+                (3, 3, k_c),
+            ],
+        ),
+        damping_matrix: None,
+        coordinates: vec![vec![0.0], vec![1.0], vec![2.0], vec![3.0]],
+        dofs_per_node: 1,
+        dirichlet: vec![],
+        contacts: vec![Contact {
+            dofs: vec![3],
+            w: vec![-1.0],
+            gap,
+            friction: Some(ContactFriction {
+                dofs: vec![2],
+                w: vec![1.0],
+                mu,
+            }),
+        }],
+        harmonic_load: vec![force[0], force[1], 0.0, 0.0],
+        constant_load: vec![0.0; 4],
+        frictions: vec![],
+        acceleration: None,
+        damping: Damping {
+            alpha,
+            ..Damping::default()
+        },
+    }
+}
+
+/// The stop oscillator integrated exactly up to round-off (RK4 within each phase, switches
+/// by bisection). State `(x, ẋ, y, ẏ)` and the slider `s` (the node's `x` while stuck).
+struct ExactStop {
+    k: [f64; 2],
+    k_c: f64,
+    gap: f64,
+    mu: f64,
+    force: [f64; 2],
+    alpha: f64,
+    omega: f64,
+}
+
+impl ExactStop {
+    fn derivative(&self, t: f64, y: [f64; 4], s: f64, mode: Mode2) -> [f64; 4] {
+        let c = (self.omega * t).cos();
+        let k_xy = 0.25 * self.k[0];
+        let mut ax = self.force[0] * c - self.alpha * y[1] - self.k[0] * y[0] - k_xy * y[2];
+        let mut ay = self.force[1] * c - self.alpha * y[3] - self.k[1] * y[2] - k_xy * y[0];
+        let normal = self.k_c * (y[2] - self.gap);
+        match mode {
+            Mode2::Open => {}
+            Mode2::Stick => {
+                ax -= self.k_c * (y[0] - s);
+                ay -= normal;
+            }
+            Mode2::Slip(sign) => {
+                ax -= sign * self.mu * normal;
+                ay -= normal;
+            }
+        }
+        [y[1], ax, y[3], ay]
+    }
+
+    fn rk4(&self, t: f64, y: [f64; 4], s: f64, mode: Mode2, h: f64) -> [f64; 4] {
+        let add = |a: [f64; 4], b: [f64; 4], f: f64| {
+            [
+                a[0] + f * b[0],
+                a[1] + f * b[1],
+                a[2] + f * b[2],
+                a[3] + f * b[3],
+            ]
+        };
+        let k1 = self.derivative(t, y, s, mode);
+        let k2 = self.derivative(t + h / 2.0, add(y, k1, h / 2.0), s, mode);
+        let k3 = self.derivative(t + h / 2.0, add(y, k2, h / 2.0), s, mode);
+        let k4 = self.derivative(t + h, add(y, k3, h), s, mode);
+        let mut out = y;
+        for i in 0..4 {
+            out[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        out
+    }
+
+    /// The switching function of `mode` (positive while it holds) and the mode after its root.
+    fn switch(&self, y: [f64; 4], s: f64, mode: Mode2) -> (f64, Mode2) {
+        let pen = y[2] - self.gap;
+        match mode {
+            Mode2::Open => (-pen, Mode2::Stick),
+            Mode2::Stick => {
+                let upper = self.mu * pen - (y[0] - s);
+                let lower = self.mu * pen + (y[0] - s);
+                [
+                    (pen, Mode2::Open),
+                    (upper, Mode2::Slip(1.0)),
+                    (lower, Mode2::Slip(-1.0)),
+                ]
+                .into_iter()
+                .min_by(|a, b| a.0.total_cmp(&b.0))
+                .unwrap()
+            }
+            Mode2::Slip(sign) => {
+                let node_velocity = y[1] - sign * self.mu * y[3];
+                if pen < sign * node_velocity {
+                    (pen, Mode2::Open)
+                } else {
+                    (sign * node_velocity, Mode2::Stick)
+                }
+            }
+        }
+    }
+
+    /// From `(x, ẋ, y, ẏ)`, slider `s`, in `mode` at `t0`, over `duration`.
+    fn run_for(
+        &self,
+        t0: f64,
+        y0: [f64; 4],
+        s0: f64,
+        mode: Mode2,
+        duration: f64,
+    ) -> ([f64; 4], f64, Mode2) {
+        let h = 2.0 * PI / self.omega / 4000.0;
+        let (mut t, mut y, mut s, mut mode) = (t0, y0, s0, mode);
+        let end = t0 + duration;
+        while t < end - 1e-12 * h {
+            let step = h.min(end - t);
+            let next = self.rk4(t, y, s, mode, step);
+            let (g, _) = self.switch(next, s, mode);
+            if g >= 0.0 {
+                t += step;
+                y = next;
+                continue;
+            }
+            let (mut lo, mut hi) = (0.0, step);
+            for _ in 0..80 {
+                let mid = 0.5 * (lo + hi);
+                if self.switch(self.rk4(t, y, s, mode, mid), s, mode).0 >= 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            y = self.rk4(t, y, s, mode, hi);
+            t += hi;
+            let (_, to) = self.switch(y, s, mode);
+            (s, mode) = match (mode, to) {
+                // closing: stuck where the node is (it followed the mass), unless the cone
+                // cannot hold the tangential velocity
+                (Mode2::Open, _) => {
+                    if y[1].abs() <= self.mu * y[3] {
+                        (y[0], Mode2::Stick)
+                    } else {
+                        (s, Mode2::Slip(y[1].signum()))
+                    }
+                }
+                (Mode2::Slip(sign), Mode2::Stick) => {
+                    (y[0] - sign * self.mu * (y[2] - self.gap), Mode2::Stick)
+                }
+                (_, to) => (s, to),
+            };
+        }
+        (y, s, mode)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Mode2 {
+    Open,
+    Stick,
+    Slip(f64),
+}
+
+/// The stop oscillator: lift-off, closing into stick (the anchor's instant sensitivity of
+/// (T183)), slip and opening every period; the frictional multipliers against the exact
+/// period map differentiated by central differences at a section where the node is open.
+#[test]
+fn a_frictional_stop_has_the_multipliers_of_its_exact_period_map() {
+    let (k, k_c, gap, mu, force, alpha, omega) = ([2.0, 1.0], 3.0, 0.2, 0.5, [0.15, 0.3], 0.1, 1.1);
+    let exact = ExactStop {
+        k,
+        k_c,
+        gap,
+        mu,
+        force,
+        alpha,
+        omega,
+    };
+    let period = 2.0 * PI / omega;
+    let (mut y, mut s, mut mode) = ([0.0; 4], 0.0, Mode2::Open);
+    let mut change = f64::INFINITY;
+    for _ in 0..600 {
+        let (next, ns, nm) = exact.run_for(0.0, y, s, mode, period);
+        change = (0..4).map(|i| (next[i] - y[i]).abs()).fold(0.0, f64::max);
+        (y, s, mode) = (next, ns, nm);
+        if change < 1e-13 {
+            break;
+        }
+    }
+    assert!(change < 1e-12, "not periodic: {change:e}");
+    // the modes met in one period, and a section where the node is open
+    let mut t0 = 0.0;
+    let mut seen = Vec::new();
+    for _ in 0..256 {
+        if !seen.contains(&mode) {
+            seen.push(mode);
+        }
+        (y, s, mode) = exact.run_for(t0, y, s, mode, period / 256.0);
+        t0 += period / 256.0;
+    }
+    println!("modes met: {seen:?}");
+    assert!(
+        seen.contains(&Mode2::Open)
+            && seen.contains(&Mode2::Stick)
+            && seen.iter().any(|m| matches!(m, Mode2::Slip(_))),
+        "the orbit should open, stick and slip: {seen:?}"
+    );
+    for _ in 0..256 {
+        if mode == Mode2::Open {
+            break;
+        }
+        (y, s, mode) = exact.run_for(t0, y, s, mode, period / 256.0);
+        t0 += period / 256.0;
+    }
+    assert_eq!(mode, Mode2::Open);
+    let mut jac = Mat::<f64>::zeros(4, 4);
+    for j in 0..4 {
+        let (mut plus, mut minus) = (y, y);
+        plus[j] += 1e-7;
+        minus[j] -= 1e-7;
+        let (a, _, ma) = exact.run_for(t0, plus, s, Mode2::Open, period);
+        let (b, _, mb) = exact.run_for(t0, minus, s, Mode2::Open, period);
+        assert_eq!((ma, mb), (Mode2::Open, Mode2::Open));
+        for i in 0..4 {
+            jac[(i, j)] = (a[i] - b[i]) / 2e-7;
+        }
+    }
+    let reference: Vec<[f64; 2]> = jac
+        .eigenvalues()
+        .unwrap()
+        .iter()
+        .map(|z: &c64| [z.re, z.im])
+        .filter(|z| z[0].hypot(z[1]) > 1e-6)
+        .collect();
+    println!("exact period map's nonzero multipliers: {reference:?}");
+
+    let model = stop_oscillator(k[0], k[1], k_c, gap, mu, force, alpha);
+    let mut errors = Vec::new();
+    for harmonics in [10, 40] {
+        let mut method = ms_hbm(&model, harmonics);
+        let (sol, out) =
+            solve_at_frequency(&mut method, omega, 1, &NewtonOptions::default()).unwrap();
+        assert!(out.converged, "H = {harmonics}: {:?}", out.reason);
+        let floquet = method.floquet(&out.x, omega).unwrap().unwrap();
+        let nonzero: Vec<[f64; 2]> = floquet
+            .multipliers
+            .iter()
+            .copied()
+            .filter(|z| z[0].hypot(z[1]) > 1e-6)
+            .collect();
+        let d = spectral_distance(&nonzero, &reference);
+        println!(
+            "H = {harmonics}: max y {:.6}, multipliers {:?}, distance to the exact ones {d:.2e}",
+            sol.response.max, floquet.multipliers
+        );
+        errors.push(d);
+    }
+    assert!(errors[1] < errors[0], "no convergence in H: {errors:?}");
+    assert!(errors[1] <= 1e-3, "H = 40: {:e}", errors[1]);
+}
