@@ -140,7 +140,53 @@ impl RealModalForm {
     }
 
     /// `X ← e^{B t} X` (rows by blocks).
-    fn exp_times(&self, t: f64, mut x: MatMut<f64>) {
+    /// `V`.
+    pub(crate) fn v(&self) -> &Mat<f64> {
+        &self.v
+    }
+
+    /// `V⁻¹`.
+    pub(crate) fn v_inv(&self) -> &Mat<f64> {
+        &self.v_inv
+    }
+
+    /// `X ← (e^{B t} − I) B⁻¹ X` (the integral `∫₀ᵗ e^{B s} ds`, also where `B` is
+    /// singular), the response to a constant forcing held over `t` (docs/theory.md (T182)).
+    pub(crate) fn integral_times(&self, t: f64, mut x: MatMut<f64>) {
+        // (e^{z t} − 1)/z for z = re + i·im, by its series where z t is small
+        let phi = |z: c64| -> c64 {
+            let w = z * t;
+            if w.norm() < 1e-4 {
+                c64::new(t, 0.0) * (c64::new(1.0, 0.0) + w / 2.0 + w * w / 6.0 + w * w * w / 24.0)
+            } else {
+                (w.exp() - c64::new(1.0, 0.0)) / z
+            }
+        };
+        let mut row = 0;
+        for &block in &self.blocks {
+            match block {
+                ModalBlock::Real(re) => {
+                    let e = phi(c64::new(re, 0.0)).re;
+                    for j in 0..x.ncols() {
+                        x[(row, j)] *= e;
+                    }
+                    row += 1;
+                }
+                ModalBlock::Pair { re, im } => {
+                    let z = phi(c64::new(re, im));
+                    let (c, s) = (z.re, z.im);
+                    for j in 0..x.ncols() {
+                        let (p, q) = (x[(row, j)], x[(row + 1, j)]);
+                        x[(row, j)] = c * p + s * q;
+                        x[(row + 1, j)] = -s * p + c * q;
+                    }
+                    row += 2;
+                }
+            }
+        }
+    }
+
+    pub(crate) fn exp_times(&self, t: f64, mut x: MatMut<f64>) {
         let mut row = 0;
         for &block in &self.blocks {
             match block {
@@ -381,6 +427,36 @@ mod tests {
                 "{pieces:?}: {:?} vs {:?}",
                 sorted(values),
                 sorted(reference)
+            );
+        }
+    }
+
+    #[test]
+    fn the_integral_of_the_modal_exponential_is_the_block_of_the_augmented_exponential() {
+        // exp([[A, B], [0, 0]] t) = [[e^{At}, ∫₀ᵗ e^{As} ds B], [0, I]] (docs/theory.md (T182)),
+        // for real and complex eigenvalues, at a long and a tiny t (the series branch)
+        let a = chain(1.0, 2.5);
+        let form = RealModalForm::new(&a).expect("diagonalisable");
+        let b = Mat::<f64>::from_fn(6, 2, |i, j| (1 + i + 3 * j) as f64 * 0.1);
+        for t in [0.37, 1e-7] {
+            let mut integral = &form.v_inv * &b;
+            form.integral_times(t, integral.as_mut());
+            let integral = &form.v * &integral;
+            let augmented = Mat::<f64>::from_fn(8, 8, |i, j| match (i < 6, j < 6) {
+                (true, true) => a[(i, j)] * t,
+                (true, false) => b[(i, j - 6)] * t,
+                _ => 0.0,
+            });
+            let reference = crate::dense::expm(&augmented);
+            let scale = (0..6).fold(0.0f64, |m, i| m.max(reference[(i, 6)].abs()));
+            let err = (0..6)
+                .flat_map(|i| (0..2).map(move |j| (i, j)))
+                .fold(0.0f64, |m, (i, j)| {
+                    m.max((integral[(i, j)] - reference[(i, 6 + j)]).abs())
+                });
+            assert!(
+                scale > 0.0 && err <= 1e-11 * scale,
+                "t = {t}: {err} of {scale}"
             );
         }
     }

@@ -314,6 +314,8 @@ pub struct RedistributedMsHbm {
     /// First-order matrix and its eigendecomposition per active set (stability).
     /// The first-order matrices of the active sets met so far (T141).
     stability_pieces: stability::PiecewiseLinearSystems,
+    /// The frictional Floquet analysis's per-set data (T182), by the contacts' modes.
+    friction_phases: frictional_floquet::PhaseCache,
     /// The memory budget, also of the Floquet analysis.
     limits: Limits,
     /// Scratch space of the dense Jacobian of few contacts.
@@ -442,6 +444,7 @@ impl RedistributedMsHbm {
             stability_options: StabilityOptions::default(),
             stability_system: None,
             stability_pieces: stability::PiecewiseLinearSystems::new(),
+            friction_phases: Default::default(),
             limits: *limits,
             system,
             small_jacobian: SmallJacobianWork::default(),
@@ -492,6 +495,7 @@ impl RedistributedMsHbm {
         self.last_evaluation = None;
         self.preconditioner = Default::default();
         self.stability_pieces = stability::PiecewiseLinearSystems::new();
+        self.friction_phases.clear();
         Ok(())
     }
 
@@ -708,6 +712,7 @@ impl RedistributedMsHbm {
             self.stability_options = options;
             self.stability_system = None;
             self.stability_pieces = stability::PiecewiseLinearSystems::new();
+            self.friction_phases.clear();
         }
         Ok(())
     }
