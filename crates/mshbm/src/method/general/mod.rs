@@ -60,6 +60,11 @@
 //! the arclength step shrinks to them ([`crate::problem::ArclengthFallback::StepInFrequency`],
 //! this method's continuation policy; docs/theory.md (T77)).
 //!
+//! **Start** (event-driven; docs/theory.md (T147), (T147b)): the linear response
+//! pre-solved without the critical time; where Newton does not converge from it, a
+//! homotopy in an added stiffness-proportional damping of the nonlinear subsystem's own
+//! mode (`homotopy.rs`).
+//!
 //! **Cost**: every Newton iteration integrates the N-subsystem `dim + 2` times; each
 //! residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
 //! the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
@@ -69,7 +74,8 @@
 //! [`PeriodicProblem`] implementation; `period.rs` the one-period Moreau–Jean integration
 //! of the N-subsystem and the residual; `set_flow.rs` the flow of one active set,
 //! `event_period.rs` the event-driven period with its sensitivities, `event_residual.rs`
-//! the event-driven residual and Jacobian (the section `t_s`); `friction.rs` the friction limits and the stuck-friction
+//! the event-driven residual and Jacobian (the section `t_s`); `homotopy.rs` the start's
+//! damping homotopy; `friction.rs` the friction limits and the stuck-friction
 //! selection; `floquet.rs` the whole system's initial state and monodromy.
 //!
 //! Measurements and their history (why the position projection and the `q̇/ω` unknowns,
