@@ -100,29 +100,3 @@ impl GeneralMsHbm {
         Ok(x0)
     }
 }
-
-impl GeneralMsHbm {
-    /// Event-driven unknowns at `ω` from given harmonics `q̂_N` of the nonlinear DOFs
-    /// (harmonic-major, as in the unknowns): the state at the section of that harmonic
-    /// motion and the critical time where the period from it first meets the stop — a
-    /// start from, e.g., a simulated steady state (measured in docs/general-mshbm.md §10).
-    pub fn start_from_harmonics(&mut self, harmonics: &[f64], omega: f64) -> Result<Vec<f64>> {
-        if !self.is_event_driven() {
-            return Err(crate::error::Error::argument(
-                "integration",
-                "a start from harmonics is built for the event-driven period only",
-            ));
-        }
-        let mut x = self.linear_response(omega)?;
-        let nq = self.n() * crate::harmonic::n_coefficients(self.harmonics);
-        crate::method::check_dimension(harmonics, nq)?;
-        x[..nq].copy_from_slice(harmonics);
-        self.harmonic_section_state(&mut x);
-        if self.with_critical_time {
-            self.prepare(omega)?;
-            let fd = self.frequency.as_deref().expect("prepared");
-            self.initial_critical_time(fd, &mut x)?;
-        }
-        Ok(x)
-    }
-}
