@@ -19,6 +19,7 @@
 //! saltation matrix (T145) at impacts; at a release the vector fields agree and `S` is
 //! continuous; at `θ_c` the jump `J` and the column `J f⁻ − f⁺`.
 
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
@@ -167,6 +168,21 @@ struct Integration<'a> {
     n_params: usize,
     sets: Vec<ActiveSet>,
     e: Vec<c64>,
+    /// Buffers of the scan's and the root finders' evaluations, so that they allocate
+    /// nothing (one set per period integration).
+    scratch: RefCell<Scratch>,
+}
+
+/// The buffers of [`Integration::evaluate`]: the reduced state, the modes' factors, the
+/// state `(q, q̇)`, the load and the unbalanced force.
+#[derive(Default)]
+struct Scratch {
+    s: Vec<f64>,
+    growth: Vec<c64>,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    f: Vec<f64>,
+    r: Vec<f64>,
 }
 
 impl<'a> Integration<'a> {
@@ -344,42 +360,112 @@ impl<'a> Integration<'a> {
         }
     }
 
-    /// The value of contact `c`'s event function in the interval at `θ` (phases `e`): its
-    /// gap when open, its force when closed.
-    fn monitor_with(&self, e: &[c64], iv: &Interval, theta: f64, c: usize) -> f64 {
-        let (q, v) = self.state_with(e, iv, theta);
-        let flow = &self.sets[iv.set].flow;
-        match flow.closed.iter().position(|&k| k == c) {
-            None => self.pb.sub.gap(c, &q),
-            Some(r) => {
-                let f = self.load_with(e);
-                flow.contact_forces(&self.pb.sub.unbalanced_force(&f, &q, &v))[r]
+    /// The state `(q, q̇)` at `θ` for its phases `e` into `sc.q`, `sc.v` (as
+    /// [`Integration::state_with`], without allocating).
+    fn evaluate(&self, e: &[c64], iv: &Interval, theta: f64, sc: &mut Scratch) {
+        let a = &self.sets[iv.set];
+        let m2 = a.flow.reduced();
+        sc.s.clear();
+        let p = &a.particular;
+        sc.s.extend((0..m2).map(|i| p.iter().zip(e).map(|(pk, e)| (pk[i] * e).re).sum::<f64>()));
+        let tau = theta - iv.start;
+        sc.growth.clear();
+        sc.growth.extend(
+            a.flow
+                .eigenvalues
+                .iter()
+                .zip(&iv.coefficients)
+                .map(|(l, c)| c * (l * tau).exp()),
+        );
+        let v = a.flow.modes();
+        for (i, si) in sc.s.iter_mut().enumerate() {
+            *si += sc
+                .growth
+                .iter()
+                .enumerate()
+                .map(|(m, g)| (v[(i, m)] * g).re)
+                .sum::<f64>();
+        }
+        a.flow.expand(&sc.s, &mut sc.q, &mut sc.v);
+    }
+
+    /// The load `F(θ)` for the phases `e` into `f`.
+    fn load_into(&self, e: &[c64], f: &mut [f64]) {
+        let n = self.n;
+        let phi = self.pb.load;
+        f.copy_from_slice(&phi[..n]);
+        for k in 1..e.len() {
+            let (c, s) = (e[k].re, e[k].im);
+            for (i, fi) in f.iter_mut().enumerate() {
+                *fi += c * phi[(2 * k - 1) * n + i] + s * phi[2 * k * n + i];
             }
         }
     }
 
-    /// Every contact's event function at `θ` (phases already at `θ`), and the rates of
-    /// the open contacts' gaps (zero for the closed ones).
-    fn monitors(&self, iv: &Interval, theta: f64) -> (Vec<f64>, Vec<f64>) {
-        let (q, v) = self.state(iv, theta);
+    /// The unbalanced force `r = F − K q − C q̇` of the state in `sc` into `sc.r`.
+    fn unbalanced_into(&self, e: &[c64], sc: &mut Scratch) {
+        self.load_into(e, &mut sc.f);
+        let sub = self.pb.sub;
+        let n = self.n;
+        for i in 0..n {
+            sc.r[i] = sc.f[i]
+                - (0..n)
+                    .map(|j| sub.stiffness[(i, j)] * sc.q[j] + sub.damping[(i, j)] * sc.v[j])
+                    .sum::<f64>();
+        }
+    }
+
+    /// The value of contact `c`'s event function in the interval at `θ` (phases `e`): its
+    /// gap when open, its force when closed.
+    fn monitor_with(&self, e: &[c64], iv: &Interval, theta: f64, c: usize) -> f64 {
+        let mut sc = self.scratch.borrow_mut();
+        self.evaluate(e, iv, theta, &mut sc);
         let flow = &self.sets[iv.set].flow;
-        let forces = if flow.closed.is_empty() {
-            vec![]
-        } else {
-            flow.contact_forces(&self.pb.sub.unbalanced_force(&self.load(), &q, &v))
-        };
-        (0..self.pb.sub.n_contacts())
-            .map(|c| match flow.closed.iter().position(|&k| k == c) {
-                None => (self.pb.sub.gap(c, &q), self.pb.sub.normal_velocity(c, &v)),
-                Some(r) => (forces[r], 0.0),
-            })
-            .unzip()
+        match flow.closed.iter().position(|&k| k == c) {
+            None => self.pb.sub.gap(c, &sc.q),
+            Some(r) => {
+                self.unbalanced_into(e, &mut sc);
+                flow.contact_force(r, &sc.r)
+            }
+        }
+    }
+
+    /// Every contact's event function at `θ` (phases already at `θ`) into `values`, and
+    /// the rates of the open contacts' gaps (zero for the closed ones) into `rates`.
+    fn monitors_into(
+        &self,
+        iv: &Interval,
+        theta: f64,
+        values: &mut Vec<f64>,
+        rates: &mut Vec<f64>,
+    ) {
+        let mut sc = self.scratch.borrow_mut();
+        self.evaluate(&self.e, iv, theta, &mut sc);
+        let flow = &self.sets[iv.set].flow;
+        if !flow.closed.is_empty() {
+            self.unbalanced_into(&self.e, &mut sc);
+        }
+        values.clear();
+        rates.clear();
+        for c in 0..self.pb.sub.n_contacts() {
+            match flow.closed.iter().position(|&k| k == c) {
+                None => {
+                    values.push(self.pb.sub.gap(c, &sc.q));
+                    rates.push(self.pb.sub.normal_velocity(c, &sc.v));
+                }
+                Some(r) => {
+                    values.push(flow.contact_force(r, &sc.r));
+                    rates.push(0.0);
+                }
+            }
+        }
     }
 
     /// The rate `w_cᵀ q̇` of open contact `c`'s gap at `θ` (phases `e`).
     fn gap_rate_with(&self, e: &[c64], iv: &Interval, theta: f64, c: usize) -> f64 {
-        let (_, v) = self.state_with(e, iv, theta);
-        self.pb.sub.normal_velocity(c, &v)
+        let mut sc = self.scratch.borrow_mut();
+        self.evaluate(e, iv, theta, &mut sc);
+        self.pb.sub.normal_velocity(c, &sc.v)
     }
 
     /// The largest scan step in set `set`: an eighth of the fastest mode's and of the
@@ -533,6 +619,13 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         n_params,
         sets: vec![],
         e: vec![c64::new(1.0, 0.0); pb.harmonics + 1],
+        scratch: RefCell::new(Scratch {
+            q: vec![0.0; n],
+            v: vec![0.0; n],
+            f: vec![0.0; n],
+            r: vec![0.0; n],
+            ..Default::default()
+        }),
     };
     // the initial state: penetrating contacts are projected onto their gaps and their
     // normal velocities removed (only away from solutions: the section is where the gaps
@@ -598,7 +691,15 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
     let mut theta = 0.0;
     let mut next_sample = 0usize;
     let sample_time = |j: usize| pb.sample_offset + j as f64 * h;
-    let (mut values, mut rates) = it.monitors(&iv, theta);
+    let (mut values, mut rates) = (
+        Vec::with_capacity(n_contacts),
+        Vec::with_capacity(n_contacts),
+    );
+    let (mut after, mut after_rates) = (
+        Vec::with_capacity(n_contacts),
+        Vec::with_capacity(n_contacts),
+    );
+    it.monitors_into(&iv, theta, &mut values, &mut rates);
     let mut step = it.scan_step(iv.set);
     // the phases of the root finders' probes (one buffer for the whole period)
     let mut probe = vec![c64::new(0.0, 0.0); pb.harmonics + 1];
@@ -621,7 +722,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
             held_after = true;
             armed[0] = false;
             iv = critical_event(&mut it, iv, critical.time, &mut armed, &mut out)?;
-            (values, rates) = it.monitors(&iv, theta);
+            it.monitors_into(&iv, theta, &mut values, &mut rates);
             step = it.scan_step(iv.set);
             continue;
         }
@@ -650,14 +751,13 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
             }
         }
         it.at(target);
-        let (after, after_rates) = it.monitors(&iv, target);
+        it.monitors_into(&iv, target, &mut after, &mut after_rates);
         // the earliest contact whose event function crosses zero in (θ, target]
-        let closed = it.sets[iv.set].flow.closed.clone();
         let mut first: Option<(f64, usize)> = None;
         let mut e = std::mem::take(&mut probe);
         armed_at.iter_mut().for_each(|a| *a = None);
         for c in 0..n_contacts {
-            let is_closed = closed.contains(&c);
+            let is_closed = it.sets[iv.set].flow.closed.contains(&c);
             if c == 0 && !is_closed && held_before {
                 continue;
             }
@@ -742,11 +842,12 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
                 held_after = false;
             }
             theta = target;
-            values = after;
-            rates = after_rates;
+            std::mem::swap(&mut values, &mut after);
+            std::mem::swap(&mut rates, &mut after_rates);
             continue;
         };
         // the event at θ_e
+        let closed = it.sets[iv.set].flow.closed.clone();
         out.events += 1;
         if c == 0 && !closed.contains(&0) && out.first_impact.is_none() {
             out.first_impact = Some(te);
@@ -791,7 +892,7 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         };
         iv = it.start(set, te, &qe, &v_after, &sens_after);
         theta = te;
-        (values, rates) = it.monitors(&iv, te);
+        it.monitors_into(&iv, te, &mut values, &mut rates);
         step = it.scan_step(iv.set);
     }
     it.at(pb.duration);

@@ -60,6 +60,11 @@
 //! the arclength step shrinks to them ([`crate::problem::ArclengthFallback::StepInFrequency`],
 //! this method's continuation policy; docs/theory.md (T77)).
 //!
+//! **Start** (event-driven; docs/theory.md (T147), (T147b)): the linear response
+//! pre-solved without the critical time; where Newton does not converge from it, a
+//! homotopy in an added stiffness-proportional damping of the nonlinear subsystem's own
+//! mode (`homotopy.rs`).
+//!
 //! **Cost**: every Newton iteration integrates the N-subsystem `dim + 2` times; each
 //! residual evaluation builds its own small N-subsystem integrator (a sparse Cholesky of
 //! the `n_N × n_N` iteration matrix), negligible for the few nonlinear DOFs this method
@@ -69,7 +74,8 @@
 //! [`PeriodicProblem`] implementation; `period.rs` the one-period Moreau–Jean integration
 //! of the N-subsystem and the residual; `set_flow.rs` the flow of one active set,
 //! `event_period.rs` the event-driven period with its sensitivities, `event_residual.rs`
-//! the event-driven residual and Jacobian (the section `t_s`); `friction.rs` the friction limits and the stuck-friction
+//! the event-driven residual and Jacobian (the section `t_s`); `homotopy.rs` the start's
+//! damping homotopy; `friction.rs` the friction limits and the stuck-friction
 //! selection; `floquet.rs` the whole system's initial state and monodromy.
 //!
 //! Measurements and their history (why the position projection and the `q̇/ω` unknowns,
@@ -80,10 +86,12 @@ mod event_period;
 mod event_residual;
 mod floquet;
 mod friction;
+mod homotopy;
 mod period;
 mod set_flow;
 
 pub use floquet::MAX_FLOQUET_DOFS;
+pub use homotopy::{HOMOTOPY_LEVELS, HOMOTOPY_RATIO};
 pub use period::Trajectory;
 
 use faer::linalg::solvers::Solve;
@@ -208,6 +216,13 @@ pub struct GeneralMsHbm {
     /// Whether the event-driven unknowns end with contact 0's critical time (T147); off
     /// only while [`PeriodicProblem::initial_guess`] pre-solves without it.
     with_critical_time: bool,
+    /// The model, settings and limits this was built from (event-driven only): the damping
+    /// homotopy of the start builds its stages from them (`homotopy.rs`).
+    source: Option<std::sync::Arc<(Model, GeneralOptions, Limits)>>,
+    /// Newton iterations spent by the last start after its pre-solve (`homotopy.rs`).
+    guess_iterations: usize,
+    /// Whether the last start fell back to the damping homotopy.
+    used_homotopy: bool,
 }
 
 impl GeneralMsHbm {
@@ -337,7 +352,12 @@ impl GeneralMsHbm {
         };
         let condensation =
             ExactCondensation::new(PartitionedSystem::new(&system), LinearResponse::Solve)?;
+        let source =
+            event_driven.then(|| std::sync::Arc::new((model.clone(), options.clone(), *limits)));
         Ok(GeneralMsHbm {
+            source,
+            guess_iterations: 0,
+            used_homotopy: false,
             dense,
             flows: Default::default(),
             with_critical_time: true,
@@ -447,6 +467,41 @@ impl GeneralMsHbm {
         })
     }
 
+    /// The event-driven start: the linear response improved first by at most
+    /// [`PRESOLVE_ITERATIONS`] Newton iterations without the critical time (every impact
+    /// located by the scan, docs/theory.md (T146)) down to [`PRESOLVE_TOLERANCE`], whose
+    /// basin from the linear response is wider where that response penetrates the stop
+    /// deeply, then the critical time set where that motion first meets the stop
+    /// ([`Self::initial_critical_time`]). Those iterations are not counted in the solve's
+    /// Newton iterations. Time stepping: the linear response.
+    pub fn presolved_start(&mut self, omega: f64) -> Result<Vec<f64>> {
+        if !self.is_event_driven() {
+            return self.linear_response(omega);
+        }
+        self.with_critical_time = false;
+        let presolved = self.linear_response(omega).and_then(|x0| {
+            let options = crate::newton::NewtonOptions {
+                tolerance: PRESOLVE_TOLERANCE,
+                max_iterations: PRESOLVE_ITERATIONS,
+                ..Default::default()
+            };
+            let outcome = crate::newton::solve(self, &x0, omega, &options)?;
+            // the better of the start and Newton's last iterate
+            Ok(if outcome.residual_norm < outcome.history[0] {
+                outcome.x
+            } else {
+                x0
+            })
+        });
+        self.with_critical_time = true;
+        let mut x = presolved?;
+        x.push(0.0);
+        self.prepare(omega)?;
+        let fd = self.frequency.as_deref().expect("prepared");
+        self.initial_critical_time(fd, &mut x)?;
+        Ok(x)
+    }
+
     fn check_x(&self, x: &[f64]) -> Result<()> {
         check_dimension(x, self.dimension())
     }
@@ -545,39 +600,17 @@ impl PeriodicProblem for GeneralMsHbm {
         self.partition.length_scale()
     }
 
-    /// The linear response; event-driven, improved first by at most
-    /// [`PRESOLVE_ITERATIONS`] Newton iterations without the critical time (every impact
-    /// located by the scan, docs/theory.md (T146)) down to [`PRESOLVE_TOLERANCE`], whose
-    /// basin from the linear response is wider where that response penetrates the stop
-    /// deeply, then the critical time set where that motion first meets the stop
-    /// ([`Self::initial_critical_time`]). Those iterations are not counted in the solve's
-    /// Newton iterations.
+    /// The linear response; event-driven, the pre-solved start
+    /// ([`GeneralMsHbm::presolved_start`]), or where Newton does not converge from it, the
+    /// start found by a homotopy in an added damping (`homotopy.rs`, docs/theory.md
+    /// (T147b)). The Newton iterations spent here are not counted in the solve's
+    /// ([`GeneralMsHbm::guess_iterations`]).
     fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
         if !self.is_event_driven() {
             return self.linear_response(omega);
         }
-        self.with_critical_time = false;
-        let presolved = self.linear_response(omega).and_then(|x0| {
-            let options = crate::newton::NewtonOptions {
-                tolerance: PRESOLVE_TOLERANCE,
-                max_iterations: PRESOLVE_ITERATIONS,
-                ..Default::default()
-            };
-            let outcome = crate::newton::solve(self, &x0, omega, &options)?;
-            // the better of the start and Newton's last iterate
-            Ok(if outcome.residual_norm < outcome.history[0] {
-                outcome.x
-            } else {
-                x0
-            })
-        });
-        self.with_critical_time = true;
-        let mut x = presolved?;
-        x.push(0.0);
-        self.prepare(omega)?;
-        let fd = self.frequency.as_deref().expect("prepared");
-        self.initial_critical_time(fd, &mut x)?;
-        Ok(x)
+        let x0 = self.presolved_start(omega)?;
+        self.robust_start(x0, omega)
     }
 
     fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {

@@ -281,6 +281,11 @@ impl SetFlow {
         mat_vec(&self.force, r)
     }
 
+    /// Row `row` of [`SetFlow::contact_forces`]: the force of the `row`-th closed contact.
+    pub fn contact_force(&self, row: usize, r: &[f64]) -> f64 {
+        (0..r.len()).map(|j| self.force[(row, j)] * r[j]).sum()
+    }
+
     /// `X_k = (ikω − A)⁻¹ B` (`2m × n`) for `k = 0..=H`: the reduced periodic response to a
     /// load `Re(F̂ e^{ikωθ})` is `Re(X_k F̂ e^{ikωθ})` (docs/theory.md (T143)).
     pub fn harmonic_responses(&self, omega: f64, harmonics: usize) -> Result<Vec<Mat<c64>>> {
