@@ -87,6 +87,7 @@ struct Outcome {
 
 /// Run `mshbm args…` with at most [`CPU_SECONDS`] of CPU (RLIMIT_CPU: SIGXCPU beyond)
 /// and [`WALL`] of wall time.
+#[allow(clippy::zombie_processes)] // reaped by wait4 below
 fn run(args: &[String], dir: &std::path::Path) -> Outcome {
     let err_path = dir.join("stderr.txt");
     let mut command = Command::new(assert_cmd::cargo::cargo_bin("mshbm"));

@@ -500,4 +500,3 @@ pub fn show(input: &[u8]) -> String {
     let shown: String = text.chars().take(2000).collect();
     format!("{shown:?}")
 }
-
