@@ -463,3 +463,62 @@ fn negative_mass_diagonal_is_refused() {
         );
     }
 }
+
+/// Issue 46, item 5: a stiffness that is not positive definite (here one negative diagonal
+/// entry in the bar's K, indefinite; and the dropped bar, which is not held) is refused by
+/// `solve` and `frf` naming the model file and what is wrong, not "the stiffness matrix is
+/// singular"; a first-mode damping ratio on it names its field.
+#[test]
+fn indefinite_stiffness_is_refused_naming_the_model() {
+    let m = GeneralModel::new();
+    let k = std::fs::read_to_string(examples().join("bar_matrices/stiffness.mtx")).unwrap();
+    let indefinite = k.replacen("\n51 51 ", "\n51 51 -", 1);
+    assert_ne!(indefinite, k, "fixture lacks entry (51, 51)");
+    m.write("stiffness.mtx", &indefinite);
+    let toml = m.toml();
+    let dropped = example("dropped_bar.toml");
+    for (args, file) in [
+        (vec!["solve", &toml, "--frequency", "30000"], "model.toml"),
+        (
+            vec![
+                "solve",
+                &toml,
+                "--frequency",
+                "30000",
+                "--method",
+                "hbm-aft",
+            ],
+            "model.toml",
+        ),
+        (
+            vec!["frf", &toml, "--from", "20000", "--to", "40000"],
+            "model.toml",
+        ),
+        (
+            vec!["solve", &dropped, "--frequency", "30000"],
+            "dropped_bar.toml",
+        ),
+    ] {
+        let err = fails(&args);
+        assert!(
+            err.contains(&format!("{file}: the stiffness is not positive definite"))
+                && err.contains("not held")
+                && err.contains("indefinite")
+                && !err.contains("singular"),
+            "{args:?}: {err}"
+        );
+    }
+    let err = fails(&[
+        "solve",
+        &toml,
+        "--frequency",
+        "30000",
+        "--set",
+        "damping.first_mode_ratio=0.01",
+    ]);
+    assert!(
+        err.contains("model.toml: field `damping.first_mode_ratio`")
+            && err.contains("not positive definite"),
+        "{err}"
+    );
+}

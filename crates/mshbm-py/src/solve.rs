@@ -1,7 +1,7 @@
 //! `solve`: one periodic solution, as `mshbm solve` (library: `solve::solve_periodic`).
 
+use mshbm::solution::{MethodKind, PeriodicSolution};
 use mshbm::solve::{solve_periodic, SolvePath, SolveSettings, SolveStart, Solved};
-use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -12,24 +12,41 @@ use crate::model::NativeModel;
 use crate::threads::with_threads;
 
 /// Where Newton starts, as `--start`, `--from-solution` and `--sweep-from/--sweep-to`.
+/// A start solution (the JSON of `Solution.to_json()`, as `--from-solution` reads it) is
+/// refused, as by the CLI, when it belongs to another method or model
+/// (`PeriodicSolution::unusable_start`).
 fn solve_start(
-    frequency: f64,
+    model: &mshbm::Model,
+    method: MethodKind,
     harmonics: usize,
+    frequency: f64,
     start: &str,
-    from_unknowns: Option<(PyReadonlyArray1<'_, f64>, usize)>,
+    start_solution: Option<&str>,
     sweep: (Option<f64>, Option<f64>),
 ) -> PyResult<SolveStart> {
-    if let Some((x, h)) = from_unknowns {
+    if let Some(json) = start_solution {
         if sweep.0.is_some() {
             return Err(argument(
                 "give either a start solution or sweep_from, not both",
             ));
         }
-        let x = x.as_slice()?;
-        let Some(x) = mshbm::harmonic::with_harmonics(x, h, harmonics) else {
+        let s: PeriodicSolution = serde_json::from_str(json)
+            .map_err(|e| argument(format!("start: not a periodic solution: {e}")))?;
+        if let Some(why) = s.unusable_start(model, method) {
             return Err(argument(format!(
-                "the start solution's {} unknowns are not a whole number of {h}-harmonic signals",
-                x.len()
+                "start: cannot start from this solution: {why}"
+            )));
+        }
+        let Some(x) = s.unknowns else {
+            return Err(argument(
+                "the start solution has no unknowns (solve it again)",
+            ));
+        };
+        let Some(x) = mshbm::harmonic::with_harmonics(&x, s.harmonics, harmonics) else {
+            return Err(argument(format!(
+                "the start solution's {} unknowns are not a whole number of {}-harmonic signals",
+                x.len(),
+                s.harmonics
             )));
         };
         return Ok(SolveStart::Unknowns(x));
@@ -74,7 +91,7 @@ fn solve_start(
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (model, frequency, harmonics=5, *, method="redistributed", samples=None,
     quadrature=None, mass=None, penalty=Vec::new(), tolerance=1e-10, max_iterations=50,
-    dof=None, stability_modes=None, receptance="auto", receptance_modes=None, jacobian="auto", stability=true, start="auto", from_unknowns=None,
+    dof=None, stability_modes=None, receptance="auto", receptance_modes=None, jacobian="auto", stability=true, start="auto", start_solution=None,
     sweep_from=None, sweep_to=None, threads=None))]
 pub fn solve(
     py: Python<'_>,
@@ -95,7 +112,7 @@ pub fn solve(
     jacobian: &str,
     stability: bool,
     start: &str,
-    from_unknowns: Option<(PyReadonlyArray1<'_, f64>, usize)>,
+    start_solution: Option<String>,
     sweep_from: Option<f64>,
     sweep_to: Option<f64>,
     threads: Option<usize>,
@@ -132,10 +149,12 @@ pub fn solve(
         limits: model.limits,
         observer: None,
         start: solve_start(
-            frequency,
+            m,
+            method.kind(),
             harmonics,
+            frequency,
             start,
-            from_unknowns,
+            start_solution.as_deref(),
             (sweep_from, sweep_to),
         )?,
         branch_observer: None,

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import mshbm
-from conftest import BAR, EXAMPLES
+from conftest import BAR, DAMPED_SET, EXAMPLES
 
 
 def bar_with(tmp_path, old, new):
@@ -275,3 +275,30 @@ def test_not_converged_carries_the_cli_message_and_the_result(cli, bar):
     out = cli("solve", BAR, "--frequency", 80000, "--harmonics", 3, "--max-iterations", 1, "--start", "linear",
               "--set", "damping.first_mode_ratio=0.01", check=False)
     assert out.returncode == 2 and f"error: {message}" in out.stderr, out.stderr
+
+
+def test_a_start_from_another_method_or_model_is_refused_as_by_the_cli(cli, bar, general_model, tmp_path):
+    """`solve(start=Solution)` refuses what `solve --from-solution` refuses, with the
+    library's reason (`PeriodicSolution::unusable_start`): a solution of another method
+    (the HBM-AFT's unknowns are not the redistributed MS-HBM's) and one of another model
+    with as many unknowns (its contact elsewhere)."""
+    aft = mshbm.solve(bar, 30000, 3, method="hbm-aft", stability=False)
+    edit(general_model, "dofs = [100]", "dofs = [99]")
+    other_model = mshbm.Model.from_toml(general_model / "model.toml")
+    other = mshbm.solve(other_model, 30000, 3, stability=False)
+    assert len(other.unknowns) == len(mshbm.solve(bar, 30000, 3, stability=False).unknowns)
+    for start, reason in [
+        (aft, "it is a solution of the method hbm-aft, not of redistributed: its unknowns mean something else"),
+        (other, "it belongs to another model: it has 1 contacts at DOFs [99], the model 1 contacts at DOFs [100]"),
+    ]:
+        with pytest.raises(mshbm.ArgumentError) as info:
+            mshbm.solve(bar, 30000, 3, start=start)
+        message = str(info.value)
+        assert message == f"start: cannot start from this solution: {reason}", message
+        path = tmp_path / "start.json"
+        path.write_text(start.to_json())
+        out = cli("solve", BAR, *DAMPED_SET, "--frequency", 30000, "--harmonics", 3, "--from-solution", path, check=False)
+        assert out.returncode == 1, out.stderr
+        assert f"cannot start from this solution: {reason}" in out.stderr, out.stderr
+    # the same method and model still start (and from another H)
+    assert mshbm.solve(bar, 30000, 4, start=mshbm.solve(bar, 30000, 3)).converged

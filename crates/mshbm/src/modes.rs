@@ -176,7 +176,7 @@ pub fn first_angular_frequency(mass: &SparseMatrix, stiffness: &SparseMatrix) ->
         ));
     }
     let modes = lowest_modes(mass, stiffness, 1).map_err(|e| match e {
-        Error::Singular(_) => Error::Singular("the stiffness matrix is singular (the structure is not held; a first-mode damping ratio needs a held structure)".into()),
+        Error::Singular(_) => Error::Singular("a first-mode damping ratio needs a held structure: the stiffness is not positive definite with the Dirichlet DOFs fixed (a rigid-body motion, or a negative stiffness)".into()),
         other => other,
     })?;
     Ok(modes.eigenvalues[0].sqrt())

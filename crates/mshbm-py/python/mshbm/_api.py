@@ -80,13 +80,12 @@ def solve(
     Raises :class:`NotConvergedError` (its ``result`` holds the unconverged solution)
     with the CLI's message when Newton does not converge.
     """
+    # a start solution goes to the library as the CLI's --from-solution JSON: the library
+    # refuses one of another method or model (PeriodicSolution::unusable_start)
     if isinstance(start, Solution):
-        start_kind, unknowns = "auto", start.unknowns
-        if unknowns is None or isinstance(unknowns, list):
-            raise ArgumentError("the start solution has no unknowns (solve it again)")
-        from_unknowns = (unknowns, int(start.harmonics))
+        start_kind, start_solution = "auto", start.to_json()
     else:
-        start_kind, from_unknowns = start, None
+        start_kind, start_solution = start, None
     data = _native.solve(
         _model(model)._native,
         float(frequency),
@@ -105,7 +104,7 @@ def solve(
         jacobian=jacobian,
         stability=bool(stability),
         start=start_kind,
-        from_unknowns=from_unknowns,
+        start_solution=start_solution,
         sweep_from=sweep_from,
         sweep_to=sweep_to,
         threads=threads,

@@ -225,9 +225,12 @@ impl StaticContact {
             let mut x = Mat::<f64>::from_fn(n, 1, |i, _| 1.0 + 0.5 * (i as f64 * 0.7).sin());
             let mut growth = 0.0;
             for _ in 0..8 {
+                // normalised every iteration: unscaled, K⁻⁸ x underflows (or overflows)
+                // for a stiffness far from 1 (a modulus of 1e100 gave "condition ~ NaN")
                 let norm = x.norm_l2();
+                x /= norm;
                 factor.solve_in_place(x.as_mut());
-                growth = x.norm_l2() / norm;
+                growth = x.norm_l2();
             }
             let scale = stiffness.max_abs() * growth;
             if !scale.is_finite() || scale > 1e14 {
@@ -493,6 +496,36 @@ mod tests {
             (q[1] - 0.1).abs() < 1e-14,
             "the contact DOF sits on the obstacle: {q:?}"
         );
+    }
+
+    /// The condition check does not depend on the stiffness's units: the pair scaled by
+    /// 10^±100 (a bar's modulus 10¹⁰⁰ times off) is accepted with the Delassus value of the
+    /// closed form scaled back (its inverse iteration underflowed to "condition ~ NaN"),
+    /// and the nearly free pair is still refused at any scale.
+    #[test]
+    fn the_condition_check_holds_at_any_scale_of_the_stiffness() {
+        for scale in [1e-100, 1e100, 1e-300, 1e300] {
+            let k = |held: f64| {
+                SparseMatrix::from_triplets(
+                    2,
+                    2,
+                    &[
+                        (0, 0, scale * (held + 2.0)),
+                        (0, 1, -2.0 * scale),
+                        (1, 0, -2.0 * scale),
+                        (1, 1, 2.0 * scale),
+                    ],
+                )
+            };
+            let c = StaticContact::new(&k(1.0), vec![0.0, -1.0], vec![0.1])
+                .unwrap_or_else(|e| panic!("scale {scale:e}: {e}"));
+            let d = c.delassus()[0] * scale;
+            assert!((d - 1.5).abs() < 1e-13, "scale {scale:e}: D = {d}");
+            let err = StaticContact::new(&k(1e-15), vec![0.0, -1.0], vec![0.1])
+                .err()
+                .expect("a free-floating pair");
+            assert!(err.to_string().contains("free-floating"), "{err}");
+        }
     }
 
     #[test]

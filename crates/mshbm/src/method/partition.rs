@@ -130,14 +130,18 @@ pub(crate) fn contact_directions(system: &System) -> Vec<f64> {
 
 /// The largest static deflection `max_{i∈N} |(K⁻¹ (|f_h| + |f_0|))_i|` of an `N` DOF under
 /// the magnitudes of the harmonic and the constant load (sparse Cholesky of the full `K`).
-/// Fails when `K` is not positive definite (the structure is not held).
+/// Fails when `K` is not positive definite, naming the model: the structure is not held
+/// (a rigid-body motion) or its stiffness is indefinite (a negative stiffness).
 fn static_deflection(system: &System) -> Result<f64> {
     let llt = system
         .stiffness
         .to_faer()
         .sp_cholesky(faer::Side::Lower)
         .map_err(|_| {
-            Error::Singular("the stiffness matrix is singular (the structure is not held)".into())
+            Error::Singular(format!(
+                "{}: the stiffness is not positive definite with the Dirichlet DOFs fixed: the structure is not held (it can move as a rigid body) or its stiffness is indefinite (a negative stiffness); this method needs a held structure with a positive definite stiffness",
+                system.source.display()
+            ))
         })?;
     let f: Vec<f64> = system
         .harmonic_load

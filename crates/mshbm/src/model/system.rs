@@ -2,6 +2,8 @@
 //! removed, and DOFs split into the linear part `L` and the nonlinear part `N` (paper
 //! eq. 3 / eq. 23).
 
+use std::path::PathBuf;
+
 use crate::error::{Error, Result};
 use crate::fe::redistribution::{
     expand_to_dofs, redistribute_scalar_mass, scalar_mass, Redistribution,
@@ -82,6 +84,9 @@ pub struct System {
     /// ([`crate::model::Damping::beta_condensed`]); the Floquet analysis picks its reduced
     /// basis by it.
     pub beta_condensed: f64,
+    /// Where the model came from ([`Model::source`]), for the errors of the methods that
+    /// find the system unusable (a stiffness that is not positive definite).
+    pub source: PathBuf,
 }
 
 impl Model {
@@ -143,7 +148,15 @@ impl Model {
         let linear_dofs: Vec<usize> = (0..model_dof.len()).filter(|&s| !is_nonlinear[s]).collect();
 
         let alpha = match self.damping.first_mode_ratio {
-            Some(zeta) if zeta > 0.0 => 2.0 * zeta * first_angular_frequency(&mass, &stiffness)?,
+            Some(zeta) if zeta > 0.0 => {
+                2.0 * zeta
+                    * first_angular_frequency(&mass, &stiffness).map_err(|e| match e {
+                        Error::Singular(why) => {
+                            Error::field(&self.source, "damping.first_mode_ratio", why)
+                        }
+                        other => other,
+                    })?
+            }
             _ => self.damping.alpha,
         };
         let beta = self.damping.beta;
@@ -246,6 +259,7 @@ impl Model {
             alpha,
             beta,
             beta_condensed: self.damping.beta_condensed,
+            source: self.source.clone(),
         })
     }
 }

@@ -284,6 +284,7 @@ impl GeneralMsHbm {
             ));
         }
         let subsystem = System {
+            source: system.source.clone(),
             mass_kind: MassKind::Consistent,
             mass: nn[1].clone(),
             stiffness: nn[0].clone(),

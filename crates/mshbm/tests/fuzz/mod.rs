@@ -1,0 +1,502 @@
+//! The mutation fuzzer of the library's readers, shared by the smoke test
+//! (`tests/fuzz_readers.rs`, a few thousand inputs in `cargo test`) and the campaign
+//! (`examples/fuzz_inputs.rs`, run by `tools/fuzz-inputs`, ≥ 10⁵ inputs per target with a
+//! per-input time limit and a per-input peak-memory check).
+//!
+//! Five targets, each fed inputs mutated from seeds (byte flips, random insertions,
+//! deletions, duplicated lines, splices from another seed, numbers replaced by extreme
+//! values) by a deterministic generator: case `c` of seed `s` is always the same input, so
+//! a finding is replayed alone.
+//!
+//! * `model`: a model file (TOML) parsed from text, every sixteenth read from disk;
+//! * `matrix`: a Matrix Market file parsed alone, every fourth also read as a model's
+//!   stiffness (or, when it is not Matrix Market, its coordinates);
+//! * `tables`: the per-node tables a model names — `gap_file` and `mu_file` of an obstacle
+//!   interface, the `gap_file` of a pairs interface, `contacts_file`, a node set's `file`;
+//! * `overrides`: one to three `--set KEY=VALUE` assignments (keys of the seed, mutated or
+//!   not; values extreme, of another type, or mutated) applied to a seed model;
+//! * `solution`: a `--from-solution` JSON (a solution of the bar written by `solve --json`,
+//!   mutated mostly near the fields a start uses), parsed, checked against the bar
+//!   (`PeriodicSolution::unusable_start`), resized to H and solved from, as `mshbm solve
+//!   --from-solution` does.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+use mshbm::limits::Limits;
+use mshbm::method::settings::MethodSettings;
+use mshbm::model::file::{load_model_with, parse_model_with};
+use mshbm::model::matrix_market::parse_matrix_with;
+use mshbm::model::LoadOptions;
+use mshbm::solution::{MethodKind, PeriodicSolution};
+use mshbm::solve::{solve_periodic, SolveSettings, SolveStart};
+use mshbm::Model;
+
+mod mutate;
+mod watch;
+
+pub use mutate::{mutate, Rng};
+#[allow(unused_imports)] // the campaign measures the peak, the smoke test does not
+pub use watch::{peak_rss, reset_peak_rss, Watchdog};
+
+/// The targets, in the order of the campaign.
+pub const TARGETS: &[&str] = &["model", "matrix", "tables", "overrides", "solution"];
+
+fn corpus() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_corpus")
+}
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples")
+}
+
+fn files_in(dir: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    files
+}
+
+fn copy_all(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for f in files_in(from) {
+        std::fs::copy(&f, to.join(f.file_name().unwrap())).unwrap();
+    }
+}
+
+/// A model seed: its text and the scratch directory its referenced files are in.
+struct ModelSeed {
+    text: Vec<u8>,
+    dir: PathBuf,
+}
+
+/// A table seed: the model that names it, and the table's file name and text.
+struct TableSeed {
+    model: PathBuf,
+    name: &'static str,
+    text: Vec<u8>,
+}
+
+/// One input of a target, as bytes (shown when it fails) plus, for `overrides`, the
+/// assignments.
+pub struct Input {
+    pub bytes: Vec<u8>,
+    run: Run,
+}
+
+enum Run {
+    ModelText { dir: PathBuf, from_disk: bool },
+    Matrix { as_model: bool },
+    Table { model: PathBuf, name: &'static str },
+    Overrides { seed: usize, sets: Vec<String> },
+    Solution { harmonics: usize },
+}
+
+/// The seeds, a scratch directory with the files they reference (removed on drop), and
+/// the limits every reader runs with.
+pub struct Harness {
+    root: PathBuf,
+    models: Vec<ModelSeed>,
+    matrices: Vec<Vec<u8>>,
+    tables: Vec<TableSeed>,
+    solution: Vec<u8>,
+    bar: Model,
+    pub options: LoadOptions,
+}
+
+impl Harness {
+    /// Seeds from `tests/fuzz_corpus/` and `examples/`, scratch files under `root`, every
+    /// reader within a memory budget of `memory_bytes` (so that an input the budget
+    /// allows runs, and one it refuses is refused by its plan).
+    pub fn new(root: &Path, memory_bytes: u64) -> Self {
+        let options = LoadOptions {
+            limits: Limits {
+                memory_bytes,
+                file_bytes: 1 << 20,
+                cancel: Default::default(),
+            },
+            allow_outside_paths: false,
+        };
+        // referenced files: the bar's Matrix Market files (101 DOFs), the friction
+        // oscillator's, the table seeds' (plate and bar with their tables)
+        copy_all(&examples().join("bar_matrices"), &root.join("bar"));
+        copy_all(&examples().join("friction_oscillator"), &root.join("chain"));
+        copy_all(&examples().join("bar_matrices"), &root.join("data"));
+        copy_all(&examples().join("bar_matrices"), &root.join("data_nodes"));
+        copy_all(&examples().join("bar_matrices"), &root.join("tables"));
+        copy_all(&corpus().join("tables"), &root.join("tables"));
+
+        let mut model_files = files_in(&corpus().join("models"));
+        model_files.extend(
+            files_in(&examples())
+                .into_iter()
+                .filter(|p| p.extension().is_some_and(|e| e == "toml")),
+        );
+        model_files.push(examples().join("bar_matrices/model.toml"));
+        model_files.push(examples().join("friction_oscillator/model.toml"));
+        model_files.push(examples().join("friction_damper/model.toml"));
+        model_files.push(corpus().join("tables/plate.toml"));
+        model_files.push(corpus().join("tables/bar.toml"));
+        let models = model_files
+            .iter()
+            .map(|p| {
+                let text = std::fs::read(p).unwrap();
+                let s = String::from_utf8_lossy(&text);
+                let dir = if s.contains("gap_file") || s.contains("contacts_file") {
+                    root.join("tables")
+                } else if s.contains("coordinates = [") {
+                    root.join("chain")
+                } else {
+                    root.join("bar")
+                };
+                ModelSeed { text, dir }
+            })
+            .collect();
+
+        let mut matrices: Vec<Vec<u8>> = files_in(&corpus().join("matrices"))
+            .iter()
+            .map(|p| std::fs::read(p).unwrap())
+            .collect();
+        for f in [
+            "mass.mtx",
+            "stiffness.mtx",
+            "harmonic_load.mtx",
+            "nodes.txt",
+        ] {
+            matrices.push(std::fs::read(examples().join("bar_matrices").join(f)).unwrap());
+        }
+
+        let tables_dir = root.join("tables");
+        let table = |model: &str, name: &'static str| TableSeed {
+            model: tables_dir.join(model),
+            name,
+            text: std::fs::read(tables_dir.join(name)).unwrap(),
+        };
+        let tables = vec![
+            table("plate.toml", "gaps.csv"),
+            table("plate.toml", "mu.csv"),
+            table("plate.toml", "crack_gaps.csv"),
+            table("bar.toml", "contacts.csv"),
+            table("bar.toml", "tip.csv"),
+        ];
+
+        // the start solution: the bar at 30 kHz, H = 3, as `solve --json` writes it
+        let bar =
+            mshbm::model::file::load_model(&examples().join("clamped_bar.toml"), &[]).unwrap();
+        let solved = solve_periodic(
+            &bar,
+            &MethodSettings::redistributed(3),
+            30000.0,
+            &SolveSettings {
+                stability: false,
+                ..SolveSettings::default()
+            },
+        )
+        .unwrap();
+        let solution = serde_json::to_vec_pretty(&solved.solution).unwrap();
+
+        Harness {
+            root: root.to_path_buf(),
+            models,
+            matrices,
+            tables,
+            solution,
+            bar,
+            options,
+        }
+    }
+
+    /// Every table seed loads as it is (the fuzzer mutates valid inputs).
+    pub fn check_seeds(&self) {
+        for t in &self.tables {
+            std::fs::write(t.model.with_file_name(t.name), &t.text).unwrap();
+        }
+        for t in &self.tables {
+            if let Err(e) = load_model_with(&t.model, &[], &self.options) {
+                panic!("table seed {}: {e}", t.model.display());
+            }
+        }
+    }
+
+    /// The input of case `rng` for `target`.
+    pub fn input(&self, target: &str, rng: &mut Rng) -> Input {
+        match target {
+            "model" => {
+                let seed = &self.models[rng.below(self.models.len())];
+                let other = &self.models[rng.below(self.models.len())].text;
+                let from_disk = rng.below(16) == 0;
+                Input {
+                    bytes: mutate(&seed.text, other, rng),
+                    run: Run::ModelText {
+                        dir: seed.dir.clone(),
+                        from_disk,
+                    },
+                }
+            }
+            "matrix" => {
+                let seed = &self.matrices[rng.below(self.matrices.len())];
+                let other = &self.matrices[rng.below(self.matrices.len())];
+                let as_model = rng.below(4) == 0;
+                Input {
+                    bytes: mutate(seed, other, rng),
+                    run: Run::Matrix { as_model },
+                }
+            }
+            "tables" => {
+                let t = &self.tables[rng.below(self.tables.len())];
+                let other = &self.tables[rng.below(self.tables.len())].text;
+                Input {
+                    bytes: mutate(&t.text, other, rng),
+                    run: Run::Table {
+                        model: t.model.clone(),
+                        name: t.name,
+                    },
+                }
+            }
+            "overrides" => {
+                let seed = rng.below(self.models.len());
+                let text = String::from_utf8_lossy(&self.models[seed].text).into_owned();
+                let keys = leaf_keys(&text);
+                let sets: Vec<String> = (0..1 + rng.below(3))
+                    .map(|_| assignment(&keys, rng))
+                    .collect();
+                Input {
+                    bytes: sets.join("\n").into_bytes(),
+                    run: Run::Overrides { seed, sets },
+                }
+            }
+            "solution" => {
+                let bytes = if rng.below(4) == 0 {
+                    mutate(&self.solution, &self.solution, rng)
+                } else {
+                    // mostly near the fields a start uses
+                    let text = &self.solution;
+                    let keys = [
+                        "\"unknowns\"",
+                        "\"harmonics\"",
+                        "\"method\"",
+                        "\"contact_dofs\"",
+                        "\"frequency_hz\"",
+                    ];
+                    let key = keys[rng.below(keys.len())].as_bytes();
+                    let at = text.windows(key.len()).position(|w| w == key).unwrap_or(0);
+                    let end = (at + 40 + rng.below(400)).min(text.len());
+                    let mut out = text[..at].to_vec();
+                    out.extend(mutate(&text[at..end], &self.solution, rng));
+                    out.extend_from_slice(&text[end..]);
+                    out
+                };
+                Input {
+                    bytes,
+                    run: Run::Solution {
+                        harmonics: 1 + rng.below(5),
+                    },
+                }
+            }
+            other => panic!("unknown target {other:?} (one of {TARGETS:?})"),
+        }
+    }
+
+    /// Feed `input` to its reader: `true` when it was accepted (and, for a solution,
+    /// solved from), `false` when refused with an error. A panic propagates.
+    pub fn run(&self, input: &Input) -> bool {
+        let text = || String::from_utf8_lossy(&input.bytes).into_owned();
+        match &input.run {
+            Run::ModelText { dir, from_disk } => {
+                let path = dir.join("fuzzed.toml");
+                if *from_disk {
+                    std::fs::write(&path, &input.bytes).unwrap();
+                    load_model_with(&path, &[], &self.options).is_ok()
+                } else {
+                    parse_model_with(&text(), &path, &[], &self.options).is_ok()
+                }
+            }
+            Run::Matrix { as_model } => {
+                let text = text();
+                let ok =
+                    parse_matrix_with(&text, Path::new("fuzzed.mtx"), &self.options.limits).is_ok();
+                if *as_model {
+                    let (folder, name) = if text.starts_with("%%") {
+                        ("data", "stiffness.mtx")
+                    } else {
+                        ("data_nodes", "nodes.txt")
+                    };
+                    std::fs::write(self.root.join(folder).join(name), &input.bytes).unwrap();
+                    let model = self.root.join(folder).join("model.toml");
+                    let _ = load_model_with(&model, &[], &self.options);
+                }
+                ok
+            }
+            Run::Table { model, name } => {
+                std::fs::write(model.with_file_name(name), &input.bytes).unwrap();
+                let ok = load_model_with(model, &[], &self.options).is_ok();
+                // the seed back, so that the next input mutates one table at a time
+                let seed = self.tables.iter().find(|t| t.name == *name).unwrap();
+                std::fs::write(model.with_file_name(name), &seed.text).unwrap();
+                ok
+            }
+            Run::Overrides { seed, sets } => {
+                let s = &self.models[*seed];
+                let text = String::from_utf8_lossy(&s.text);
+                parse_model_with(&text, &s.dir.join("fuzzed.toml"), sets, &self.options).is_ok()
+            }
+            Run::Solution { harmonics } => self.start_from(&text(), *harmonics),
+        }
+    }
+
+    /// `mshbm solve examples/clamped_bar.toml --harmonics H --from-solution FILE` in
+    /// process: the solution parsed, checked against the bar, resized to H and solved from
+    /// (with the Floquet multipliers, as the CLI's default).
+    fn start_from(&self, json: &str, harmonics: usize) -> bool {
+        let Ok(s) = serde_json::from_str::<PeriodicSolution>(json) else {
+            return false;
+        };
+        if s.unusable_start(&self.bar, MethodKind::Redistributed)
+            .is_some()
+        {
+            return false;
+        }
+        let Some(x) = s.unknowns.as_ref() else {
+            return false;
+        };
+        let Some(x) = mshbm::harmonic::with_harmonics(x, s.harmonics, harmonics) else {
+            return false;
+        };
+        // the CLI's own check of the frequency
+        let f = s.frequency_hz;
+        if !(f.is_finite() && f > 0.0) {
+            return false;
+        }
+        let settings = SolveSettings {
+            limits: self.options.limits,
+            start: SolveStart::Unknowns(x),
+            ..SolveSettings::default()
+        };
+        solve_periodic(
+            &self.bar,
+            &MethodSettings::redistributed(harmonics),
+            f,
+            &settings,
+        )
+        .is_ok_and(|s| s.outcome.converged)
+    }
+}
+
+/// The dotted paths of the leaves of a TOML document (array elements by index) and of its
+/// tables and arrays, each with its value as TOML text; empty when it does not parse.
+fn leaf_keys(text: &str) -> Vec<(String, String)> {
+    fn walk(v: &toml::Value, path: &str, out: &mut Vec<(String, String)>) {
+        match v {
+            toml::Value::Table(t) => {
+                if !path.is_empty() {
+                    out.push((path.to_string(), "{}".into()));
+                }
+                for (k, v) in t {
+                    let p = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    walk(v, &p, out);
+                }
+            }
+            toml::Value::Array(a) => {
+                out.push((path.to_string(), v.to_string()));
+                for (i, v) in a.iter().enumerate().take(4) {
+                    walk(v, &format!("{path}.{i}"), out);
+                }
+            }
+            _ => out.push((path.to_string(), v.to_string())),
+        }
+    }
+    let mut out = Vec::new();
+    if let Ok(v) = text.parse::<toml::Value>() {
+        walk(&v, "", &mut out);
+    }
+    out
+}
+
+/// Values an assignment may set: extreme numbers, other types, arrays, strings.
+const VALUES: &[&str] = &[
+    "0",
+    "-0",
+    "-1",
+    "1e308",
+    "-1e308",
+    "1e-320",
+    "1e-300",
+    "1e300",
+    "nan",
+    "inf",
+    "-inf",
+    "18446744073709551615",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "4294967296",
+    "1000000",
+    "true",
+    "\"x\"",
+    "\"\u{1b}[2J\"",
+    "\"../../etc/passwd\"",
+    "[]",
+    "[1e308, -1e308]",
+    "[0, 0, 0]",
+    "[[0.0, 1.0], [1.0, 0.0]]",
+    "{}",
+    "{ a = 1 }",
+    "",
+    "=",
+    "[",
+    "\"",
+    "x.y=1",
+];
+
+/// One `--set` assignment: a key of the seed (or a mutation of one, or a new one) and a
+/// value: extreme, of another type, or the seed's own value mutated (so that many
+/// assignments are accepted and reach the model's checks).
+fn assignment(keys: &[(String, String)], rng: &mut Rng) -> String {
+    let (key, own) = if keys.is_empty() || rng.below(8) == 0 {
+        let key = [
+            "",
+            ".",
+            "a..b",
+            "bar.",
+            ".bar",
+            "name",
+            "kind",
+            "x.0.y",
+            "bar.elements.0",
+        ][rng.below(9)]
+        .to_string();
+        (key, "1".to_string())
+    } else {
+        let (k, v) = keys[rng.below(keys.len())].clone();
+        let k = match rng.below(6) {
+            0 => format!(
+                "{k}.{}",
+                ["0", "x", "99999999999999999999", "-1"][rng.below(4)]
+            ),
+            1 => String::from_utf8_lossy(&mutate(k.as_bytes(), b"0.", rng)).into_owned(),
+            _ => k,
+        };
+        (k, v)
+    };
+    let value = match rng.below(6) {
+        0 => String::from_utf8_lossy(&mutate(b"1.5e3", b"[1, 2]", rng)).into_owned(),
+        1 => own,
+        2 => String::from_utf8_lossy(&mutate(own.as_bytes(), b"-1e308", rng)).into_owned(),
+        _ => VALUES[rng.below(VALUES.len())].to_string(),
+    };
+    format!("{key}={value}")
+}
+
+/// An input for a failure message: escaped, at most 2000 characters.
+pub fn show(input: &[u8]) -> String {
+    let text = String::from_utf8_lossy(input);
+    let shown: String = text.chars().take(2000).collect();
+    format!("{shown:?}")
+}
