@@ -22,6 +22,9 @@ pub(super) struct FrictionPhase {
     modal_forcing: Mat<f64>,
 }
 
+/// `(F, G)` of a set of modes (T152).
+type ForceMaps<'a> = (&'a [f64], &'a [f64]);
+
 /// The sets' data by the contacts' modes; it depends on the modes only, so it is kept
 /// along a diagram (cleared when the stability options or the harmonics change, and when it
 /// reaches [`PHASE_CACHE_BYTES`]).
@@ -95,7 +98,7 @@ impl RedistributedMsHbm {
         }
         let mut k_inv: Option<Mat<f64>> = None;
         let mut sets: HashMap<usize, Rc<FrictionPhase>> = HashMap::new();
-        let mut needed: Vec<(usize, (&[f64], &[f64]))> = law
+        let mut needed: Vec<(usize, ForceMaps)> = law
             .phases
             .iter()
             .map(|p| (PeriodicContact::mode_set(p), law.force_maps(p)))
