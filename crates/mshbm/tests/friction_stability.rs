@@ -9,7 +9,6 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use faer::{c64, Mat};
-use mshbm::model::file::parse_model;
 use mshbm::model::{Contact, ContactFriction, Damping, Model};
 use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::problem::PeriodicProblem;
@@ -17,24 +16,6 @@ use mshbm::sparse::SparseMatrix;
 use mshbm::stability::StabilityOptions;
 
 use common::{hz, ms_hbm};
-
-/// The friction damper example with `mu` replaced (`None`: the line removed) and the
-/// overrides `set`.
-fn damper(mu: Option<f64>, set: &[&str]) -> Model {
-    let path = common::examples().join("friction_damper/model.toml");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let text: String = text
-        .lines()
-        .filter_map(|line| match (line.starts_with("mu ="), mu) {
-            (true, None) => None,
-            (true, Some(m)) => Some(format!("mu = {m}")),
-            _ => Some(line.to_string()),
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    parse_model(&text, Path::new(&path), &set).unwrap()
-}
 
 /// The largest distance from a multiplier of `a` to the nearest of `b`, both ways.
 fn spectral_distance(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
@@ -55,7 +36,10 @@ fn spectral_distance(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
 /// multipliers (T80)–(T82), in the full space and in a reduced basis.
 #[test]
 fn without_friction_coefficient_the_multipliers_are_the_frictionless_ones() {
-    let (with, without) = (damper(Some(0.0), &[]), damper(None, &[]));
+    let (with, without) = (
+        common::friction_damper(Some(0.0), &[]),
+        common::friction_damper(None, &[]),
+    );
     let tight = NewtonOptions {
         tolerance: 1e-12,
         ..NewtonOptions::default()
@@ -417,7 +401,7 @@ fn simulated_changes(
 fn the_verdicts_agree_with_time_integration_on_the_friction_damper() {
     let omega = hz(640.0);
     let (stable, largest, changes) = simulated_changes(
-        &damper(Some(0.1), &["damping.beta_linear=1e-7"]),
+        &common::friction_damper(Some(0.1), &["damping.beta_linear=1e-7"]),
         omega,
         20,
         30,
@@ -430,7 +414,7 @@ fn the_verdicts_agree_with_time_integration_on_the_friction_damper() {
             .collect::<Vec<_>>()
     );
     let (unstable_verdict, largest_u, changes_u) =
-        simulated_changes(&damper(Some(0.1), &[]), omega, 20, 30);
+        simulated_changes(&common::friction_damper(Some(0.1), &[]), omega, 20, 30);
     println!(
         "undamped: stable {unstable_verdict}, largest {largest_u:.4}, changes {:?}",
         changes_u

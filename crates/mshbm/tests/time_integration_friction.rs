@@ -12,7 +12,6 @@ use std::time::Instant;
 use common::hz;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, Periodicity, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Scheme, Settings};
-use mshbm::model::file::parse_model;
 use mshbm::model::{System, SystemContact, SystemContactFriction};
 use mshbm::newton::{solve_at_frequency, NewtonOptions};
 use mshbm::simulation::state_from_solution;
@@ -104,32 +103,16 @@ fn a_jenkins_element_follows_the_masing_loop() {
     }
 }
 
-/// The friction damper example with `mu` replaced (`None`: the line removed) and the
-/// overrides `set`.
-fn damper(mu: Option<f64>, set: &[&str]) -> mshbm::Model {
-    let path = common::examples().join("friction_damper/model.toml");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let text: String = text
-        .lines()
-        .filter_map(|line| match (line.starts_with("mu ="), mu) {
-            (true, None) => None,
-            (true, Some(m)) => Some(format!("mu = {m}")),
-            _ => Some(line.to_string()),
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
-    parse_model(&text, Path::new(&path), &set).unwrap()
-}
-
 #[test]
 fn without_friction_coefficient_the_trajectory_is_the_frictionless_one() {
     let omega = hz(1100.0);
     let n = 512;
-    let frictional = damper(Some(0.0), &[])
+    let frictional = common::friction_damper(Some(0.0), &[])
         .system(MassKind::Redistributed)
         .unwrap();
-    let frictionless = damper(None, &[]).system(MassKind::Redistributed).unwrap();
+    let frictionless = common::friction_damper(None, &[])
+        .system(MassKind::Redistributed)
+        .unwrap();
     let mut a = position_newmark(&frictional, omega, n);
     let mut b = position_newmark(&frictionless, omega, n);
     let mut scale = 0.0f64;
@@ -167,7 +150,7 @@ fn without_friction_coefficient_the_trajectory_is_the_frictionless_one() {
 /// Its resonance is then near 640 Hz.
 #[test]
 fn the_friction_damper_agrees_with_the_frictional_ms_hbm_across_the_resonance() {
-    let model = damper(Some(0.1), &["damping.beta_linear=1e-7"]);
+    let model = common::friction_damper(Some(0.1), &["damping.beta_linear=1e-7"]);
     let system = model.system(MassKind::Redistributed).unwrap();
     let dof = 209;
     let n = 2048;

@@ -69,18 +69,7 @@ impl ReducedSystem {
             b_a = -(b_psi * &x_a);
         }
         let w = self.w_ref;
-        let state = Mat::<f64>::from_fn(2 * r, 2 * r, |i, j| match (i < r, j < r) {
-            (true, true) => 0.0,
-            (true, false) => {
-                if j - r == i {
-                    w
-                } else {
-                    0.0
-                }
-            }
-            (false, true) => -k_eff[(i - r, j)] / w,
-            (false, false) => -self.minv_damping[(i - r, j - r)],
-        });
+        let state = self.first_order(&k_eff);
         let forcing = Mat::<f64>::from_fn(
             2 * r,
             n_a,

@@ -348,23 +348,27 @@ impl ReducedSystem {
     /// row-major): state `z = (w η, η̇)` with `w` ~ the highest frequency, which balances
     /// the blocks (a similarity: multipliers unchanged) and keeps exponentials accurate.
     pub fn state_matrix(&self, compliance: &[f64]) -> Result<Mat<f64>> {
-        let r = self.dimension();
         let k_eff = self.effective_stiffness(compliance)?;
+        Ok(self.first_order(&k_eff))
+    }
+
+    /// The balanced first-order matrix `[[0, w I], [−K/w, −M⁻¹C]]` of the stiffness `k_eff`
+    /// (`M⁻¹ K` in the coordinates), state `z = (w η, η̇)`.
+    fn first_order(&self, k_eff: &Mat<f64>) -> Mat<f64> {
+        let r = self.dimension();
         let w = self.w_ref;
-        Ok(Mat::<f64>::from_fn(2 * r, 2 * r, |i, j| {
-            match (i < r, j < r) {
-                (true, true) => 0.0,
-                (true, false) => {
-                    if j - r == i {
-                        w
-                    } else {
-                        0.0
-                    }
+        Mat::<f64>::from_fn(2 * r, 2 * r, |i, j| match (i < r, j < r) {
+            (true, true) => 0.0,
+            (true, false) => {
+                if j - r == i {
+                    w
+                } else {
+                    0.0
                 }
-                (false, true) => -k_eff[(i - r, j)] / w,
-                (false, false) => -self.minv_damping[(i - r, j - r)],
             }
-        }))
+            (false, true) => -k_eff[(i - r, j)] / w,
+            (false, false) => -self.minv_damping[(i - r, j - r)],
+        })
     }
 }
 

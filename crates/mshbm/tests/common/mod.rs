@@ -307,3 +307,21 @@ pub fn complex_rel_diff(a: &[c64], b: &[c64]) -> f64 {
     let largest = |v: &mut dyn Iterator<Item = c64>| v.fold(0.0f64, |m, x| m.max(x.norm()));
     largest(&mut a.iter().zip(b).map(|(x, y)| x - y)) / largest(&mut b.iter().copied())
 }
+
+/// The friction damper example with `mu` replaced (`None`: the line removed) and the
+/// overrides `set`.
+pub fn friction_damper(mu: Option<f64>, set: &[&str]) -> Model {
+    let path = examples().join("friction_damper/model.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let text: String = text
+        .lines()
+        .filter_map(|line| match (line.starts_with("mu ="), mu) {
+            (true, None) => None,
+            (true, Some(m)) => Some(format!("mu = {m}")),
+            _ => Some(line.to_string()),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let set: Vec<String> = set.iter().map(|s| s.to_string()).collect();
+    mshbm::model::file::parse_model(&text, Path::new(&path), &set).unwrap()
+}
