@@ -373,3 +373,102 @@ fn a_friction_coefficient_per_node_from_a_file() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The operator form of the Jacobian with friction (docs/theory.md (T133) with `S` of
+/// (T158)): its action against central differences of the residual along directions and
+/// against the dense matrix (two codes: a product with `S` per application, and `S` times
+/// the complement's blocks by matrix products), and Newton with it (GMRES preconditioned by
+/// the factors of an earlier Jacobian) against the dense LU path.
+#[test]
+fn the_operator_jacobian_with_friction_applies_the_jacobian_and_newton_reaches_the_dense_solution()
+{
+    use mshbm::harmonic::Quadrature;
+    use mshbm::method::redistributed::{JacobianForm, RedistributedMsHbm, RedistributedOptions};
+    use mshbm::problem::Jacobian;
+    let with = |model: &Model, jacobian: JacobianForm| {
+        RedistributedMsHbm::new(
+            model,
+            &RedistributedOptions {
+                quadrature: Quadrature::Exact,
+                jacobian,
+                ..RedistributedOptions::new(3)
+            },
+        )
+        .unwrap()
+    };
+    let omega = hz(250.0);
+    let light = damper(Some(0.05), 2.0);
+    let mut p = with(&light, JacobianForm::Operator);
+    let x0 = p.initial_guess(omega).unwrap();
+    let dense_start = solve(
+        &mut with(&light, JacobianForm::Dense),
+        &x0,
+        omega,
+        &NewtonOptions::default(),
+    )
+    .unwrap();
+    let operator_start = solve(&mut p, &x0, omega, &NewtonOptions::default()).unwrap();
+    assert!(dense_start.converged && operator_start.converged);
+    let max_abs = |v: &mut dyn Iterator<Item = f64>| v.fold(0.0f64, |s, x| s.max(x.abs()));
+    let err = max_abs(
+        &mut dense_start
+            .x
+            .iter()
+            .zip(&operator_start.x)
+            .map(|(a, b)| a - b),
+    ) / max_abs(&mut dense_start.x.iter().copied());
+    assert!(err < 1e-9, "μ = 0.05: operator vs dense Newton {err:.2e}");
+    // μ = 0.1 from μ = 0.05's solution (a continuation in μ), on both paths
+    let model = damper(Some(0.1), 2.0);
+    let mut dense = with(&model, JacobianForm::Dense);
+    let mut operator = with(&model, JacobianForm::Operator);
+    let a = solve(&mut dense, &dense_start.x, omega, &NewtonOptions::default()).unwrap();
+    let b = solve(
+        &mut operator,
+        &dense_start.x,
+        omega,
+        &NewtonOptions::default(),
+    )
+    .unwrap();
+    assert!(a.converged && b.converged, "{:?} {:?}", a.reason, b.reason);
+    let err =
+        max_abs(&mut a.x.iter().zip(&b.x).map(|(p, q)| p - q)) / max_abs(&mut a.x.iter().copied());
+    assert!(err < 1e-9, "μ = 0.1: operator vs dense Newton {err:.2e}");
+    // the action at a perturbed point (stick, slip and open phases)
+    let x = perturbed(&a.x);
+    let lin = operator.linearize(&x, omega).unwrap();
+    let Jacobian::Operator(op) = &lin.jacobian else {
+        panic!("JacobianForm::Operator gives an operator with friction too");
+    };
+    let matrix = dense.linearize(&x, omega).unwrap().jacobian;
+    let n = x.len();
+    for seed in 0..3 {
+        let v: Vec<f64> = (0..n)
+            .map(|i| ((i * 7 + seed * 3) as f64 * 0.61).sin())
+            .collect();
+        let mut jv = vec![0.0; n];
+        op.apply(&v, &mut jv);
+        let by_matrix = matrix.apply(&v);
+        let err = max_abs(&mut by_matrix.iter().zip(&jv).map(|(p, q)| p - q))
+            / max_abs(&mut by_matrix.iter().copied());
+        assert!(err < 1e-12, "direction {seed}: action vs matrix {err:.2e}");
+        let h = 1e-7 * operator.length_scale();
+        let xp: Vec<f64> = x.iter().zip(&v).map(|(p, q)| p + h * q).collect();
+        let xm: Vec<f64> = x.iter().zip(&v).map(|(p, q)| p - h * q).collect();
+        let (rp, rm) = (
+            operator.residual(&xp, omega).unwrap(),
+            operator.residual(&xm, omega).unwrap(),
+        );
+        let fd: Vec<f64> = rp
+            .iter()
+            .zip(&rm)
+            .map(|(p, q)| (p - q) / (2.0 * h))
+            .collect();
+        let err =
+            max_abs(&mut fd.iter().zip(&jv).map(|(p, q)| p - q)) / max_abs(&mut fd.iter().copied());
+        assert!(
+            err < 1e-6,
+            "direction {seed}: action vs central differences {err:.2e}"
+        );
+    }
+}

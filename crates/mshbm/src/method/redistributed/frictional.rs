@@ -11,7 +11,6 @@ use faer::Mat;
 
 use super::frequency_maps::{FrequencyMatrices, Map};
 use super::friction::PeriodicContact;
-use super::jacobian::times_each_coefficient_into;
 use super::outputs::{dof_response, NodeHarmonics};
 use super::{n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS};
 use crate::error::{Error, Result};
@@ -72,7 +71,10 @@ pub(super) fn with_tangent_coordinates(
 }
 
 /// The dense Jacobian (T129) with the frictional law's `S = dλ̂/du` (T158):
-/// `J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(I − D R_k⁻¹)`, column by column.
+/// `J = blockdiag(Λ R_k⁻¹) − (I ⊗ Λ) S blockdiag(I − D R_k⁻¹)`, by matrix products: `S`
+/// times the block-diagonal complement one coefficient's columns at a time (the real form
+/// (T15) of `C_k = I − D R_k⁻¹` couples a harmonic's cosine and sine columns), then each
+/// coefficient's rows times `Λ`.
 pub(super) fn dense_jacobian(
     n: usize,
     harmonics: usize,
@@ -80,32 +82,97 @@ pub(super) fn dense_jacobian(
     residual_scale: &[f64],
     law: &PeriodicContact,
 ) -> Mat<f64> {
-    let size = n * n_coefficients(harmonics);
-    let mut jacobian = Mat::<f64>::zeros(size, size);
-    let (mut unit, mut direct, mut scaled, mut s_times, mut scaled_s) = (
-        vec![0.0; size],
-        vec![0.0; size],
-        vec![0.0; size],
-        vec![0.0; size],
-        vec![0.0; size],
-    );
-    for j in 0..size {
-        unit.iter_mut().for_each(|v| *v = 0.0);
-        unit[j] = 1.0;
-        matrices.apply_into(Map::Residual, n, &unit, &mut direct);
-        matrices.apply_into(Map::Scaled, n, &unit, &mut scaled);
-        // (I − D R⁻¹) e_j
-        scaled.iter_mut().zip(&unit).for_each(|(s, u)| *s = u - *s);
-        for (row, o) in s_times.iter_mut().enumerate() {
-            *o = law.jacobian[row * size..(row + 1) * size]
-                .iter()
-                .zip(&scaled)
-                .map(|(a, b)| a * b)
-                .sum();
+    use faer::linalg::matmul::matmul;
+    use faer::{Accum, MatRef, Par};
+    let ncoef = n_coefficients(harmonics);
+    let size = n * ncoef;
+    let s = MatRef::from_row_major_slice(&law.jacobian, size, size);
+    let real_form = |k: usize, map: Map| -> (Mat<f64>, Mat<f64>) {
+        let m = matrices.matrix(map, k);
+        (
+            Mat::from_fn(n, n, |i, j| m[(i, j)].re),
+            Mat::from_fn(n, n, |i, j| m[(i, j)].im),
+        )
+    };
+    // S C: the column block of coefficient `col` gathers the blocks of its harmonic
+    let mut sc = Mat::<f64>::zeros(size, size);
+    for k in 0..=harmonics {
+        let (re, im) = real_form(k, Map::Scaled);
+        let c_re = Mat::<f64>::identity(n, n) - &re;
+        if k == 0 {
+            matmul(
+                sc.as_mut().subcols_mut(0, n),
+                Accum::Replace,
+                s.subcols(0, n),
+                &c_re,
+                1.0,
+                Par::Seq,
+            );
+            continue;
         }
-        times_each_coefficient_into(n, residual_scale, &s_times, &mut scaled_s);
-        for i in 0..size {
-            jacobian[(i, j)] = direct[i] - scaled_s[i];
+        let (cc, ss) = (2 * k - 1, 2 * k);
+        // the real form of C on (cos, sin): [[Re, Im], [−Im, Re]] acting on a column pair,
+        // with Re C = I − Re(D R⁻¹) and Im C = −Im(D R⁻¹)
+        let (s_cos, s_sin) = (s.subcols(cc * n, n), s.subcols(ss * n, n));
+        let mut cos_cols = Mat::<f64>::zeros(size, n);
+        matmul(
+            cos_cols.as_mut(),
+            Accum::Replace,
+            s_cos,
+            &c_re,
+            1.0,
+            Par::Seq,
+        );
+        matmul(cos_cols.as_mut(), Accum::Add, s_sin, &im, 1.0, Par::Seq);
+        let mut sin_cols = Mat::<f64>::zeros(size, n);
+        matmul(
+            sin_cols.as_mut(),
+            Accum::Replace,
+            s_cos,
+            &im,
+            -1.0,
+            Par::Seq,
+        );
+        matmul(sin_cols.as_mut(), Accum::Add, s_sin, &c_re, 1.0, Par::Seq);
+        sc.as_mut().subcols_mut(cc * n, n).copy_from(&cos_cols);
+        sc.as_mut().subcols_mut(ss * n, n).copy_from(&sin_cols);
+    }
+    // J = blockdiag(Λ R⁻¹) − (I ⊗ Λ) S C
+    let scale = MatRef::from_row_major_slice(residual_scale, n, n);
+    let mut jacobian = Mat::<f64>::zeros(size, size);
+    for m in 0..ncoef {
+        matmul(
+            jacobian.as_mut().subrows_mut(m * n, n),
+            Accum::Replace,
+            scale,
+            sc.as_ref().subrows(m * n, n),
+            -1.0,
+            Par::Seq,
+        );
+    }
+    for k in 0..=harmonics {
+        let (re, im) = real_form(k, Map::Residual);
+        if k == 0 {
+            let mut b = jacobian.as_mut().submatrix_mut(0, 0, n, n);
+            b += &re;
+            continue;
+        }
+        let (cc, ss) = (2 * k - 1, 2 * k);
+        {
+            let mut b = jacobian.as_mut().submatrix_mut(cc * n, cc * n, n, n);
+            b += &re;
+        }
+        {
+            let mut b = jacobian.as_mut().submatrix_mut(cc * n, ss * n, n, n);
+            b += &im;
+        }
+        {
+            let mut b = jacobian.as_mut().submatrix_mut(ss * n, cc * n, n, n);
+            b -= &im;
+        }
+        {
+            let mut b = jacobian.as_mut().submatrix_mut(ss * n, ss * n, n, n);
+            b += &re;
         }
     }
     jacobian

@@ -15,6 +15,7 @@ use std::rc::Rc;
 use faer::{c64, Mat};
 
 use super::frequency_maps::{FrequencyMatrices, Map};
+use super::friction::PeriodicContact;
 use super::quadrature::Integration;
 use crate::harmonic::n_coefficients;
 use crate::problem::JacobianOperator;
@@ -388,6 +389,9 @@ pub(super) struct ContactJacobian {
     /// `Λ` (`n_c × n_c`, row-major).
     residual_scale: Rc<Vec<f64>>,
     integration: Rc<Integration>,
+    /// The frictional law whose `S = dλ̂/du` (T158) replaces the quadrature's force maps,
+    /// when the contacts have friction.
+    law: Option<Rc<PeriodicContact>>,
     /// The method's factors, shared with later linearizations.
     slot: PreconditionerSlot,
     /// The factors this operator preconditions with, and whether they are its own.
@@ -402,6 +406,7 @@ impl ContactJacobian {
         matrices: Rc<FrequencyMatrices>,
         residual_scale: Rc<Vec<f64>>,
         integration: Rc<Integration>,
+        law: Option<Rc<PeriodicContact>>,
         slot: PreconditionerSlot,
     ) -> Self {
         let current = RefCell::new(slot.borrow().clone());
@@ -411,6 +416,7 @@ impl ContactJacobian {
             matrices,
             residual_scale,
             integration,
+            law,
             slot,
             current,
             exact: Cell::new(false),
@@ -424,18 +430,23 @@ impl ContactJacobian {
     fn factor(&self) -> Rc<InPlaceLu> {
         *self.current.borrow_mut() = None;
         *self.slot.borrow_mut() = None;
-        let rows = DenseRows::new(
-            self.n,
-            self.harmonics,
-            &self.matrices,
-            &self.residual_scale,
-            &self.integration,
-        );
-        let lu = Rc::new(InPlaceLu::new(
-            self.dimension(),
-            n_coefficients(self.harmonics),
-            |m| rows.block(m),
-        ));
+        let blocks = n_coefficients(self.harmonics);
+        let lu = Rc::new(if self.law.is_some() {
+            // with friction `S` is dense (T158): the matrix is formed whole
+            let full = self.dense();
+            InPlaceLu::new(self.dimension(), blocks, |m| {
+                full.as_ref().subrows(m * self.n, self.n).to_owned()
+            })
+        } else {
+            let rows = DenseRows::new(
+                self.n,
+                self.harmonics,
+                &self.matrices,
+                &self.residual_scale,
+                &self.integration,
+            );
+            InPlaceLu::new(self.dimension(), blocks, |m| rows.block(m))
+        });
         *self.current.borrow_mut() = Some(Rc::clone(&lu));
         *self.slot.borrow_mut() = Some(Rc::clone(&lu));
         self.exact.set(true);
@@ -453,7 +464,15 @@ impl JacobianOperator for ContactJacobian {
         let direct = self.matrices.apply(Map::Residual, n, x);
         let d_x = self.matrices.apply(Map::Scaled, n, x);
         let complement: Vec<f64> = x.iter().zip(&d_x).map(|(a, b)| a - b).collect();
-        let forces = assemble_forces(n, self.harmonics, &self.integration, &complement);
+        let forces = match &self.law {
+            // (T133) with the frictional law: S u = dλ̂/du · u (T158), a dense product
+            Some(law) => law
+                .jacobian
+                .chunks_exact(complement.len())
+                .map(|row| crate::dense::dot(row, &complement))
+                .collect(),
+            None => assemble_forces(n, self.harmonics, &self.integration, &complement),
+        };
         let scaled = times_each_coefficient(n, &self.residual_scale, &forces);
         out.iter_mut()
             .zip(direct.iter().zip(&scaled))
@@ -467,6 +486,15 @@ impl JacobianOperator for ContactJacobian {
     }
 
     fn dense(&self) -> Mat<f64> {
+        if let Some(law) = &self.law {
+            return super::frictional::dense_jacobian(
+                self.n,
+                self.harmonics,
+                &self.matrices,
+                &self.residual_scale,
+                law,
+            );
+        }
         dense_jacobian(
             self.n,
             self.harmonics,

@@ -435,8 +435,7 @@ impl RedistributedMsHbm {
             residual_scale: Rc::new(residual_scale),
             preconditioner: Default::default(),
             jacobian_form: options.jacobian,
-            operator_jacobian: friction.is_none()
-                && options.jacobian.is_operator(n_contacts * n_coefficients(h)),
+            operator_jacobian: options.jacobian.is_operator(n_contacts * n_coefficients(h)),
             friction,
             stiffness_nn,
             directions,
@@ -485,10 +484,9 @@ impl RedistributedMsHbm {
         )?;
         self.sampling = Sampling::within(harmonics, samples, &self.limits)?;
         self.harmonics = harmonics;
-        self.operator_jacobian = self.friction.is_none()
-            && self
-                .jacobian_form
-                .is_operator(self.n() * n_coefficients(harmonics));
+        self.operator_jacobian = self
+            .jacobian_form
+            .is_operator(self.n() * n_coefficients(harmonics));
         // everything sized by H: the prepared frequency, the preconditioner's factors, the
         // Floquet analysis' per-set data
         self.frequency = None;
@@ -627,6 +625,7 @@ impl RedistributedMsHbm {
                 matrices,
                 Rc::clone(&self.residual_scale),
                 Rc::clone(&e.integration),
+                e.friction.clone(),
                 Rc::clone(&self.preconditioner),
             )));
             return Ok(());
