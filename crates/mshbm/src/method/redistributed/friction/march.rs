@@ -8,7 +8,7 @@
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
-use super::modes::{Kind, ModeData};
+use super::modes::{Kind, ModeCache, ModeData};
 use super::{FrictionalContacts, Mode, Phase, INDICATOR_TOLERANCE};
 use crate::error::{Error, Result};
 use crate::harmonic::{add_interval_gram, basis_derivative, basis_into, n_coefficients};
@@ -22,9 +22,6 @@ pub(super) struct Marched {
     pub(super) d_anchors_end: Vec<f64>,
     /// Contacts whose anchor was set during the period.
     pub(super) released: Vec<bool>,
-    pub(super) forces: Vec<f64>,
-    /// `2n(2H+1) × (2n(2H+1) + n)`.
-    pub(super) d_forces: Vec<f64>,
     pub(super) phases: Vec<Phase>,
     /// The anchors set during the period, in order.
     pub(super) events: Vec<AnchorEvent>,
@@ -61,14 +58,23 @@ impl<'a> March<'a> {
         harmonics: usize,
         gamma: &'a [f64],
         cells: usize,
+        cache: ModeCache,
     ) -> Self {
         March {
             contacts,
             harmonics,
             gamma,
             cells,
-            data: Vec::new(),
-            index: HashMap::new(),
+            data: cache.data,
+            index: cache.index,
+        }
+    }
+
+    /// The sets of modes met, for later marches.
+    pub(super) fn into_cache(self) -> ModeCache {
+        ModeCache {
+            data: self.data,
+            index: self.index,
         }
     }
 
@@ -128,6 +134,20 @@ impl<'a> March<'a> {
             let size: f64 = out[start..].iter().map(|v| v.abs()).sum();
             out[start] += INDICATOR_TOLERANCE * size;
         }
+    }
+
+    /// The Fourier coefficients of the forces over the period cut into `phases`, and their
+    /// derivative against `[γ̂, a₀]` (T155): `(2n(2H+1), 2n(2H+1) × (2n(2H+1) + n))`. Only
+    /// the march that reaches the periodic state needs them (T156), so the marches of the
+    /// fixed point leave them out.
+    pub(super) fn accumulate(&self, phases: &[Phase]) -> (Vec<f64>, Vec<f64>) {
+        let nu = 2 * self.contacts.n * n_coefficients(self.harmonics);
+        let nv = nu + self.contacts.n;
+        let (mut forces, mut d_forces, mut gram) = (vec![0.0; nu], vec![0.0; nu * nv], Vec::new());
+        for phase in phases {
+            self.add_phase(phase, &mut forces, &mut d_forces, &mut gram);
+        }
+        (forces, d_forces)
     }
 
     /// Add `phase` (its interval, modes, anchors and their sensitivities) to the forces and
@@ -213,12 +233,10 @@ impl<'a> March<'a> {
             }
         }
         let mut released = vec![false; n];
-        let mut forces = vec![0.0; nu];
-        let mut d_forces = vec![0.0; nu * nv];
         let mut phases = Vec::new();
         let mut events = Vec::new();
         let mut scan = CellScan::new(h);
-        let (mut coefs, mut scratch, mut gram) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut coefs, mut scratch) = (Vec::new(), Vec::new());
         let mut current = self.data_of(&modes)?;
         let mut phase_start = 0.0;
         let mut tau = 0.0;
@@ -265,9 +283,14 @@ impl<'a> March<'a> {
                 }
                 last_flip = t;
                 stale = true;
-                let phase = Phase::of(phase_start, t, &modes, &anchors, &d_anchors, current);
-                self.add_phase(&phase, &mut forces, &mut d_forces, &mut gram);
-                phases.push(phase);
+                phases.push(Phase::of(
+                    phase_start,
+                    t,
+                    &modes,
+                    &anchors,
+                    &d_anchors,
+                    current,
+                ));
                 let (contact, kind) = {
                     let ind = &self.data[current].indicators[which];
                     (ind.contact, ind.kind)
@@ -320,17 +343,20 @@ impl<'a> March<'a> {
             }
             tau = tau.max(end);
         }
-        let phase = Phase::of(phase_start, 2.0 * PI, &modes, &anchors, &d_anchors, current);
-        self.add_phase(&phase, &mut forces, &mut d_forces, &mut gram);
-        phases.push(phase);
+        phases.push(Phase::of(
+            phase_start,
+            2.0 * PI,
+            &modes,
+            &anchors,
+            &d_anchors,
+            current,
+        ));
         // a contact that stuck during the period has a new anchor even if it was stuck at 0
         Ok(Marched {
             modes_end: modes,
             anchors_end: anchors,
             d_anchors_end: d_anchors,
             released,
-            forces,
-            d_forces,
             phases,
             events,
         })

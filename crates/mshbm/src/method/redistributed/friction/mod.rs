@@ -33,7 +33,10 @@ use crate::error::{Error, Result};
 use crate::harmonic::{add_interval_gram, basis_into, n_coefficients};
 use crate::solution::{ContactState, StateFractions};
 pub use march::AnchorEvent;
+use std::collections::HashMap;
+
 use march::March;
+use modes::{ModeCache, MODE_CACHE_BYTES};
 
 /// The state of one contact (docs/theory.md (T151)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -70,6 +73,8 @@ pub struct FrictionalContacts {
     /// `2n × 2n`, row-major, coordinates `[normals; tangents]` (T150).
     delassus: Vec<f64>,
     mu: Vec<f64>,
+    /// The sets of modes earlier marches met (T152), reused by later ones.
+    cache: std::cell::RefCell<ModeCache>,
 }
 
 /// The periodic contact forces of a free-gap signal (T156).
@@ -147,7 +152,12 @@ impl FrictionalContacts {
                 mu[c]
             )));
         }
-        Ok(FrictionalContacts { n, delassus, mu })
+        Ok(FrictionalContacts {
+            n,
+            delassus,
+            mu,
+            cache: Default::default(),
+        })
     }
 
     pub fn contacts(&self) -> usize {
@@ -198,6 +208,20 @@ impl FrictionalContacts {
         gamma: &[f64],
         cells: usize,
     ) -> Result<PeriodicContact> {
+        let mut cache = self.cache.take();
+        if cache.bytes() > MODE_CACHE_BYTES {
+            cache = ModeCache::default();
+        }
+        let mut march = March::new(self, harmonics, gamma, cells.max(1), cache);
+        let result = self.periodic_march(&mut march);
+        self.cache.replace(march.into_cache());
+        result
+    }
+
+    /// [`FrictionalContacts::periodic`] with `march`, whose sets of modes may hold earlier
+    /// marches' (T156)–(T158).
+    fn periodic_march(&self, march: &mut March) -> Result<PeriodicContact> {
+        let (harmonics, gamma) = (march.harmonics, march.gamma);
         let (n, m) = (self.n, 2 * self.n);
         let ncoef = n_coefficients(harmonics);
         if gamma.len() != m * ncoef {
@@ -228,7 +252,6 @@ impl FrictionalContacts {
             .iter()
             .fold(0.0f64, |s, v| s.max(v.abs()))
             .max(f64::MIN_POSITIVE);
-        let mut march = March::new(self, harmonics, gamma, cells.max(1));
         let mut accepted: Option<Accepted> = None;
         for pass in 1..=MAX_PASSES {
             let out = march.run(&modes0, &anchors0)?;
@@ -331,30 +354,44 @@ impl FrictionalContacts {
                         "friction: no periodic contact state after {MAX_PASSES} periods (anchor change {step:e})"
                     )));
                 }
+                // (T155) over the periodic state's phases
+                let (forces, d_forces) = march.accumulate(&out.phases);
                 // (T158): dλ̂/dγ̂ = ∂λ̂/∂γ̂ − ∂λ̂/∂a₀ J_a⁻¹ ∂r/∂γ̂
                 let mut jacobian = vec![0.0; nu * nu];
                 for row in 0..nu {
                     for col in 0..nu {
-                        let mut v = out.d_forces[row * nv + col];
+                        let mut v = d_forces[row * nv + col];
                         for (l, &c2) in stuck.iter().enumerate() {
-                            v -= out.d_forces[row * nv + nu + c2] * solved[(l, col + 1)];
+                            v -= d_forces[row * nv + nu + c2] * solved[(l, col + 1)];
                         }
                         jacobian[row * nu + col] = v;
                     }
                 }
+                // the sets of modes this state uses, renumbered (the march's cache holds
+                // earlier evaluations' too)
+                let (mut phases, mut events) = (out.phases, out.events);
+                let mut renumbered: HashMap<usize, usize> = HashMap::new();
+                let mut data = Vec::new();
+                let slots = phases
+                    .iter_mut()
+                    .map(|p| &mut p.data)
+                    .chain(events.iter_mut().map(|e| &mut e.data));
+                for slot in slots {
+                    *slot = *renumbered.entry(*slot).or_insert_with(|| {
+                        let d = &march.data[*slot];
+                        data.push([d.f.clone(), d.g.clone(), d.yf.clone(), d.yg.clone()]);
+                        data.len() - 1
+                    });
+                }
                 return Ok(PeriodicContact {
                     harmonics,
-                    forces: out.forces,
+                    forces,
                     jacobian,
-                    phases: out.phases,
+                    phases,
                     passes: pass,
-                    events: out.events,
+                    events,
                     gamma: gamma.to_vec(),
-                    data: march
-                        .data
-                        .iter()
-                        .map(|d| [d.f.clone(), d.g.clone(), d.yf.clone(), d.yg.clone()])
-                        .collect(),
+                    data,
                 });
             }
         }

@@ -25,6 +25,7 @@ pub(super) enum Kind {
     Velocity,
 }
 
+#[derive(Clone, Debug)]
 pub(super) struct Indicator {
     pub(super) contact: usize,
     pub(super) kind: Kind,
@@ -34,6 +35,7 @@ pub(super) struct Indicator {
 }
 
 /// The affine solution of one set of modes (T152): `λ = F γ + G a`, `y = Y_F γ + Y_G a`.
+#[derive(Clone, Debug)]
 pub(super) struct ModeData {
     /// `m × m`, `m × n`, `m × m`, `m × n`, row-major.
     pub(super) f: Vec<f64>,
@@ -41,6 +43,37 @@ pub(super) struct ModeData {
     pub(super) yf: Vec<f64>,
     pub(super) yg: Vec<f64>,
     pub(super) indicators: Vec<Indicator>,
+}
+
+impl ModeData {
+    /// The bytes it holds.
+    pub(super) fn bytes(&self) -> usize {
+        let indicators: usize = self
+            .indicators
+            .iter()
+            .map(|i| i.kappa.len() + i.theta.len())
+            .sum();
+        8 * (self.f.len() + self.g.len() + self.yf.len() + self.yg.len() + indicators)
+    }
+}
+
+/// The sets of modes met by earlier marches, kept between evaluations: a set's data depend on
+/// the modes alone (and the Delassus matrix and `μ`), and along Newton and a continuation
+/// the marches meet the same sets again.
+#[derive(Clone, Debug, Default)]
+pub(super) struct ModeCache {
+    pub(super) data: Vec<ModeData>,
+    pub(super) index: std::collections::HashMap<Vec<Mode>, usize>,
+}
+
+/// At most this many bytes of [`ModeCache`] are carried into a march (it is emptied first
+/// when it holds more).
+pub(super) const MODE_CACHE_BYTES: usize = 64 << 20;
+
+impl ModeCache {
+    pub(super) fn bytes(&self) -> usize {
+        self.data.iter().map(ModeData::bytes).sum()
+    }
 }
 
 impl FrictionalContacts {
