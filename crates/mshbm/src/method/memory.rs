@@ -228,6 +228,17 @@ pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> Memor
             format!("the anchor sensitivities of up to {samples} phases of friction"),
             &[samples as u64, frictional, columns, 8],
         );
+        // the sets of modes kept between evaluations, emptied beyond their cap, and those
+        // one march adds (taken as one per sample): F, G, Y_F, Y_G and the indicators
+        let per_set = mul(&[contacts, contacts.saturating_add(frictional), 8, 3]);
+        plan.add(
+            "the friction law's sets of modes".to_string(),
+            per_set
+                .and_then(|p| p.checked_mul(samples as u64))
+                .and_then(|p| {
+                    p.checked_add(super::redistributed::friction::MODE_CACHE_BYTES as u64)
+                }),
+        );
     }
     plan
 }

@@ -36,7 +36,8 @@ pub use march::AnchorEvent;
 use std::collections::HashMap;
 
 use march::March;
-use modes::{ModeCache, MODE_CACHE_BYTES};
+use modes::ModeCache;
+pub use modes::MODE_CACHE_BYTES;
 
 /// The state of one contact (docs/theory.md (T151)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

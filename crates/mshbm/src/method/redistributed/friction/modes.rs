@@ -68,7 +68,7 @@ pub(super) struct ModeCache {
 
 /// At most this many bytes of [`ModeCache`] are carried into a march (it is emptied first
 /// when it holds more).
-pub(super) const MODE_CACHE_BYTES: usize = 64 << 20;
+pub const MODE_CACHE_BYTES: usize = 64 << 20;
 
 impl ModeCache {
     pub(super) fn bytes(&self) -> usize {
