@@ -93,7 +93,11 @@ fn reference_mesh(r: &serde_json::Value, key: &str, kind: CellKind) -> (Vec<Vec<
     for mut c in cells {
         let e: Vec<Vec<f64>> = c[1..]
             .iter()
-            .map(|&p| (0..nodes[p].len()).map(|a| nodes[p][a] - nodes[c[0]][a]).collect())
+            .map(|&p| {
+                (0..nodes[p].len())
+                    .map(|a| nodes[p][a] - nodes[c[0]][a])
+                    .collect()
+            })
             .collect();
         let det = if e.len() == 2 {
             e[0][0] * e[1][1] - e[0][1] * e[1][0]
@@ -123,10 +127,26 @@ fn eigenfrequencies_equal_scikit_fem() {
     let (x3q, tet10) = quadratic_mesh(&x3, &tet4).unwrap();
     let plane = |x: &[Vec<f64>], c: &Cells, kind| assemble_plane(x, c, &STEEL, 1.0, kind).unwrap();
     let cases = [
-        ("tri3_plane_stress", plane(&x2, &tri3, PlaneKind::Stress), &x2),
-        ("tri3_plane_strain", plane(&x2, &tri3, PlaneKind::Strain), &x2),
-        ("tri6_plane_stress", plane(&x2q, &tri6, PlaneKind::Stress), &x2q),
-        ("tri6_plane_strain", plane(&x2q, &tri6, PlaneKind::Strain), &x2q),
+        (
+            "tri3_plane_stress",
+            plane(&x2, &tri3, PlaneKind::Stress),
+            &x2,
+        ),
+        (
+            "tri3_plane_strain",
+            plane(&x2, &tri3, PlaneKind::Strain),
+            &x2,
+        ),
+        (
+            "tri6_plane_stress",
+            plane(&x2q, &tri6, PlaneKind::Stress),
+            &x2q,
+        ),
+        (
+            "tri6_plane_strain",
+            plane(&x2q, &tri6, PlaneKind::Strain),
+            &x2q,
+        ),
         ("tet4", assemble_solid(&x3, &tet4, &STEEL).unwrap(), &x3),
         ("tet10", assemble_solid(&x3q, &tet10, &STEEL).unwrap(), &x3q),
     ];
@@ -290,7 +310,9 @@ fn inverted_and_misplaced_cells_are_refused() {
         kind: CellKind::Tet4,
         connectivity: vec![0, 2, 1, 3],
     };
-    let e = assemble_solid(&x, &inverted, &STEEL).unwrap_err().to_string();
+    let e = assemble_solid(&x, &inverted, &STEEL)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("cell 0") && e.contains("inverted"), "{e}");
     let tri = Cells {
         kind: CellKind::Tri3,

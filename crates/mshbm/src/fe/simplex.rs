@@ -52,7 +52,9 @@ pub fn quadratic_shape<const D: usize>(xi: [f64; D]) -> (Vec<f64>, Vec<[f64; D]>
     }
     for &[a, b] in edges {
         n.push(4.0 * l[a] * l[b]);
-        dn.push(std::array::from_fn(|i| 4.0 * (l[b] * g[a][i] + l[a] * g[b][i])));
+        dn.push(std::array::from_fn(|i| {
+            4.0 * (l[b] * g[a][i] + l[a] * g[b][i])
+        }));
     }
     (n, dn)
 }
@@ -75,7 +77,10 @@ fn orbit<const D: usize>(lambda: &[f64], weight: f64, out: &mut Vec<([f64; D], f
         let Some(i) = (0..k - 1).rev().find(|&i| perm[i] < perm[i + 1]) else {
             break;
         };
-        let j = (i + 1..k).rev().find(|&j| perm[j] > perm[i]).expect("exists");
+        let j = (i + 1..k)
+            .rev()
+            .find(|&j| perm[j] > perm[i])
+            .expect("exists");
         perm.swap(i, j);
         perm[i + 1..].reverse();
     }

@@ -175,10 +175,16 @@ fn reference<const D: usize>(kind: CellKind) -> Option<Reference<D>> {
         (CellKind::Quad4, 2) | (CellKind::Hex8, 3) => |xi| {
             if D == 2 {
                 let (n, dn) = shape(&QUAD_NODES, std::array::from_fn(|i| xi[i]));
-                (n, dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect())
+                (
+                    n,
+                    dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect(),
+                )
             } else {
                 let (n, dn) = shape(&HEX_NODES, std::array::from_fn(|i| xi[i]));
-                (n, dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect())
+                (
+                    n,
+                    dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect(),
+                )
             }
         },
         (CellKind::Tri3, 2) | (CellKind::Tet4, 3) => linear_shape::<D>,

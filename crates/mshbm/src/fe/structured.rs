@@ -274,9 +274,7 @@ pub fn mesh_face_weights(x: &[Vec<f64>], cells: &Cells, nodes: &[usize]) -> Resu
             // (structured hexahedra) or of a triangle
             let measure = match cells.kind {
                 CellKind::Line2 => 1.0,
-                CellKind::Quad4 | CellKind::Tri3 | CellKind::Tri6 => {
-                    dist(&x[face[0]], &x[face[1]])
-                }
+                CellKind::Quad4 | CellKind::Tri3 | CellKind::Tri6 => dist(&x[face[0]], &x[face[1]]),
                 CellKind::Hex8 => dist(&x[face[0]], &x[face[1]]) * dist(&x[face[1]], &x[face[2]]),
                 CellKind::Tet4 | CellKind::Tet10 => {
                     let u: Vec<f64> = (0..3).map(|a| x[face[1]][a] - x[face[0]][a]).collect();
