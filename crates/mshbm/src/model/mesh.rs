@@ -33,6 +33,10 @@
 //! first_mode_ratio = 0.01
 //! ```
 //!
+//! Every node of an interface's group (on a quadratic mesh the vertices and the mid-side
+//! nodes of its faces) becomes massless under redistribution, with the total mass and the
+//! first and second moments kept (docs/theory.md (T208)–(T210)).
+//!
 //! Physical groups without a name are `physical_<dim>_<tag>`. The model's node `p` is the
 //! `p`-th smallest Gmsh node tag among the nodes of the solid cells. Errors name the model
 //! file and the field, and for the mesh file its path and line.
