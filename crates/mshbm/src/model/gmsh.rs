@@ -11,9 +11,12 @@
 //! Each physical group becomes a node set: the nodes of its elements, in increasing model
 //! number; its name is the group's name from `$PhysicalNames`, or `physical_<dim>_<tag>`.
 //!
-//! A hand-written reader: no count read from the file sizes an allocation (vectors grow
-//! with the entries actually read, and the text is bounded by the input file limit), every
-//! error names the line, and nothing panics on any input (tests/fuzz_readers.rs). Binary
+//! A hand-written reader, not the `mshio` crate (0.4.2, on nom 5): its header parser
+//! unwraps the parsed data size (one too large for its integer type panics) and panics on
+//! a data size it does not support, and its errors carry no line numbers. Here no count
+//! read from the file sizes an allocation (vectors grow with the entries actually read,
+//! and the text is bounded by the input file limit), every error names the line, and
+//! nothing panics on any input (tests/fuzz_readers.rs). Binary
 //! MSH files are refused with a message saying how to write ASCII.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
