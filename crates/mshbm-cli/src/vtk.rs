@@ -94,6 +94,10 @@ pub fn unstructured_grid(model: &Model, fields: &[(&str, &[f64])]) -> Result<Vec
             match c.kind {
                 CellKind::Line2 => CellType::Line,
                 CellKind::Quad4 => CellType::Quad,
+                CellKind::Tri3 => CellType::Triangle,
+                CellKind::Tri6 => CellType::QuadraticTriangle,
+                CellKind::Tet4 => CellType::Tetra,
+                CellKind::Tet10 => CellType::QuadraticTetra,
                 CellKind::Hex8 => CellType::Hexahedron,
             },
         ),

@@ -161,3 +161,33 @@ fn mode_shapes_for_paraview() {
         );
     }
 }
+
+/// `modes --vtk` on a Gmsh mesh of 10-node tetrahedra (`kind = "mesh"`): the cells are
+/// written as VTK quadratic tetrahedra on the model's nodes, read back by `vtkio`.
+#[test]
+fn quadratic_tetrahedra_are_written_as_vtk_quadratic_tetrahedra() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("modes");
+    let model = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../mshbm/tests/data/gmsh/box_tet10.toml")
+        .display()
+        .to_string();
+    let out = mshbm(&[
+        "modes",
+        &model,
+        "--count",
+        "2",
+        "--vtk",
+        out_dir.to_str().unwrap(),
+    ]);
+    assert_success(&out);
+    let (points, connectivity, types, shape) =
+        read_field(&out_dir.join("mode_0000.vtu"), "mode_shape");
+    // tests/data/gmsh/reference.json: 420 nodes, 189 cells
+    assert_eq!(points.len(), 3 * 420);
+    assert_eq!(types.len(), 189);
+    assert!(types.iter().all(|t| *t == CellType::QuadraticTetra));
+    assert_eq!(connectivity.len(), 10 * 189);
+    assert!(connectivity.iter().all(|&p| p < 420));
+    assert_eq!(shape.len(), 3 * 420);
+}

@@ -1,7 +1,7 @@
 //! The fuzz campaign of the library's readers (issue 46; docs/safety.md "No panics"): the
-//! mutation fuzzer of `tests/fuzz/mod.rs` run long, in process, on five targets (model
-//! files, Matrix Market files, contact and gap tables, `--set` overrides, `--from-solution`
-//! JSON). Each input must return `Ok` or `Err`: a panic is a finding (the input is saved
+//! mutation fuzzer of `tests/fuzz/mod.rs` run long, in process, on six targets (model
+//! files, Matrix Market files, contact and gap tables, `--set` overrides, Gmsh meshes,
+//! `--from-solution` JSON). Each input must return `Ok` or `Err`: a panic is a finding (the input is saved
 //! and the campaign goes on), an input running longer than the time limit ends the
 //! campaign with status 3 naming it (a watchdog thread), and so does an input whose peak
 //! resident memory exceeds the memory limit (measured per input: the peak is reset before

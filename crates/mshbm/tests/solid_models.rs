@@ -8,8 +8,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use faer::Side;
-use mshbm::fe::redistribution::{moments, scalar_mass, RedistributionNorm};
+use common::assert_redistribution;
+use mshbm::fe::redistribution::RedistributionNorm;
 use mshbm::harmonic::Quadrature;
 use mshbm::method::redistributed::RedistributedOptions;
 use mshbm::method::settings::MethodSettings;
@@ -132,74 +132,6 @@ fn crack_lips_are_paired_node_to_node() {
         assert_eq!(c.w, vec![1.0, -1.0]);
         assert_eq!(c.gap, 0.0);
     }
-}
-
-/// The redistributed mass of `m` (docs/theory.md §4): every DOF of every contact node
-/// massless, total mass and first and second moments of each component kept to 1e-12,
-/// symmetric, no entry outside the consistent pattern, positive definite on the rest.
-fn assert_redistribution(m: &Model, case: &str) {
-    let consistent = m.mass_matrix(MassKind::Consistent).unwrap();
-    let redistributed = m.mass_matrix(MassKind::Redistributed).unwrap();
-    let d = m.dofs_per_node;
-    let contact_nodes: std::collections::HashSet<usize> = m.contact_nodes().into_iter().collect();
-    for (i, j, v) in redistributed.iter() {
-        if contact_nodes.contains(&(i / d)) || contact_nodes.contains(&(j / d)) {
-            assert_eq!(v, 0.0, "{case}: entry ({i}, {j}) of a contact node");
-        }
-        assert!(
-            consistent.is_stored(i, j),
-            "{case}: ({i}, {j}) outside the pattern"
-        );
-        let scale = redistributed.max_abs();
-        assert!(
-            (v - redistributed.get(j, i)).abs() <= 1e-14 * scale,
-            "{case}: not symmetric"
-        );
-    }
-    let (before, after) = (
-        moments(&scalar_mass(&consistent, d).unwrap(), &m.coordinates),
-        moments(&scalar_mass(&redistributed, d).unwrap(), &m.coordinates),
-    );
-    let length = m
-        .coordinates
-        .iter()
-        .flatten()
-        .fold(0.0f64, |l, x| l.max(x.abs()));
-    // an independent evaluation of the same moments, per component, from the DOF matrix
-    for c in 0..d {
-        let phi = |p: usize, a: usize| if a == 0 { 1.0 } else { m.coordinates[p][a - 1] };
-        for a in 0..=d {
-            for b in 0..=d {
-                let direct: f64 = redistributed
-                    .iter()
-                    .filter(|&(i, j, _)| i % d == c && j % d == c)
-                    .map(|(i, j, v)| phi(i / d, a) * v * phi(j / d, b))
-                    .sum();
-                let k = a * (d + 1) + b;
-                // relative to the moment's natural size: mass × (largest coordinate)^degree
-                let degree = i32::from(a > 0) + i32::from(b > 0);
-                let scale = before[k].abs().max(before[0] * length.powi(degree));
-                assert!((direct - after[k]).abs() <= 1e-12 * scale);
-                assert!(
-                    (after[k] - before[k]).abs() <= 1e-12 * scale,
-                    "{case}: moment ({a}, {b}) {} vs {}",
-                    after[k],
-                    before[k]
-                );
-            }
-        }
-    }
-    let keep: Vec<usize> = (0..m.n_dofs())
-        .filter(|&i| !contact_nodes.contains(&(i / d)))
-        .collect();
-    assert!(
-        redistributed
-            .submatrix(&keep, &keep)
-            .to_faer()
-            .sp_cholesky(Side::Lower)
-            .is_ok(),
-        "{case}: not positive definite"
-    );
 }
 
 /// A 7 × 7 contact patch under a block is redistributed in the paper's Frobenius norm; a

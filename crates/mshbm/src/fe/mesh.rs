@@ -5,7 +5,9 @@
 use std::collections::BTreeMap;
 
 /// Kind of the cells of a mesh (node order as in VTK: counter-clockwise for the
-/// quadrilateral; bottom face counter-clockwise then top face for the hexahedron).
+/// quadrilateral and the triangles; bottom face counter-clockwise then top face for the
+/// hexahedron; vertices, then the mid-side nodes of the edges 01, 12, 20 (triangle) or 01,
+/// 12, 20, 03, 13, 23 (tetrahedron) for the quadratic simplices, docs/theory.md (T200)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CellKind {
     /// Two-node line (bars).
@@ -14,6 +16,14 @@ pub enum CellKind {
     Quad4,
     /// Eight-node hexahedron (3D solids).
     Hex8,
+    /// Three-node triangle (2D solids, linear).
+    Tri3,
+    /// Six-node triangle (2D solids, quadratic).
+    Tri6,
+    /// Four-node tetrahedron (3D solids, linear).
+    Tet4,
+    /// Ten-node tetrahedron (3D solids, quadratic).
+    Tet10,
 }
 
 impl CellKind {
@@ -23,6 +33,46 @@ impl CellKind {
             CellKind::Line2 => 2,
             CellKind::Quad4 => 4,
             CellKind::Hex8 => 8,
+            CellKind::Tri3 => 3,
+            CellKind::Tri6 => 6,
+            CellKind::Tet4 => 4,
+            CellKind::Tet10 => 10,
+        }
+    }
+
+    /// Dimension of the cell (1, 2 or 3).
+    pub fn dimension(self) -> usize {
+        match self {
+            CellKind::Line2 => 1,
+            CellKind::Quad4 | CellKind::Tri3 | CellKind::Tri6 => 2,
+            CellKind::Hex8 | CellKind::Tet4 | CellKind::Tet10 => 3,
+        }
+    }
+
+    /// The faces of a cell (edges in 2D), as local node numbers: corner nodes first, then
+    /// the mid-side nodes of a quadratic face, so that a face of a cell is the faces of the
+    /// mesh's boundary it lies on.
+    pub fn faces(self) -> &'static [&'static [usize]] {
+        match self {
+            CellKind::Line2 => &[&[0], &[1]],
+            CellKind::Quad4 => &[&[0, 1], &[1, 2], &[2, 3], &[3, 0]],
+            CellKind::Hex8 => &[
+                &[0, 1, 2, 3],
+                &[4, 5, 6, 7],
+                &[0, 1, 5, 4],
+                &[1, 2, 6, 5],
+                &[2, 3, 7, 6],
+                &[3, 0, 4, 7],
+            ],
+            CellKind::Tri3 => &[&[0, 1], &[1, 2], &[2, 0]],
+            CellKind::Tri6 => &[&[0, 1, 3], &[1, 2, 4], &[2, 0, 5]],
+            CellKind::Tet4 => &[&[0, 2, 1], &[0, 1, 3], &[1, 2, 3], &[0, 3, 2]],
+            CellKind::Tet10 => &[
+                &[0, 2, 1, 6, 5, 4],
+                &[0, 1, 3, 4, 8, 7],
+                &[1, 2, 3, 5, 9, 8],
+                &[0, 3, 2, 7, 9, 6],
+            ],
         }
     }
 }

@@ -15,6 +15,12 @@
 //!
 //! with the symmetric `(d+1)×(d+1)` multiplier `Λ` found from a `p = (d+1)(d+2)/2` linear
 //! system. Sparsity and symmetry are kept by construction.
+//!
+//! Nothing here depends on the element: on simplex meshes (Tet4, Tet10, Tri3, Tri6) every
+//! node of a contact face, mid-side nodes included, is made massless the same way, and the
+//! moments kept are the continuum's inertia (docs/theory.md §21, (T208)); the quadratic
+//! elements' mass has negative entries, which the mass-weighted correction scales with
+//! their sign kept ((T209)).
 
 use crate::dense::solve_small;
 use crate::error::{Error, Result};

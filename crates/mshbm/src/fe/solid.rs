@@ -1,13 +1,17 @@
-//! Linear-elastic solid elements (docs/theory.md §15, (T100)–(T104)): bilinear 4-node
-//! quadrilaterals in plane stress or plane strain (2 DOFs per node) and trilinear 8-node
-//! hexahedra (3 DOFs per node), both isoparametric, with full Gauss integration (2×2 and
-//! 2×2×2 points) of the stiffness `K = ∫ Bᵀ D B dV` and of the consistent mass
-//! `M = ∫ ρ Nᵀ N dV`. The mass is `m ⊗ I_d` exactly (the same scalar matrix for every
-//! component), as the mass redistribution requires.
+//! Linear-elastic solid elements (docs/theory.md §15, (T100)–(T104), and §21,
+//! (T200)–(T205)): bilinear 4-node quadrilaterals and linear or quadratic triangles (Tri3,
+//! Tri6) in plane stress or plane strain (2 DOFs per node), trilinear 8-node hexahedra and
+//! linear or quadratic tetrahedra (Tet4, Tet10) in 3D (3 DOFs per node), all isoparametric.
+//! The stiffness `K = ∫ Bᵀ D B dV` and the consistent mass `M = ∫ ρ Nᵀ N dV` are integrated
+//! by full Gauss rules (2×2 and 2×2×2 points) on quadrilaterals and hexahedra, and by
+//! symmetric simplex rules exact for the mass of straight-sided simplices
+//! ([`crate::fe::simplex`], (T203)–(T204)). The mass is `m ⊗ I_d` exactly (the same scalar
+//! matrix for every component), as the mass redistribution requires.
 //!
 //! The fully integrated bilinear element locks in bending (parasitic shear, (T104)): use
 //! several elements through the thickness of a bent member (the parasitic part of the
-//! strain energy falls like `1/n²` with `n` elements through the thickness).
+//! strain energy falls like `1/n²` with `n` elements through the thickness). The linear
+//! simplices (constant strain) are stiffer still; the quadratic ones are not (T205).
 //!
 //! DOF numbering: `node · d + component`.
 
@@ -16,6 +20,7 @@
 
 use crate::error::{Error, Result};
 use crate::fe::mesh::{CellKind, Cells};
+use crate::fe::simplex::{linear_shape, quadratic_shape, tetrahedron_rule, triangle_rule};
 use crate::sparse::SparseMatrix;
 
 /// Plane stress (thin plates loaded in their plane) or plane strain (long bodies).
@@ -143,29 +148,89 @@ fn shape<const D: usize>(nodes: &[[f64; D]], xi: [f64; D]) -> (Vec<f64>, Vec<[f6
     (n, dn)
 }
 
+/// Shape functions and reference derivatives at a point of the reference cell.
+type ShapeFn<const D: usize> = fn([f64; D]) -> (Vec<f64>, Vec<[f64; D]>);
+
+/// A reference element: its shape functions and its quadrature rule (points, weights).
+struct Reference<const D: usize> {
+    shape: ShapeFn<D>,
+    rule: Vec<([f64; D], f64)>,
+}
+
+/// The tensor Gauss rule of 2 points per direction (`ξ = ±1/√3`, weight 1), first
+/// coordinate fastest.
+fn gauss2<const D: usize>() -> Vec<([f64; D], f64)> {
+    let g = 1.0 / 3f64.sqrt();
+    (0..(1usize << D))
+        .map(|point| {
+            let xi = std::array::from_fn(|i| if point >> i & 1 == 1 { g } else { -g });
+            (xi, 1.0)
+        })
+        .collect()
+}
+
+/// The reference element of a cell kind of dimension `D`, `None` for another dimension.
+fn reference<const D: usize>(kind: CellKind) -> Option<Reference<D>> {
+    let shape: ShapeFn<D> = match (kind, D) {
+        (CellKind::Quad4, 2) | (CellKind::Hex8, 3) => |xi| {
+            if D == 2 {
+                let (n, dn) = shape(&QUAD_NODES, std::array::from_fn(|i| xi[i]));
+                (
+                    n,
+                    dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect(),
+                )
+            } else {
+                let (n, dn) = shape(&HEX_NODES, std::array::from_fn(|i| xi[i]));
+                (
+                    n,
+                    dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect(),
+                )
+            }
+        },
+        (CellKind::Tri3, 2) | (CellKind::Tet4, 3) => linear_shape::<D>,
+        (CellKind::Tri6, 2) | (CellKind::Tet10, 3) => quadratic_shape::<D>,
+        _ => return None,
+    };
+    // exact for the consistent mass of straight-sided simplices (T203)–(T204)
+    let simplex = |degree: usize| -> Vec<([f64; D], f64)> {
+        if D == 2 {
+            triangle_rule(degree)
+                .into_iter()
+                .map(|(p, w)| (std::array::from_fn(|i| p[i]), w))
+                .collect()
+        } else {
+            tetrahedron_rule(degree)
+                .into_iter()
+                .map(|(p, w)| (std::array::from_fn(|i| p[i]), w))
+                .collect()
+        }
+    };
+    let rule = match kind {
+        CellKind::Quad4 | CellKind::Hex8 => gauss2::<D>(),
+        CellKind::Tri3 | CellKind::Tet4 => simplex(2),
+        _ => simplex(5),
+    };
+    Some(Reference { shape, rule })
+}
+
 /// Element stiffness and mass (`n_nodes·D` square, row-major) of one cell with node
-/// coordinates `x` (T102)–(T103), integrated with the tensor Gauss rule of 2 points per
-/// direction; `thickness` multiplies both in 2D.
+/// coordinates `x` (T102)–(T103), integrated with the reference element's rule;
+/// `thickness` multiplies both in 2D.
 fn element<const D: usize>(
-    reference: &[[f64; D]],
+    reference: &Reference<D>,
     x: &[[f64; D]],
     d: &[Vec<f64>],
     density: f64,
     thickness: f64,
     cell: usize,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    let nn = reference.len();
+    let nn = x.len();
     let size = nn * D;
     let nstrain = d.len();
-    let g = 1.0 / 3f64.sqrt();
     let mut k = vec![0.0; size * size];
     let mut m = vec![0.0; size * size];
-    for point in 0..(1usize << D) {
-        let mut xi = [0.0; D];
-        for (i, v) in xi.iter_mut().enumerate() {
-            *v = if point >> i & 1 == 1 { g } else { -g };
-        }
-        let (n, dn) = shape(reference, xi);
+    for &(xi, weight) in &reference.rule {
+        let (n, dn) = (reference.shape)(xi);
         // Jacobian J_ij = ∂x_j/∂ξ_i
         let mut jac = [[0.0; D]; D];
         for a in 0..nn {
@@ -214,7 +279,7 @@ fn element<const D: usize>(
                 b[5][c + 1] = dx[a][0];
             }
         }
-        let w = det * thickness;
+        let w = det * thickness * weight;
         // K += Bᵀ D B w
         let db: Vec<Vec<f64>> = (0..nstrain)
             .map(|r| {
@@ -270,25 +335,31 @@ fn invert<const D: usize>(a: &[[f64; D]; D]) -> (f64, [[f64; D]; D]) {
 fn assemble<const D: usize>(
     coordinates: &[Vec<f64>],
     cells: &Cells,
-    kind: CellKind,
-    reference: &[[f64; D]],
     d: &[Vec<f64>],
     density: f64,
     thickness: f64,
 ) -> Result<(SparseMatrix, SparseMatrix)> {
-    if cells.kind != kind {
-        return Err(Error::argument(
+    let reference = reference::<D>(cells.kind).ok_or_else(|| {
+        Error::argument(
             "mesh",
-            format!("expected {kind:?} cells, got {:?}", cells.kind),
-        ));
-    }
+            format!(
+                "{:?} cells in a {D}D model (expected {})",
+                cells.kind,
+                if D == 2 {
+                    "Quad4, Tri3 or Tri6"
+                } else {
+                    "Hex8, Tet4 or Tet10"
+                }
+            ),
+        )
+    })?;
     if coordinates.iter().any(|c| c.len() != D) {
         return Err(Error::argument(
             "mesh",
             format!("every node needs {D} coordinates"),
         ));
     }
-    let nn = reference.len();
+    let nn = cells.kind.nodes_per_cell();
     let size = nn * D;
     let n = coordinates
         .len()
@@ -318,7 +389,7 @@ fn assemble<const D: usize>(
             .iter()
             .map(|&p| std::array::from_fn(|i| coordinates[p][i]))
             .collect();
-        let (ke, me) = element::<D>(reference, &x, d, density, thickness, c)?;
+        let (ke, me) = element::<D>(&reference, &x, d, density, thickness, c)?;
         for a in 0..size {
             for b in 0..size {
                 let (ga, gb) = (nodes[a / D] * D + a % D, nodes[b / D] * D + b % D);
@@ -336,8 +407,9 @@ fn assemble<const D: usize>(
     ))
 }
 
-/// Consistent mass and stiffness `(M, K)` of a plane mesh of 4-node quadrilaterals
-/// (2 DOFs per node), plane stress or plane strain, uniform `thickness` (T100)–(T103).
+/// Consistent mass and stiffness `(M, K)` of a plane mesh of 4-node quadrilaterals or of
+/// 3- or 6-node triangles (2 DOFs per node), plane stress or plane strain, uniform
+/// `thickness` (T100)–(T103), (T200)–(T204).
 pub fn assemble_plane(
     coordinates: &[Vec<f64>],
     cells: &Cells,
@@ -355,16 +427,14 @@ pub fn assemble_plane(
     assemble::<2>(
         coordinates,
         cells,
-        CellKind::Quad4,
-        &QUAD_NODES,
         &material.elasticity(Some(plane)),
         material.density,
         thickness,
     )
 }
 
-/// Consistent mass and stiffness `(M, K)` of a mesh of 8-node hexahedra (3 DOFs per node)
-/// (T100)–(T103).
+/// Consistent mass and stiffness `(M, K)` of a mesh of 8-node hexahedra or of 4- or
+/// 10-node tetrahedra (3 DOFs per node) (T100)–(T103), (T200)–(T204).
 pub fn assemble_solid(
     coordinates: &[Vec<f64>],
     cells: &Cells,
@@ -374,8 +444,6 @@ pub fn assemble_solid(
     assemble::<3>(
         coordinates,
         cells,
-        CellKind::Hex8,
-        &HEX_NODES,
         &material.elasticity(None),
         material.density,
         1.0,

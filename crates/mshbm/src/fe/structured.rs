@@ -246,39 +246,49 @@ pub fn cuboid(size: [f64; 3], divisions: [usize; 3]) -> Result<StructuredMesh> {
 /// by the face's area. The face's cells are the cells' edges (2D) or faces (3D) whose nodes
 /// all lie in the set.
 pub fn face_weights(mesh: &StructuredMesh, nodes: &[usize]) -> Result<Vec<f64>> {
+    mesh_face_weights(&mesh.coordinates, &mesh.cells, nodes)
+}
+
+/// [`face_weights`] of any mesh (straight-sided faces; for the simplices (T206)).
+pub fn mesh_face_weights(x: &[Vec<f64>], cells: &Cells, nodes: &[usize]) -> Result<Vec<f64>> {
     let index: std::collections::HashMap<usize, usize> =
         nodes.iter().enumerate().map(|(k, &p)| (p, k)).collect();
-    let local_faces: &[&[usize]] = match mesh.cells.kind {
-        CellKind::Quad4 => &[&[0, 1], &[1, 2], &[2, 3], &[3, 0]],
-        CellKind::Hex8 => &[
-            &[0, 1, 2, 3],
-            &[4, 5, 6, 7],
-            &[0, 1, 5, 4],
-            &[1, 2, 6, 5],
-            &[2, 3, 7, 6],
-            &[3, 0, 4, 7],
-        ],
-        CellKind::Line2 => &[&[0], &[1]],
+    // the integral of each node's shape function over a face, as a share of its measure
+    let shares: &[f64] = match cells.kind {
+        CellKind::Line2 => &[1.0],
+        CellKind::Quad4 | CellKind::Tri3 => &[0.5, 0.5],
+        CellKind::Hex8 => &[0.25; 4],
+        CellKind::Tet4 => &[1.0 / 3.0; 3],
+        CellKind::Tri6 => &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
+        CellKind::Tet10 => &[0.0, 0.0, 0.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
     };
     let mut weights = vec![0.0; nodes.len()];
-    let x = &mesh.coordinates;
-    for c in 0..mesh.cells.len() {
-        let cell = mesh.cells.cell(c);
-        for f in local_faces {
+    for c in 0..cells.len() {
+        let cell = cells.cell(c);
+        for f in cells.kind.faces() {
             let face: Vec<usize> = f.iter().map(|&a| cell[a]).collect();
             if !face.iter().all(|p| index.contains_key(p)) {
                 continue;
             }
-            // the measure of a (flat, structured) face: length of an edge, or area of a
-            // parallelogram; every node gets an equal share (exact for bilinear shape
-            // functions on rectangles)
-            let measure = match face.len() {
-                1 => 1.0,
-                2 => dist(&x[face[0]], &x[face[1]]),
-                _ => dist(&x[face[0]], &x[face[1]]) * dist(&x[face[1]], &x[face[2]]),
+            // the measure of a (flat) face: length of an edge, area of a parallelogram
+            // (structured hexahedra) or of a triangle
+            let measure = match cells.kind {
+                CellKind::Line2 => 1.0,
+                CellKind::Quad4 | CellKind::Tri3 | CellKind::Tri6 => dist(&x[face[0]], &x[face[1]]),
+                CellKind::Hex8 => dist(&x[face[0]], &x[face[1]]) * dist(&x[face[1]], &x[face[2]]),
+                CellKind::Tet4 | CellKind::Tet10 => {
+                    let u: Vec<f64> = (0..3).map(|a| x[face[1]][a] - x[face[0]][a]).collect();
+                    let v: Vec<f64> = (0..3).map(|a| x[face[2]][a] - x[face[0]][a]).collect();
+                    let n = [
+                        u[1] * v[2] - u[2] * v[1],
+                        u[2] * v[0] - u[0] * v[2],
+                        u[0] * v[1] - u[1] * v[0],
+                    ];
+                    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+                }
             };
-            for p in &face {
-                weights[index[p]] += measure / face.len() as f64;
+            for (p, share) in face.iter().zip(shares) {
+                weights[index[p]] += measure * share;
             }
         }
     }
@@ -298,4 +308,62 @@ fn dist(a: &[f64], b: &[f64]) -> f64 {
         .map(|(p, q)| (p - q) * (p - q))
         .sum::<f64>()
         .sqrt()
+}
+
+/// The simplex mesh of a structured one, on the same nodes and node sets (T207): each
+/// quadrilateral cut along its diagonal from node 0 to node 2 into two triangles, each
+/// hexahedron into the six tetrahedra around its diagonal from node 0 to node 6 (Kuhn's
+/// subdivision, conforming between neighbouring boxes), every cell positively oriented.
+pub fn simplices(mesh: &StructuredMesh) -> Result<StructuredMesh> {
+    let (kind, pieces): (CellKind, &[&[usize]]) = match mesh.cells.kind {
+        CellKind::Quad4 => (CellKind::Tri3, &[&[0, 1, 2], &[0, 2, 3]]),
+        // the paths 0 → 6 along edges of the box, one per order of the three axes (local
+        // nodes in VTK order: 1 = +x, 3 = +y, 4 = +z from node 0)
+        CellKind::Hex8 => (
+            CellKind::Tet4,
+            &[
+                &[0, 1, 2, 6],
+                &[0, 1, 5, 6],
+                &[0, 3, 2, 6],
+                &[0, 3, 7, 6],
+                &[0, 4, 5, 6],
+                &[0, 4, 7, 6],
+            ],
+        ),
+        other => {
+            return Err(Error::argument(
+                "mesh",
+                format!("only Quad4 and Hex8 meshes are split into simplices, got {other:?}"),
+            ))
+        }
+    };
+    let x = &mesh.coordinates;
+    let mut connectivity = Vec::with_capacity(mesh.cells.len() * pieces.len() * (pieces[0].len()));
+    for c in 0..mesh.cells.len() {
+        let cell = mesh.cells.cell(c);
+        for piece in pieces {
+            let mut nodes: Vec<usize> = piece.iter().map(|&a| cell[a]).collect();
+            // orientation: the sign of det[x_1 − x_0, …, x_d − x_0]
+            let e: Vec<Vec<f64>> = nodes[1..]
+                .iter()
+                .map(|&p| x[p].iter().zip(&x[nodes[0]]).map(|(a, b)| a - b).collect())
+                .collect();
+            let det = if e.len() == 2 {
+                e[0][0] * e[1][1] - e[0][1] * e[1][0]
+            } else {
+                e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
+                    - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
+                    + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])
+            };
+            if det < 0.0 {
+                nodes.swap(1, 2);
+            }
+            connectivity.extend(nodes);
+        }
+    }
+    Ok(StructuredMesh {
+        coordinates: mesh.coordinates.clone(),
+        cells: Cells { kind, connectivity },
+        node_sets: mesh.node_sets.clone(),
+    })
 }

@@ -1,8 +1,9 @@
 //! Model files (TOML) and `--set key=value` overrides.
 //!
-//! Four kinds, chosen by the top-level `kind` key (the fourth, `kind = "solid"`, a meshed
+//! Five kinds, chosen by the top-level `kind` key (`kind = "solid"`, a meshed
 //! linear-elastic rectangle or box with contact interfaces, is described in
-//! [`crate::model::solid`]):
+//! [`crate::model::solid`]; `kind = "mesh"`, a solid meshed in Gmsh whose physical groups
+//! name the sets, in [`crate::model::mesh`]):
 //!
 //! * `kind = "bar"` — the paper's clamped bar (see [`crate::model::bar`]):
 //!   ```toml
@@ -349,6 +350,10 @@ pub fn parse_model_with(
             let f: super::solid::SolidFile = deserialize(value, path)?;
             super::solid::solid_model(f, path, &mut InputFiles::new(path, options))
         }
+        "mesh" => {
+            let f: super::mesh::MeshFile = deserialize(value, path)?;
+            super::mesh::mesh_model(f, path, &mut InputFiles::new(path, options))
+        }
         "dropped_bar" => {
             let f: DroppedBarFile = deserialize(value, path)?;
             let (params, name) = dropped_bar_parameters(f, path)?;
@@ -393,7 +398,7 @@ fn parse_toml(text: &str, path: &Path) -> Result<toml::Value> {
     })
 }
 
-const KINDS: &str = "\"bar\", \"matrices\", \"solid\" or \"dropped_bar\"";
+const KINDS: &str = "\"bar\", \"matrices\", \"solid\", \"mesh\" or \"dropped_bar\"";
 
 fn model_kind(value: &toml::Value, path: &Path) -> Result<String> {
     Ok(value

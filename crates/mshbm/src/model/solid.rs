@@ -55,7 +55,7 @@ use serde::Deserialize;
 
 use crate::error::{Error, Result};
 use crate::fe::solid::{assemble_plane, assemble_solid, ElasticMaterial, PlaneKind};
-use crate::fe::structured::{cuboid, face_weights, rectangle, Crack2d, StructuredMesh};
+use crate::fe::structured::{cuboid, mesh_face_weights, rectangle, Crack2d, StructuredMesh};
 use crate::model::input_files::InputFiles;
 use crate::model::interface::{build_interfaces, InterfaceMesh, InterfaceSection};
 use crate::model::{Damping, Model, MODEL_BYTES_PER_DOF};
@@ -121,14 +121,14 @@ struct NodeSetSection {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct DirichletSection {
+pub(super) struct DirichletSection {
     set: String,
     components: Vec<usize>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct LoadSection {
+pub(super) struct LoadSection {
     set: String,
     harmonic: Option<Vec<f64>>,
     constant: Option<Vec<f64>>,
@@ -245,6 +245,47 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) ->
     };
     let mut mesh = mesh;
     add_node_sets(&mut mesh, &f.node_sets, path)?;
+    let conditions = Conditions {
+        clamped: &s.clamped,
+        clamped_field: "solid.clamped",
+        dirichlet: &f.dirichlet,
+        loads: &f.loads,
+        interfaces: &f.interfaces,
+    };
+    let name = f.name.clone().unwrap_or_else(|| format!("{d}D solid"));
+    build_solid_model(
+        mesh,
+        (mass, stiffness),
+        &conditions,
+        name,
+        f.damping,
+        path,
+        inputs,
+    )
+}
+
+/// The boundary conditions, loads and interfaces of a solid-like model file (`kind =
+/// "solid"`, `kind = "mesh"`), on named node sets.
+pub(super) struct Conditions<'a> {
+    pub clamped: &'a [String],
+    /// The field `clamped` is read from (for messages).
+    pub clamped_field: &'a str,
+    pub dirichlet: &'a [DirichletSection],
+    pub loads: &'a [LoadSection],
+    pub interfaces: &'a [InterfaceSection],
+}
+
+/// The model of a meshed solid with its matrices `(M, K)` and `conditions`.
+pub(super) fn build_solid_model(
+    mesh: StructuredMesh,
+    (mass, stiffness): (crate::sparse::SparseMatrix, crate::sparse::SparseMatrix),
+    conditions: &Conditions,
+    name: String,
+    damping: super::file::DampingSection,
+    path: &Path,
+    inputs: &mut InputFiles,
+) -> Result<Model> {
+    let d = mesh.coordinates.first().map_or(0, Vec::len);
     let n = mesh.coordinates.len() * d;
     let set = |name: &str, field: String| -> Result<&Vec<usize>> {
         let nodes = mesh.node_sets.get(name).ok_or_else(|| {
@@ -271,12 +312,12 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) ->
         Ok(nodes)
     };
     let mut dirichlet = Vec::new();
-    for (k, name) in s.clamped.iter().enumerate() {
-        for &p in set(name, format!("solid.clamped[{k}]"))? {
+    for (k, name) in conditions.clamped.iter().enumerate() {
+        for &p in set(name, format!("{}[{k}]", conditions.clamped_field))? {
             dirichlet.extend((0..d).map(|c| p * d + c));
         }
     }
-    for (k, sec) in f.dirichlet.iter().enumerate() {
+    for (k, sec) in conditions.dirichlet.iter().enumerate() {
         let nodes = set(&sec.set, format!("dirichlet[{k}].set"))?;
         if let Some(&c) = sec.components.iter().find(|&&c| c >= d) {
             return Err(Error::field(
@@ -293,14 +334,16 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) ->
     dirichlet.dedup();
     let mut harmonic_load = vec![0.0; n];
     let mut constant_load = vec![0.0; n];
-    for (k, sec) in f.loads.iter().enumerate() {
+    for (k, sec) in conditions.loads.iter().enumerate() {
         let nodes = set(&sec.set, format!("loads[{k}].set"))?;
         let weights = match sec.distribution {
             Some(Distribution::Uniform) => vec![1.0 / nodes.len() as f64; nodes.len()],
-            Some(Distribution::Traction) => face_weights(&mesh, nodes).map_err(|e| {
-                Error::field(path, format!("loads[{k}].distribution"), e.to_string())
-            })?,
-            None => face_weights(&mesh, nodes)
+            Some(Distribution::Traction) => {
+                mesh_face_weights(&mesh.coordinates, &mesh.cells, nodes).map_err(|e| {
+                    Error::field(path, format!("loads[{k}].distribution"), e.to_string())
+                })?
+            }
+            None => mesh_face_weights(&mesh.coordinates, &mesh.cells, nodes)
                 .unwrap_or_else(|_| vec![1.0 / nodes.len() as f64; nodes.len()]),
         };
         for (name, force, target) in [
@@ -323,7 +366,7 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) ->
         }
     }
     let (contacts, interfaces) = build_interfaces(
-        &f.interfaces,
+        conditions.interfaces,
         &InterfaceMesh {
             x: &mesh.coordinates,
             node_sets: &mesh.node_sets,
@@ -337,7 +380,7 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) ->
     let model = Model {
         source: PathBuf::from(path),
         input_files: std::mem::take(&mut inputs.read),
-        name: f.name.clone().unwrap_or_else(|| format!("{d}D solid")),
+        name,
         mass,
         stiffness,
         damping_matrix: None,
@@ -352,7 +395,7 @@ pub(super) fn solid_model(f: SolidFile, path: &Path, inputs: &mut InputFiles) ->
         harmonic_load,
         constant_load,
         acceleration: None,
-        damping: Damping::from(f.damping),
+        damping: Damping::from(damping),
     };
     model.validate()?;
     Ok(model)

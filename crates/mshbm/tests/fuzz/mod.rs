@@ -3,7 +3,7 @@
 //! (`examples/fuzz_inputs.rs`, run by `tools/fuzz-inputs`, ≥ 10⁵ inputs per target with a
 //! per-input time limit and a per-input peak-memory check).
 //!
-//! Five targets, each fed inputs mutated from seeds (byte flips, random insertions,
+//! Six targets, each fed inputs mutated from seeds (byte flips, random insertions,
 //! deletions, duplicated lines, splices from another seed, numbers replaced by extreme
 //! values) by a deterministic generator: case `c` of seed `s` is always the same input, so
 //! a finding is replayed alone.
@@ -15,6 +15,9 @@
 //!   interface, the `gap_file` of a pairs interface, `contacts_file`, a node set's `file`;
 //! * `overrides`: one to three `--set KEY=VALUE` assignments (keys of the seed, mutated or
 //!   not; values extreme, of another type, or mutated) applied to a seed model;
+//! * `mesh`: a Gmsh MSH 4.1 file (the meshes of tests/data/gmsh and
+//!   `tests/fuzz_corpus/meshes/`) parsed alone, every fourth also read as the mesh of a
+//!   `kind = "mesh"` model (clamped, loaded and in contact on its groups) and assembled;
 //! * `solution`: a `--from-solution` JSON (a solution of the bar written by `solve --json`,
 //!   mutated mostly near the fields a start uses), parsed, checked against the bar
 //!   (`PeriodicSolution::unusable_start`), resized to H and solved from, as `mshbm solve
@@ -41,7 +44,7 @@ pub use mutate::{mutate, Rng};
 pub use watch::{peak_rss, reset_peak_rss, Watchdog};
 
 /// The targets, in the order of the campaign.
-pub const TARGETS: &[&str] = &["model", "matrix", "tables", "overrides", "solution"];
+pub const TARGETS: &[&str] = &["model", "matrix", "tables", "overrides", "mesh", "solution"];
 
 fn corpus() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_corpus")
@@ -94,6 +97,7 @@ enum Run {
     Table { model: PathBuf, name: &'static str },
     Overrides { seed: usize, sets: Vec<String> },
     Solution { harmonics: usize },
+    Mesh { as_model: bool },
 }
 
 /// The seeds, a scratch directory with the files they reference (removed on drop), and
@@ -102,6 +106,7 @@ pub struct Harness {
     root: PathBuf,
     models: Vec<ModelSeed>,
     matrices: Vec<Vec<u8>>,
+    meshes: Vec<Vec<u8>>,
     tables: Vec<TableSeed>,
     solution: Vec<u8>,
     bar: Model,
@@ -170,6 +175,19 @@ impl Harness {
             matrices.push(std::fs::read(examples().join("bar_matrices").join(f)).unwrap());
         }
 
+        let mut meshes: Vec<Vec<u8>> = files_in(&corpus().join("meshes"))
+            .iter()
+            .map(|p| std::fs::read(p).unwrap())
+            .collect();
+        let gmsh = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gmsh");
+        for f in ["box_tet4.msh", "plate_tri6.msh", "box_tet10.msh"] {
+            meshes.push(std::fs::read(gmsh.join(f)).unwrap());
+        }
+        // the model a mesh is read by: every group name of the seeds, so that a mutated
+        // mesh still reaches the assembly and the conditions
+        std::fs::create_dir_all(root.join("mesh")).unwrap();
+        std::fs::write(root.join("mesh/model.toml"), MESH_MODEL).unwrap();
+
         let tables_dir = root.join("tables");
         let table = |model: &str, name: &'static str| TableSeed {
             model: tables_dir.join(model),
@@ -203,6 +221,7 @@ impl Harness {
             root: root.to_path_buf(),
             models,
             matrices,
+            meshes,
             tables,
             solution,
             bar,
@@ -297,6 +316,16 @@ impl Harness {
                     },
                 }
             }
+            "mesh" => {
+                let seed = &self.meshes[rng.below(self.meshes.len())];
+                let other = &self.meshes[rng.below(self.meshes.len())];
+                Input {
+                    bytes: mutate(seed, other, rng),
+                    run: Run::Mesh {
+                        as_model: rng.below(4) == 0,
+                    },
+                }
+            }
             other => panic!("unknown target {other:?} (one of {TARGETS:?})"),
         }
     }
@@ -345,6 +374,15 @@ impl Harness {
                 parse_model_with(&text, &s.dir.join("fuzzed.toml"), sets, &self.options).is_ok()
             }
             Run::Solution { harmonics } => self.start_from(&text(), *harmonics),
+            Run::Mesh { as_model } => {
+                let ok = mshbm::model::gmsh::parse_msh(&text()).is_ok();
+                if *as_model {
+                    std::fs::write(self.root.join("mesh/mesh.msh"), &input.bytes).unwrap();
+                    let model = self.root.join("mesh/model.toml");
+                    let _ = load_model_with(&model, &[], &self.options);
+                }
+                ok
+            }
         }
     }
 
@@ -385,6 +423,27 @@ impl Harness {
         .is_ok_and(|s| s.outcome.converged)
     }
 }
+
+/// The model file the `mesh` target reads its meshes with (3D; a 2D mesh is refused by
+/// the 3-component load, after it is read and assembled).
+const MESH_MODEL: &str = r#"
+kind = "mesh"
+[mesh]
+file = "mesh.msh"
+young = 2.1e5
+poisson = 0.3
+density = 7.85e-9
+clamped = ["root"]
+[[loads]]
+set = "top"
+harmonic = [0.0, 0.0, -10.0]
+[[interfaces]]
+name = "end"
+kind = "obstacle"
+set = "tip"
+normal = [-1.0, 0.0, 0.0]
+gap = 0.001
+"#;
 
 /// The dotted paths of the leaves of a TOML document (array elements by index) and of its
 /// tables and arrays, each with its value as TOML text; empty when it does not parse.
