@@ -72,6 +72,39 @@ impl<T> IntoPy<T> for mshbm::Result<T> {
     }
 }
 
+/// The library's spelling of option names for Python: the keyword, `keyword='value'`.
+pub struct PythonSpelling;
+
+impl mshbm::error::Spelling for PythonSpelling {
+    fn option(&self, name: &str) -> String {
+        name.to_string()
+    }
+    fn option_value(&self, name: &str, value: &str) -> String {
+        format!("{name}='{value}'")
+    }
+}
+
+/// A bad option as an `ArgumentError` in Python's spelling, its `argument` attribute the
+/// keyword at fault.
+pub fn option_error(e: mshbm::error::OptionError) -> PyErr {
+    let err = ArgumentError::new_err(e.render(&PythonSpelling));
+    Python::attach(|py| match err.value(py).setattr("argument", e.option) {
+        Ok(()) => err,
+        Err(failed) => failed,
+    })
+}
+
+/// `Result<T, OptionError>` → `PyResult<T>` in Python's spelling.
+pub trait Spelled<T> {
+    fn spelled(self) -> PyResult<T>;
+}
+
+impl<T> Spelled<T> for std::result::Result<T, mshbm::error::OptionError> {
+    fn spelled(self) -> PyResult<T> {
+        self.map_err(option_error)
+    }
+}
+
 /// An `ArgumentError` with `message`.
 pub fn argument(message: impl Into<String>) -> PyErr {
     ArgumentError::new_err(message.into())
