@@ -301,6 +301,27 @@ def test_the_same_bad_option_gets_the_same_words_from_both_front_ends(cli, bar, 
     assert _neutral_cli(cli_message) == _neutral_python(str(info.value)), (cli_message, str(info.value))
 
 
+def test_the_exceptions_are_the_matching_built_ins(bar):
+    """`except ValueError` catches a bad argument or model, `except RuntimeError` a failed
+    computation, and each is still an `MshbmError`."""
+    assert issubclass(mshbm.ArgumentError, ValueError) and issubclass(mshbm.ArgumentError, mshbm.MshbmError)
+    assert issubclass(mshbm.ModelError, ValueError) and issubclass(mshbm.ModelError, mshbm.MshbmError)
+    assert issubclass(mshbm.NotConvergedError, RuntimeError)
+    assert issubclass(mshbm.NotConvergedError, mshbm.MshbmError)
+    assert mshbm.ArgumentError.__module__ == "mshbm"
+    with pytest.raises(ValueError) as info:
+        mshbm.solve(bar, 1000, tolerance=-1.0)
+    assert type(info.value) is mshbm.ArgumentError and info.value.argument == "tolerance"
+    with pytest.raises(ValueError):
+        mshbm.Model.from_toml("no/such/model.toml")
+    with pytest.raises(RuntimeError):
+        mshbm.solve(bar, 80000, 3, max_iterations=1, start="linear")
+    # an argument error the request layer does not word names no keyword
+    with pytest.raises(mshbm.ArgumentError) as info:
+        mshbm.Model.from_toml(BAR, ["contact.gap"])
+    assert info.value.argument is None
+
+
 def test_unknown_choices_are_argument_errors(bar):
     with pytest.raises(mshbm.ArgumentError, match="method=.*expected one of 'redistributed', 'hbm-aft', 'mshbm'"):
         mshbm.solve(bar, 1000, method="newton")
