@@ -113,51 +113,11 @@ fn leading_ident(s: &str) -> &str {
 /// The rooms named by `crate::ROOM` paths in `code`, with the path as written (for the
 /// message). `crate::{a::x, b}` names `a` and `b`.
 fn crate_paths(code: &str) -> Vec<(String, String)> {
-    let mut found = Vec::new();
-    let mut rest = code;
-    while let Some(pos) = rest.find("crate::") {
-        let preceded_by_ident = rest[..pos].chars().next_back().is_some_and(is_ident_char);
-        let after = &rest[pos + "crate::".len()..];
-        rest = after;
-        if preceded_by_ident {
-            continue; // e.g. `mycrate::`
-        }
-        if let Some(group) = after.strip_prefix('{') {
-            let mut depth = 1;
-            let mut item_start = 0;
-            let mut items = Vec::new();
-            for (i, c) in group.char_indices() {
-                match c {
-                    '{' => depth += 1,
-                    '}' => {
-                        depth -= 1;
-                        if depth == 0 {
-                            items.push(&group[item_start..i]);
-                            break;
-                        }
-                    }
-                    ',' if depth == 1 => {
-                        items.push(&group[item_start..i]);
-                        item_start = i + 1;
-                    }
-                    _ => {}
-                }
-            }
-            for item in items {
-                let room = leading_ident(item);
-                if !room.is_empty() {
-                    found.push((room.to_string(), format!("crate::{}", item.trim())));
-                }
-            }
-        } else {
-            let room = leading_ident(after);
-            let end = after
-                .find(|c: char| !(is_ident_char(c) || c == ':'))
-                .unwrap_or(after.len());
-            found.push((room.to_string(), format!("crate::{}", &after[..end])));
-        }
-    }
-    found
+    module_paths(code)
+        .into_iter()
+        .filter(|path| path[0] == "crate" && path.len() > 1)
+        .map(|path| (path[1].clone(), path.join("::")))
+        .collect()
 }
 
 fn library_sources() -> BTreeMap<String, String> {
