@@ -114,6 +114,9 @@ impl FrdObserver for BranchLines<'_> {
 /// The result of one job: its name, its output and how long it ran [s].
 pub(crate) type Done<T> = (String, Result<T>, f64);
 
+/// Where a job's result and time wait for the job's turn in the output.
+type Slot<T> = Mutex<Option<(Result<T>, f64)>>;
+
 /// Run `jobs` on `threads` threads in the given order (put the longest first); a job that
 /// fails or panics gives an error in its slot and the others go on. Results in job order.
 pub(crate) fn run_jobs<T: Send>(
@@ -124,8 +127,7 @@ pub(crate) fn run_jobs<T: Send>(
     let names: Vec<String> = jobs.iter().map(|j| j.name.clone()).collect();
     let queue: Vec<Mutex<Option<Job<T>>>> = jobs.into_iter().map(|j| Mutex::new(Some(j))).collect();
 
-    let results: Vec<Mutex<Option<(Result<T>, f64)>>> =
-        (0..queue.len()).map(|_| Mutex::new(None)).collect();
+    let results: Vec<Slot<T>> = (0..queue.len()).map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1).min(queue.len().max(1)) {
