@@ -4,17 +4,17 @@
 
 use mshbm::frd::{
     trace_diagram, BifurcationReport, BranchInfo, BranchReport, FoldReport, FrdObserver, FrdPoint,
-    FrdSettings,
+    PointEvent,
 };
-use mshbm::method::settings::MethodSettings;
+use mshbm::request::FrdRequest;
 use mshbm::solution::StateFractions;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyList};
 
 use crate::convert::{array, to_python};
-use crate::errors::{argument, to_py};
-use crate::methods::{Method, MethodArgs};
+use crate::errors::{to_py, Spelled};
+use crate::methods::MethodKeywords;
 use crate::model::NativeModel;
 use crate::threads::with_threads;
 
@@ -40,13 +40,8 @@ struct Collector {
     error: Option<PyErr>,
 }
 
-fn point_dict<'py>(
-    py: Python<'py>,
-    branch: &BranchInfo,
-    p: &FrdPoint,
-    points: usize,
-    step: f64,
-) -> PyResult<Bound<'py, PyDict>> {
+fn point_dict<'py>(py: Python<'py>, event: &PointEvent<'_>) -> PyResult<Bound<'py, PyDict>> {
+    let (branch, p) = (event.branch, event.point);
     let d = PyDict::new(py);
     d.set_item("label", &branch.label)?;
     d.set_item("harmonics", branch.harmonics)?;
@@ -63,8 +58,8 @@ fn point_dict<'py>(
     d.set_item("max_multiplier", p.max_multiplier)?;
     d.set_item("max_penetration", p.max_penetration)?;
     d.set_item("dissipated_energy", p.dissipated_energy)?;
-    d.set_item("points", points)?;
-    d.set_item("step", step)?;
+    d.set_item("points", event.points)?;
+    d.set_item("step", event.step)?;
     Ok(d)
 }
 
@@ -79,28 +74,22 @@ impl FrdObserver for Collector {
         });
     }
 
-    fn point(
-        &mut self,
-        branch: &BranchInfo,
-        point: &FrdPoint,
-        points: usize,
-        step: f64,
-    ) -> mshbm::Result<()> {
+    fn point(&mut self, event: &PointEvent<'_>) -> mshbm::Result<()> {
         if let Some(b) = self.branches.last_mut() {
-            b.points.push(point.clone());
+            b.points.push(event.point.clone());
         }
         let stop = Python::attach(|py| -> PyResult<Option<String>> {
             py.check_signals()?;
             let Some(cb) = &self.callback else {
                 return Ok(None);
             };
-            let answer = cb.call1(py, (point_dict(py, branch, point, points, step)?,))?;
+            let answer = cb.call1(py, (point_dict(py, event)?,))?;
             let answer = answer.bind(py);
             Ok(
                 (answer.is_instance_of::<PyBool>() && !answer.is_truthy()?).then(|| {
                     format!(
-                        "stopped by the callback at {} Hz ({}, {points} points)",
-                        point.frequency_hz, branch.label
+                        "stopped by the callback at {} Hz ({}, {} points)",
+                        event.point.frequency_hz, event.branch.label, event.points
                     )
                 }),
             )
@@ -220,104 +209,76 @@ fn branch_dict<'py>(py: Python<'py>, b: Found) -> PyResult<Bound<'py, PyDict>> {
 
 /// The frequency response diagram (module docs). Returns a dict: `branches` (one dict of
 /// columns per branch), `folds`, `bifurcations`, `completed`, `stop_reason`,
-/// `stopped_by_callback`.
+/// `stopped_by_callback`. `None` keywords take the library's defaults (`FrdRequest`).
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
-#[pyo3(signature = (model, from_hz, to_hz, harmonics=vec![5], *, method="redistributed",
-    samples=None, quadrature=None, mass=None, penalty=Vec::new(), tolerance=1e-10,
-    max_iterations=50, dof=None, stability_modes=None, receptance="auto", receptance_modes=None, jacobian="auto", step=0.01, max_step=0.1,
-    min_step=1e-12, max_turn=20.0, stability=false, overlay_mshbm=false, max_points=None,
-    callback=None, threads=None))]
+#[pyo3(signature = (model, from_hz, to_hz, harmonics=None, *, method=None,
+    samples=None, quadrature=None, mass=None, penalty=Vec::new(), tangential_penalty=None,
+    tolerance=None, max_iterations=None, dof=None, stability_modes=None, receptance=None,
+    receptance_modes=None, jacobian=None, step=None, max_step=None, min_step=None,
+    max_turn=None, stability=None, overlay_mshbm=None, max_points=None, callback=None,
+    threads=None))]
 pub fn frf(
     py: Python<'_>,
     model: &NativeModel,
     from_hz: f64,
     to_hz: f64,
-    harmonics: Vec<usize>,
-    method: &str,
+    harmonics: Option<Vec<usize>>,
+    method: Option<&str>,
     samples: Option<usize>,
     quadrature: Option<&str>,
     mass: Option<&str>,
     penalty: Vec<String>,
-    tolerance: f64,
-    max_iterations: usize,
+    tangential_penalty: Option<String>,
+    tolerance: Option<f64>,
+    max_iterations: Option<usize>,
     dof: Option<usize>,
     stability_modes: Option<usize>,
-    receptance: &str,
+    receptance: Option<&str>,
     receptance_modes: Option<usize>,
-    jacobian: &str,
-    step: f64,
-    max_step: f64,
-    min_step: f64,
-    max_turn: f64,
-    stability: bool,
-    overlay_mshbm: bool,
+    jacobian: Option<&str>,
+    step: Option<f64>,
+    max_step: Option<f64>,
+    min_step: Option<f64>,
+    max_turn: Option<f64>,
+    stability: Option<bool>,
+    overlay_mshbm: Option<bool>,
     max_points: Option<usize>,
     callback: Option<Py<PyAny>>,
     threads: Option<usize>,
 ) -> PyResult<Py<PyAny>> {
-    // the checks of `mshbm frf`, in its order
-    for (name, v) in [("from_hz", from_hz), ("to_hz", to_hz)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(argument(format!(
-                "{name} must be a positive number of Hz, got {v}"
-            )));
+    let d = FrdRequest::new(from_hz, to_hz);
+    let request = FrdRequest {
+        harmonics: harmonics.unwrap_or(d.harmonics.clone()),
+        method: MethodKeywords {
+            method,
+            samples,
+            quadrature,
+            mass,
+            penalty,
+            tangential_penalty,
+            tolerance,
+            max_iterations,
+            dof,
+            stability_modes,
+            receptance,
+            receptance_modes,
+            jacobian,
         }
-    }
-    if from_hz == to_hz {
-        return Err(argument("from_hz and to_hz must differ"));
-    }
-    if harmonics.is_empty() || harmonics.contains(&0) {
-        return Err(argument(
-            "harmonics must list numbers of harmonics of at least 1",
-        ));
-    }
-    if !(min_step > 0.0 && min_step <= step && step <= max_step) {
-        return Err(argument(
-            "steps must satisfy 0 < min_step <= step <= max_step",
-        ));
-    }
-    let args = MethodArgs::new(
-        method,
-        samples,
-        quadrature,
-        mass,
-        penalty,
-        tolerance,
-        max_iterations,
-        dof,
-        stability_modes,
-        receptance,
-        receptance_modes,
-        jacobian,
-    )?;
-    let h = harmonics[0];
-    let mut methods: Vec<MethodSettings> = args.methods(h)?;
-    if overlay_mshbm {
-        if args.method != Method::HbmAft {
-            return Err(argument(
-                "overlay_mshbm overlays the MS-HBM on method='hbm-aft'; give method='hbm-aft'",
-            ));
-        }
-        let mut mshbm_args = args.clone();
-        mshbm_args.method = Method::Redistributed;
-        mshbm_args.penalty.clear();
-        mshbm_args.mass = None;
-        methods.insert(0, mshbm_args.single_method(h)?);
-    }
+        .request()?,
+        step: step.unwrap_or(d.step),
+        max_step: max_step.unwrap_or(d.max_step),
+        min_step: min_step.unwrap_or(d.min_step),
+        max_turn: max_turn.unwrap_or(d.max_turn),
+        stability: stability.unwrap_or(d.stability),
+        overlay_mshbm: overlay_mshbm.unwrap_or(d.overlay_mshbm),
+        max_points: max_points.unwrap_or(d.max_points),
+        ..FrdRequest::new(from_hz, to_hz)
+    };
+    let methods = request.methods().spelled()?;
     let m = &model.model;
-    let mut settings = FrdSettings::new(from_hz, to_hz);
-    settings.initial_step = step;
-    settings.max_step = max_step;
-    settings.min_step = min_step;
-    settings.max_turn_deg = max_turn;
-    settings.newton = args.newton()?;
-    settings.stability = stability;
-    settings.response_dof = Some(args.response_dof(m)?);
-    settings.limits = model.limits;
-    if let Some(n) = max_points {
-        settings.max_points = n;
-    }
+    let settings = request.settings(m, model.limits).spelled()?;
+    let harmonics = request.harmonics;
     let mut collector = Collector {
         callback,
         branches: Vec::new(),

@@ -5,6 +5,7 @@ never crashes the interpreter."""
 from __future__ import annotations
 
 import os
+import re
 import time
 from pathlib import Path
 
@@ -255,6 +256,70 @@ def test_argument_errors_say_what_the_cli_says(cli, bar, call, cli_args, words):
     assert words in str(info.value)
     out = cli(cli_args[0], BAR, *cli_args[1:], check=False)
     assert out.returncode == 1 and words in out.stderr, out.stderr
+
+
+def _neutral_cli(message):
+    """A CLI message in neutral spelling: `--receptance-modes` -> `receptance_modes`,
+    `--from`/`--to` -> `from_hz`/`to_hz`, `--from-solution` -> `start_solution`."""
+    special = {"from": "from_hz", "to": "to_hz", "from-solution": "start_solution"}
+    return re.sub(r"--([a-z][a-z-]*)", lambda m: special.get(m.group(1), m.group(1).replace("-", "_")), message)
+
+
+def _neutral_python(message):
+    """A Python message in neutral spelling: `receptance='modal'` -> `receptance modal`."""
+    return re.sub(r"\b([a-z_]+)='([^']*)'", r"\1 \2", message)
+
+
+@pytest.mark.parametrize(
+    "call, cli_args, argument",
+    [
+        (lambda b: mshbm.solve(b, 1000, receptance_modes=5), ["solve", "--frequency", 1000, "--receptance-modes", 5], "receptance_modes"),
+        (lambda b: mshbm.solve(b, 1000, max_iterations=0), ["solve", "--frequency", 1000, "--max-iterations", 0], "max_iterations"),
+        (lambda b: mshbm.solve(b, 1000, method="mshbm", jacobian="dense"), ["solve", "--frequency", 1000, "--method", "mshbm", "--jacobian", "dense"], "jacobian"),
+        (lambda b: mshbm.solve(b, 1000, method="hbm-aft", penalty="stiff"), ["solve", "--frequency", 1000, "--method", "hbm-aft", "--penalty", "stiff"], "penalty"),
+        (lambda b: mshbm.solve(b, 1000, tangential_penalty="10x"), ["solve", "--frequency", 1000, "--tangential-penalty", "10x"], "tangential_penalty"),
+        (lambda b: mshbm.solve(b, 1000, sweep_from=2000, sweep_to=3000), ["solve", "--frequency", 1000, "--sweep-from", 2000, "--sweep-to", 3000], "frequency"),
+        (lambda b: mshbm.frf(b, -5, 2000), ["frf", "--from=-5", "--to", 2000], "from_hz"),
+        (lambda b: mshbm.frf(b, 1000, 2000, min_step=0.5), ["frf", "--from", 1000, "--to", 2000, "--min-step", 0.5], "step"),
+        (lambda b: mshbm.frf(b, 1000, 2000, overlay_mshbm=True), ["frf", "--from", 1000, "--to", 2000, "--overlay-mshbm"], "overlay_mshbm"),
+        (lambda b: mshbm.simulate(b, 1000, theta=0.2, scheme="moreau"), ["simulate", "--frequency", 1000, "--theta", 0.2, "--scheme", "moreau"], "theta"),
+        (lambda b: mshbm.simulate(b, 1000, steady_state=True, periods=1), ["simulate", "--frequency", 1000, "--steady-state", "--periods", 1], "periods"),
+        (lambda b: mshbm.simulate(b, 1000, theta=0.6), ["simulate", "--frequency", 1000, "--theta", 0.6], "scheme"),
+    ],
+)
+def test_the_same_bad_option_gets_the_same_words_from_both_front_ends(cli, bar, call, cli_args, argument):
+    """The library's request layer (`mshbm::request`) words every option error once; the
+    CLI and Python differ only in how they spell an option (`--receptance-modes`,
+    `--receptance modal` against `receptance_modes`, `receptance='modal'`), and Python
+    names the keyword at fault in `ArgumentError.argument`."""
+    with pytest.raises(mshbm.ArgumentError) as info:
+        call(bar)
+    assert info.value.argument == argument
+    out = cli(cli_args[0], BAR, *cli_args[1:], "--set", "damping.first_mode_ratio=0.01", check=False)
+    assert out.returncode == 1, out.stderr
+    cli_message = out.stderr.strip().removeprefix("error: ")
+    assert _neutral_cli(cli_message) == _neutral_python(str(info.value)), (cli_message, str(info.value))
+
+
+def test_the_exceptions_are_the_matching_built_ins(bar):
+    """`except ValueError` catches a bad argument or model, `except RuntimeError` a failed
+    computation, and each is still an `MshbmError`."""
+    assert issubclass(mshbm.ArgumentError, ValueError) and issubclass(mshbm.ArgumentError, mshbm.MshbmError)
+    assert issubclass(mshbm.ModelError, ValueError) and issubclass(mshbm.ModelError, mshbm.MshbmError)
+    assert issubclass(mshbm.NotConvergedError, RuntimeError)
+    assert issubclass(mshbm.NotConvergedError, mshbm.MshbmError)
+    assert mshbm.ArgumentError.__module__ == "mshbm"
+    with pytest.raises(ValueError) as info:
+        mshbm.solve(bar, 1000, tolerance=-1.0)
+    assert type(info.value) is mshbm.ArgumentError and info.value.argument == "tolerance"
+    with pytest.raises(ValueError):
+        mshbm.Model.from_toml("no/such/model.toml")
+    with pytest.raises(RuntimeError):
+        mshbm.solve(bar, 80000, 3, max_iterations=1, start="linear")
+    # an argument error the request layer does not word names no keyword
+    with pytest.raises(mshbm.ArgumentError) as info:
+        mshbm.Model.from_toml(BAR, ["contact.gap"])
+    assert info.value.argument is None
 
 
 def test_unknown_choices_are_argument_errors(bar):

@@ -4,7 +4,7 @@
 //!
 //! `cargo run --release -p mshbm --example library_frd` (from the repository root).
 
-use mshbm::frd::{trace_diagram, BranchInfo, BranchReport, FrdObserver, FrdPoint, FrdSettings};
+use mshbm::frd::{trace_diagram, BranchReport, FrdObserver, FrdSettings, PointEvent};
 use mshbm::method::settings::MethodSettings;
 use mshbm::model::file::load_model;
 
@@ -12,13 +12,13 @@ use mshbm::model::file::load_model;
 struct Progress;
 
 impl FrdObserver for Progress {
-    fn point(
-        &mut self,
-        branch: &BranchInfo,
-        point: &FrdPoint,
-        points: usize,
-        _step: f64,
-    ) -> mshbm::Result<()> {
+    fn point(&mut self, event: &PointEvent<'_>) -> mshbm::Result<()> {
+        let PointEvent {
+            branch,
+            point,
+            points,
+            ..
+        } = *event;
         if points % 100 == 0 {
             println!(
                 "{}: {:.1} Hz, max {:.4}",

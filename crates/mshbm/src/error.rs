@@ -151,3 +151,129 @@ impl Error {
         }
     }
 }
+
+/// A bad option of a command's request ([`crate::request`]): the option at fault and a
+/// message that names options without any front end's syntax, as `⟨name⟩` or
+/// `⟨name=value⟩` (snake_case names, e.g. `⟨max_iterations⟩`, `⟨receptance=modal⟩`). Each
+/// front end renders it in its own spelling ([`OptionError::render`]): the CLI as
+/// `--max-iterations`, `--receptance modal`; Python as `max_iterations`,
+/// `receptance='modal'`; `Display` (and the conversion into [`Error`]) as
+/// `max_iterations`, `receptance = modal`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct OptionError {
+    /// The option at fault (snake_case).
+    pub option: &'static str,
+    template: String,
+}
+
+/// How a front end writes an option, and an option with a value, in its messages.
+pub trait Spelling {
+    /// The option `name` (snake_case) as the front end's user types it.
+    fn option(&self, name: &str) -> String;
+    /// The option `name` set to `value`.
+    fn option_value(&self, name: &str, value: &str) -> String;
+}
+
+/// The library's own spelling: `name`, `name = value`.
+pub struct PlainSpelling;
+
+impl Spelling for PlainSpelling {
+    fn option(&self, name: &str) -> String {
+        name.to_string()
+    }
+    fn option_value(&self, name: &str, value: &str) -> String {
+        format!("{name} = {value}")
+    }
+}
+
+impl OptionError {
+    /// An error of `option` with `template` (options named as `⟨name⟩`, `⟨name=value⟩`).
+    pub fn new(option: &'static str, template: impl Into<String>) -> Self {
+        OptionError {
+            option,
+            template: template.into(),
+        }
+    }
+
+    /// The message with options named as `⟨name⟩` / `⟨name=value⟩`.
+    pub fn template(&self) -> &str {
+        &self.template
+    }
+
+    /// The message in a front end's spelling.
+    pub fn render(&self, spelling: &dyn Spelling) -> String {
+        let mut out = String::with_capacity(self.template.len());
+        let mut rest = self.template.as_str();
+        while let Some(open) = rest.find('⟨') {
+            out.push_str(&rest[..open]);
+            let after = &rest[open + '⟨'.len_utf8()..];
+            let Some(close) = after.find('⟩') else {
+                out.push_str(&rest[open..]);
+                return out;
+            };
+            let inner = &after[..close];
+            match inner.split_once('=') {
+                Some((name, value)) => out.push_str(&spelling.option_value(name, value)),
+                None => out.push_str(&spelling.option(inner)),
+            }
+            rest = &after[close + '⟩'.len_utf8()..];
+        }
+        out.push_str(rest);
+        out
+    }
+}
+
+impl std::fmt::Display for OptionError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.render(&PlainSpelling))
+    }
+}
+
+impl std::error::Error for OptionError {}
+
+impl From<OptionError> for Error {
+    fn from(e: OptionError) -> Self {
+        Error::InvalidArgument {
+            name: e.option.to_string(),
+            message: e.to_string(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Dashes;
+    impl Spelling for Dashes {
+        fn option(&self, name: &str) -> String {
+            format!("--{}", name.replace('_', "-"))
+        }
+        fn option_value(&self, name: &str, value: &str) -> String {
+            format!("{} {value}", self.option(name))
+        }
+    }
+
+    #[test]
+    fn an_option_error_is_rendered_in_each_spelling() {
+        let e = OptionError::new(
+            "receptance_modes",
+            "⟨receptance_modes⟩ needs ⟨receptance=modal⟩ (got 3 ⟨x⟩)",
+        );
+        assert_eq!(
+            e.render(&Dashes),
+            "--receptance-modes needs --receptance modal (got 3 --x)"
+        );
+        assert_eq!(
+            e.to_string(),
+            "receptance_modes needs receptance = modal (got 3 x)"
+        );
+        // an unclosed bracket is kept as written
+        assert_eq!(
+            OptionError::new("a", "⟨a⟩ and ⟨b").render(&Dashes),
+            "--a and ⟨b"
+        );
+        let e: Error = e.into();
+        assert!(matches!(e, Error::InvalidArgument { ref name, .. } if name == "receptance_modes"));
+    }
+}

@@ -30,6 +30,7 @@ pub mod integrate;
 pub mod linear;
 pub mod method;
 pub mod problem;
+pub mod request;
 pub mod simulation;
 pub mod solution;
 pub mod solve;

@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 
 use mshbm::frd::{
     trace_diagram, trace_frd_branch, BifurcationReport, BranchInfo, BranchReport, FoldReport,
-    FrdObserver, FrdPoint, FrdSettings,
+    FrdObserver, FrdPoint, FrdSettings, PointEvent,
 };
 use mshbm::method::hbm_aft::{HbmAft, HbmAftOptions, Penalty};
 use mshbm::method::settings::MethodSettings;
@@ -34,13 +34,8 @@ impl FrdObserver for Recording {
         self.started.push(branch.label.clone());
         self.branch_points = 0;
     }
-    fn point(
-        &mut self,
-        _branch: &BranchInfo,
-        point: &FrdPoint,
-        points: usize,
-        _step: f64,
-    ) -> mshbm::Result<()> {
+    fn point(&mut self, event: &PointEvent<'_>) -> mshbm::Result<()> {
+        let PointEvent { point, points, .. } = *event;
         self.branch_points += 1;
         assert_eq!(points, self.branch_points, "points are counted per branch");
         self.points.push(point.clone());

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use mshbm::frd::{trace_frd_branch, FrdObserver, FrdPoint, FrdSettings};
+use mshbm::frd::{trace_frd_branch, FrdObserver, FrdPoint, FrdSettings, PointEvent};
 use mshbm::method::settings::MethodSettings;
 use mshbm::model::file::load_model;
 use mshbm::solve::{solve_periodic, SolvePath, SolveSettings, SolveStart};
@@ -46,13 +46,8 @@ fn assert_signorini(s: &mshbm::solution::PeriodicSolution, gap: f64) {
 struct Points(Vec<FrdPoint>);
 
 impl FrdObserver for Points {
-    fn point(
-        &mut self,
-        _: &mshbm::frd::BranchInfo,
-        p: &FrdPoint,
-        _: usize,
-        _: f64,
-    ) -> mshbm::Result<()> {
+    fn point(&mut self, event: &PointEvent<'_>) -> mshbm::Result<()> {
+        let PointEvent { point: p, .. } = *event;
         self.0.push(p.clone());
         Ok(())
     }

@@ -4,20 +4,21 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::frd::{
-    trace_diagram, BifurcationReport, BranchInfo, BranchReport, FoldReport, FrdObserver, FrdPoint,
-    FrdSettings,
+    trace_diagram, BifurcationReport, BranchReport, FoldReport, FrdObserver, FrdPoint, FrdSettings,
+    PointEvent,
 };
 use mshbm::method::settings::MethodSettings;
+use mshbm::request::FrdRequest;
 use mshbm::solution::{MethodKind, StateFractions};
 use mshbm::stability::Crossing;
 use mshbm::Model;
 
-use super::solve::{Method, MethodArgs};
-use super::ModelArgs;
+use super::solve::MethodArgs;
+use super::{ModelArgs, Spelled};
 use crate::output::finite::to_json;
 use crate::output::status::{Interrupted, NotConverged};
 use crate::output::stream::StreamedCsv;
@@ -39,7 +40,7 @@ pub struct FrfArgs {
     pub to_hz: f64,
 
     /// Numbers of harmonics, comma-separated: one branch each, overlaid in one plot.
-    #[arg(long, value_delimiter = ',', default_values_t = vec![5usize])]
+    #[arg(long, value_delimiter = ',', default_values_t = vec![mshbm::request::method::DEFAULT_HARMONICS])]
     pub harmonics: Vec<usize>,
 
     #[command(flatten)]
@@ -47,20 +48,20 @@ pub struct FrfArgs {
 
     /// Initial arclength step (dimensionless: x scaled by the model's length scale, ω by
     /// the start frequency).
-    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = mshbm::frd::DEFAULT_INITIAL_STEP, allow_negative_numbers = true)]
     pub step: f64,
 
     /// Largest arclength step.
-    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = mshbm::frd::DEFAULT_MAX_STEP, allow_negative_numbers = true)]
     pub max_step: f64,
 
     /// Smallest arclength step; below it the continuation stops and reports why. Grazing
     /// contacts turn the branch within very short arcs, so this is small.
-    #[arg(long, default_value_t = 1e-12, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = mshbm::frd::DEFAULT_MIN_STEP, allow_negative_numbers = true)]
     pub min_step: f64,
 
     /// Largest turn of the tangent between two points [degrees].
-    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = mshbm::frd::DEFAULT_MAX_TURN_DEG, allow_negative_numbers = true)]
     pub max_turn: f64,
 
     /// CSV file, one row per point (streamed to a temporary file beside it as points are
@@ -153,13 +154,14 @@ struct FrfOutput {
 const PROGRESS_LINE_EVERY: std::time::Duration = std::time::Duration::from_secs(10);
 
 impl FrdObserver for FrfOutput {
-    fn point(
-        &mut self,
-        branch: &BranchInfo,
-        point: &FrdPoint,
-        points: usize,
-        step: f64,
-    ) -> mshbm::Result<()> {
+    fn point(&mut self, event: &PointEvent<'_>) -> mshbm::Result<()> {
+        let PointEvent {
+            branch,
+            point,
+            points,
+            step,
+            ..
+        } = *event;
         self.points += 1;
         if let Some(csv) = self.csv.as_mut() {
             let method = self
@@ -418,17 +420,27 @@ pub fn frd_figure(
     fig
 }
 
+/// The library's request of `mshbm frf` (its checks and defaults:
+/// [`mshbm::request::FrdRequest`]).
+fn frd_request(args: &FrfArgs) -> FrdRequest {
+    FrdRequest {
+        harmonics: args.harmonics.clone(),
+        method: args.method.request(),
+        step: args.step,
+        max_step: args.max_step,
+        min_step: args.min_step,
+        max_turn: args.max_turn,
+        stability: args.stability,
+        overlay_mshbm: args.overlay_mshbm,
+        ..FrdRequest::new(args.from_hz, args.to_hz)
+    }
+}
+
 /// The library's settings of `mshbm frf`.
 pub fn frd_settings(args: &FrfArgs, model: &Model) -> Result<FrdSettings> {
-    let mut settings = FrdSettings::new(args.from_hz, args.to_hz);
-    settings.initial_step = args.step;
-    settings.max_step = args.max_step;
-    settings.min_step = args.min_step;
-    settings.max_turn_deg = args.max_turn;
-    settings.newton = args.method.newton()?;
-    settings.stability = args.stability;
-    settings.response_dof = Some(args.method.response_dof(model)?);
-    settings.limits = args.model.limits();
+    let mut settings = frd_request(args)
+        .settings(model, args.model.limits())
+        .spelled()?;
     settings.setup_observer = Some(crate::progress::setup_progress());
     Ok(settings)
 }
@@ -437,37 +449,10 @@ pub fn frd_settings(args: &FrfArgs, model: &Model) -> Result<FrdSettings> {
 /// `--overlay-mshbm`), each with one `--harmonics` value that the diagram replaces per
 /// branch.
 pub fn frd_methods(args: &FrfArgs) -> Result<Vec<MethodSettings>> {
-    let h = args.harmonics.first().copied().unwrap_or(1);
-    let mut methods = args.method.methods(h)?;
-    if args.overlay_mshbm {
-        if args.method.method != Method::HbmAft {
-            bail!("--overlay-mshbm overlays the MS-HBM on --method hbm-aft; give --method hbm-aft");
-        }
-        let mut mshbm_args = args.method.clone();
-        mshbm_args.method = Method::Redistributed;
-        mshbm_args.penalty.clear();
-        mshbm_args.tangential_penalty = None;
-        mshbm_args.mass = None;
-        methods.insert(0, mshbm_args.single_method(h)?);
-    }
-    Ok(methods)
+    frd_request(args).methods().spelled()
 }
 
 pub fn run(args: &FrfArgs) -> Result<()> {
-    for (name, v) in [("--from", args.from_hz), ("--to", args.to_hz)] {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("{name} must be a positive number of Hz, got {v}");
-        }
-    }
-    if args.from_hz == args.to_hz {
-        bail!("--from and --to must differ");
-    }
-    if args.harmonics.is_empty() || args.harmonics.contains(&0) {
-        bail!("--harmonics must list numbers of harmonics of at least 1");
-    }
-    if !(args.min_step > 0.0 && args.min_step <= args.step && args.step <= args.max_step) {
-        bail!("steps must satisfy 0 < --min-step <= --step <= --max-step");
-    }
     let methods = frd_methods(args)?;
     let model = args.model.load()?;
     OutputPlan::new()
@@ -562,7 +547,7 @@ pub fn run(args: &FrfArgs) -> Result<()> {
         csv.finish(&status)?;
     }
     if let Some(path) = &args.plot {
-        let dof = args.method.response_dof(&model)?;
+        let dof = args.method.request().response_dof(&model).spelled()?;
         let fig = frd_figure(
             &model,
             &report.branches,

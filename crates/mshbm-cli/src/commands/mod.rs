@@ -112,3 +112,38 @@ pub(crate) fn read_solution(
         )
     })
 }
+
+/// The CLI's spelling of the library's option names ([`mshbm::request`]): `--name-with-
+/// dashes`, a value after a space; `from_hz`, `to_hz` are `--from`, `--to`, a start solution
+/// is `--from-solution`.
+pub struct CliSpelling;
+
+impl mshbm::error::Spelling for CliSpelling {
+    fn option(&self, name: &str) -> String {
+        match name {
+            "from_hz" => "--from".into(),
+            "to_hz" => "--to".into(),
+            "start_solution" => "--from-solution".into(),
+            _ => format!("--{}", name.replace('_', "-")),
+        }
+    }
+    fn option_value(&self, name: &str, value: &str) -> String {
+        format!("{} {value}", self.option(name))
+    }
+}
+
+/// A bad option, in the CLI's spelling.
+pub fn option_error(e: mshbm::error::OptionError) -> anyhow::Error {
+    anyhow::anyhow!("{}", e.render(&CliSpelling))
+}
+
+/// `Result<T, OptionError>` → `anyhow::Result<T>` in the CLI's spelling.
+pub trait Spelled<T> {
+    fn spelled(self) -> Result<T>;
+}
+
+impl<T> Spelled<T> for std::result::Result<T, mshbm::error::OptionError> {
+    fn spelled(self) -> Result<T> {
+        self.map_err(option_error)
+    }
+}

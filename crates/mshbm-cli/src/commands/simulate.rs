@@ -5,20 +5,20 @@ use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use mshbm::analytic::DroppedBarSolution;
-use mshbm::integrate::steady_state::{
-    simulate_to_steady_state, Periodicity, SteadyState, SteadyStateOptions,
-};
+use mshbm::integrate::steady_state::{simulate_to_steady_state, Periodicity, SteadyState};
 use mshbm::integrate::{fall_energy, Integrator, Scheme, Settings};
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::model::file::load_dropped_bar_with;
+use mshbm::request::simulate::not_periodic;
+use mshbm::request::{SchemeKind, SimulateRequest, StartSolution};
 use mshbm::simulation::{reference_period, state_from_solution, TransientStatistics};
 use mshbm::{MassKind, Model};
 
-use super::ModelArgs;
+use super::{ModelArgs, Spelled};
 use crate::output::finite::to_json;
 use crate::output::interrupt;
 use crate::output::status::{NotConverged, ERROR, INTERRUPTED};
@@ -61,11 +61,9 @@ impl PeriodicityArg {
     }
 }
 
-/// Default `--tolerance` of the whole-state criterion (`--periodicity state`; also the
-/// criterion of `mshbm paper`'s Fig. 9).
-pub const SIMULATE_TOLERANCE: f64 = 1e-6;
-/// Default `--harmonics` of the steady state's Fourier coefficients.
-pub const SIMULATE_HARMONICS: usize = 10;
+/// Default `--harmonics` of the steady state's Fourier coefficients (also those of
+/// `mshbm paper`'s Fig. 9).
+pub const SIMULATE_HARMONICS: usize = mshbm::request::simulate::DEFAULT_HARMONICS;
 
 /// Arguments of `mshbm simulate`.
 #[derive(Args, Debug)]
@@ -269,14 +267,6 @@ impl Recorder {
     }
 }
 
-fn positive(name: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        bail!("{name} must be a positive number, got {v}")
-    }
-}
-
 /// The scheme and the mass it integrates: Moreau–Jean (default θ = ½, e_N = 0) on the
 /// consistent mass, or position-level Newmark on the redistributed mass.
 pub(crate) fn scheme_and_mass(
@@ -325,57 +315,33 @@ pub(crate) fn transient_run(
     Ok(rec)
 }
 
+/// The library's request of `mshbm simulate` (its checks and defaults:
+/// [`mshbm::request::SimulateRequest`]), without its start solution.
+fn simulate_request(args: &SimulateArgs) -> SimulateRequest {
+    SimulateRequest {
+        frequency: args.frequency,
+        periods: args.periods,
+        duration: args.duration,
+        steps_per_period: args.steps_per_period,
+        dt: args.dt,
+        scheme: args.scheme.map(|s| match s {
+            SchemeArg::Moreau => SchemeKind::Moreau,
+            SchemeArg::Redistributed => SchemeKind::Redistributed,
+        }),
+        restitution: args.restitution,
+        theta: args.theta,
+        steady_state: args.steady_state,
+        periodicity: args.periodicity.periodicity(),
+        tolerance: args.tolerance,
+        harmonics: args.harmonics,
+        dof: args.dof,
+        start_solution: None,
+    }
+}
+
 pub fn run(args: &SimulateArgs) -> Result<()> {
-    // --- arguments that need no model ---
-    if let Some(f) = args.frequency {
-        positive("--frequency [Hz]", f)?;
-    }
-    if let Some(p) = args.periods {
-        positive("--periods", p)?;
-    }
-    if let Some(d) = args.duration {
-        positive("--duration [s]", d)?;
-    }
-    if let Some(dt) = args.dt {
-        positive("--dt [s]", dt)?;
-    }
-    if args.steps_per_period == Some(0) {
-        bail!("--steps-per-period must be at least 1");
-    }
-    if let Some(e) = args.restitution {
-        if !(e.is_finite() && (0.0..=1.0).contains(&e)) {
-            bail!("--restitution must lie in [0, 1], got {e}");
-        }
-    }
-    if let Some(t) = args.theta {
-        if !(t.is_finite() && (0.5..=1.0).contains(&t)) {
-            bail!("--theta must lie in [0.5, 1] (theta < 0.5 is unstable), got {t}");
-        }
-    }
-    let periodicity = args.periodicity.periodicity();
-    let tolerance = match args.tolerance {
-        Some(t) => positive("--tolerance", t)?,
-        None => periodicity.default_tolerance(),
-    };
-    if args.harmonics == 0 {
-        bail!("--harmonics must be at least 1");
-    }
-    if args.steady_state {
-        if args.duration.is_some() {
-            bail!("--steady-state runs whole periods: give --periods (the period limit), not --duration");
-        }
-        if args.dt.is_some() {
-            bail!("--steady-state needs a whole number of steps per period: give --steps-per-period, not --dt");
-        }
-        if let Some(p) = args.periods {
-            if p.fract() != 0.0 {
-                bail!("--periods must be a whole number with --steady-state, got {p}");
-            }
-            if periodicity == Periodicity::Response && p < 2.0 {
-                bail!("--periods must be at least 2 with --steady-state --periodicity response (it compares whole periods), got {p}");
-            }
-        }
-    }
+    let mut request = simulate_request(args);
+    request.validate().spelled()?;
 
     // --- model, scheme, system ---
     let model = args.model.load()?;
@@ -394,123 +360,41 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         &args.model.load_options(),
     )?;
     let analytic: Option<DroppedBarSolution> = dropped.as_ref().and_then(|p| p.analytic().ok());
-    let forced = model.harmonic_load.iter().any(|&f| f != 0.0);
-    let start = match &args.from_solution {
-        Some(path) => Some((
-            path.clone(),
-            super::read_solution(path, &args.model.limits())?,
-        )),
-        None => None,
-    };
-    let frequency = match (&start, args.frequency) {
-        (Some((path, s)), Some(f)) => {
-            if ((f - s.frequency_hz) / f).abs() > 1e-9 {
-                bail!(
-                    "--frequency {f} Hz differs from the frequency of {} ({} Hz)",
-                    path.display(),
-                    s.frequency_hz
-                );
-            }
-            Some(f)
-        }
-        (Some((_, s)), None) => Some(positive(
-            "frequency of the solution file [Hz]",
-            s.frequency_hz,
-        )?),
-        (None, f) => f,
-    };
-    if forced && frequency.is_none() {
-        bail!("the model has a harmonic load: give its --frequency [Hz]");
+    if let Some(path) = &args.from_solution {
+        request.start_solution = Some(StartSolution {
+            source: path.display().to_string(),
+            solution: super::read_solution(path, &args.model.limits())?,
+        });
     }
-    if args.steady_state && frequency.is_none() {
-        bail!("--steady-state needs --frequency [Hz]: the period of the steady state (also without load)");
-    }
-    let scheme_arg = args.scheme.unwrap_or(if model.contacts.is_empty() {
-        SchemeArg::Moreau
-    } else {
-        SchemeArg::Redistributed
-    });
-    if scheme_arg == SchemeArg::Redistributed
-        && (args.restitution.is_some() || args.theta.is_some())
-    {
-        bail!("--restitution and --theta belong to --scheme moreau; the redistributed scheme has no impact law");
-    }
-    let (scheme, kind) = scheme_and_mass(scheme_arg, args.restitution, args.theta);
-    let system = model.system(kind)?;
+    let run_plan = request.plan(&model).spelled()?;
+    let forced = run_plan.forced;
+    let scheme = run_plan.scheme;
+    let system = model.system(scheme.mass_kind())?;
 
     // --- time grid ---
-    let period = reference_period(&system, frequency, dropped.as_ref());
-    // a steady state is sampled like a forced response, also without load
-    let default_steps_per_period = if forced || args.steady_state {
-        2000
-    } else {
-        8000
-    };
-    let dt = match (args.dt, period) {
-        (Some(dt), _) => dt,
-        (None, Some(t)) => t / args.steps_per_period.unwrap_or(default_steps_per_period) as f64,
-        (None, None) => bail!(
-            "no reference period for this model (free structure): give --dt [s] and --duration [s]"
-        ),
-    };
-    let steps = match (args.duration, args.periods, period) {
-        (Some(d), _, _) => (d / dt).round(),
-        (None, Some(p), Some(t)) => (p * t / dt).round(),
-        (None, None, Some(t)) => ((if forced { 20.0 } else { 2.0 }) * t / dt).round(),
-        (None, _, None) => bail!("no reference period for this model: give --duration [s]"),
-    };
-    if !(1.0..1e12).contains(&steps) {
-        bail!("the run would have {steps} steps of dt = {dt:e} s");
-    }
-    let steps = steps as u64;
-    let steps_per_period = if args.steady_state {
-        args.steps_per_period.unwrap_or(default_steps_per_period)
-    } else {
-        0
-    };
-    let max_periods = args.periods.map_or(1000, |p| p as usize);
-    if args.steady_state {
-        // the steady state keeps one period of the contact and nonlinear DOFs' signals
-        // (and the reported solution's series): checked before the run
-        let per_step = (4 * system.contacts.len() + system.nonlinear_dofs.len() + 2) as u64 * 16;
-        args.model.limits().check_memory(
-            &format!(
-                "--steps-per-period {steps_per_period} (the steady state's period of signals)"
-            ),
-            (steps_per_period as u64).checked_mul(per_step),
-        )?;
-    }
+    let period = reference_period(&system, run_plan.frequency, dropped.as_ref());
+    let grid = request.grid(&run_plan, period).spelled()?;
+    let dt = grid.dt;
+    let steady_options =
+        request.steady_state_options(&run_plan, &grid, &system, &args.model.limits())?;
 
     // --- integrator ---
-    let omega = frequency.map(|f| 2.0 * std::f64::consts::PI * f);
     let mut integrator = Integrator::new(
         &system,
         &Settings {
             dt,
             scheme,
-            omega: if forced || args.steady_state {
-                omega
-            } else {
-                None
-            },
+            omega: grid.load_omega,
             energy_offset: fall_energy(&model, &system),
         },
     )?;
-    if let Some((path, solution)) = &start {
-        let w = omega.expect("frequency of the solution");
-        let (q, v) = state_from_solution(&system, &model, solution, w, path)?;
+    if let (Some(start), Some(w)) = (&request.start_solution, run_plan.omega()) {
+        let path = args
+            .from_solution
+            .as_deref()
+            .expect("read from --from-solution");
+        let (q, v) = state_from_solution(&system, &model, &start.solution, w, path)?;
         integrator.set_state(0.0, &q, &v)?;
-    }
-    let response_dof = match args.dof {
-        Some(d) if d >= model.n_dofs() => bail!(
-            "--dof {d} out of range: the model has DOFs 0..{}",
-            model.n_dofs() - 1
-        ),
-        Some(d) => Some(d),
-        None => model.contacts.first().map(|c| c.dofs[0]),
-    };
-    if args.steady_state && response_dof.is_none() {
-        bail!("the model has no contact: give --dof");
     }
 
     // --- recording ---
@@ -531,11 +415,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         }
         None => None,
     };
-    let total_steps = if args.steady_state {
-        (max_periods * steps_per_period) as u64
-    } else {
-        steps
-    };
+    let total_steps = grid.total_steps();
     let progress = if std::io::stderr().is_terminal() {
         let bar = ProgressBar::new(total_steps);
         bar.set_style(
@@ -551,16 +431,8 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
     rec.record(&integrator);
 
     // --- run ---
-    let steady: Option<SteadyState> = if args.steady_state {
-        let options = SteadyStateOptions {
-            steps_per_period,
-            max_periods,
-            tolerance,
-            harmonics: args.harmonics,
-            response_dof: response_dof.expect("checked"),
-            periodicity,
-        };
-        let w = omega.expect("checked");
+    let steady: Option<SteadyState> = if let Some(options) = steady_options {
+        let w = run_plan.omega().expect("a steady state has a frequency");
         Some(simulate_to_steady_state(
             &mut integrator,
             w,
@@ -569,7 +441,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             |p, change| progress.set_message(format!("period {p}: change {change:.2e}")),
         )?)
     } else {
-        integrator.run(steps as usize, |it| rec.record(it))?;
+        integrator.run(grid.steps as usize, |it| rec.record(it))?;
         None
     };
     progress.finish_and_clear();
@@ -602,17 +474,8 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         Some(s) => report_steady(&model, &scheme_name, s, json)?,
         None => report_transient(args, &model, &scheme_name, &rec, dt, e0, analytic.as_ref())?,
     }
-    if let Some(s) = &steady {
-        if !s.periodic {
-            return Err(NotConverged(format!(
-                "the response did not become periodic within {} periods: period-to-period scatter {:.2e} >= tolerance {:.1e} (--periodicity {})",
-                s.periods_simulated,
-                s.period_scatter,
-                s.tolerance,
-                s.periodicity.name()
-            ))
-            .into());
-        }
+    if let Some(why) = steady.as_ref().and_then(not_periodic) {
+        return Err(NotConverged(why.render(&super::CliSpelling)).into());
     }
     Ok(())
 }

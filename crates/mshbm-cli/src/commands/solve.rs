@@ -3,22 +3,18 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use mshbm::harmonic::Quadrature;
-use mshbm::method::general::GeneralOptions;
-use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};
-use mshbm::method::redistributed::{
-    JacobianForm, ReceptanceChoice, RedistributedOptions, DEFAULT_RECEPTANCE_MODES,
-};
+use mshbm::method::redistributed::JacobianForm;
 use mshbm::method::settings::MethodSettings;
-use mshbm::newton::NewtonOptions;
+use mshbm::request::method::{DEFAULT_HARMONICS, DEFAULT_MAX_ITERATIONS, DEFAULT_TOLERANCE};
+use mshbm::request::{MethodRequest, ReceptanceKind, SolveRequest, StartKind, StartSolution};
 use mshbm::solution::{MethodKind, PeriodicSolution};
-use mshbm::solve::{solve_periodic, SolvePath, SolveSettings, SolveStart, Solved};
-use mshbm::stability::StabilityOptions;
+use mshbm::solve::{solve_periodic, SolvePath, SolveSettings, Solved};
 use mshbm::{MassKind, Model};
 
-use super::ModelArgs;
+use super::{ModelArgs, Spelled};
 use crate::output::finite::to_json;
 use crate::output::status::NotConverged;
 use crate::output::stream::comment_text;
@@ -56,27 +52,6 @@ pub enum MassArg {
     Consistent,
     /// The redistributed mass with a massless contact boundary, as the MS-HBM uses.
     Redistributed,
-}
-
-/// `--penalty` value: a stiffness (`1e8`) or a multiple of the contact stiffness (`100x`).
-fn parse_penalty(text: &str) -> Result<Penalty> {
-    let t = text.trim();
-    let (number, relative) = match t.strip_suffix(['x', 'X']) {
-        Some(n) => (n.trim(), true),
-        None => (t, false),
-    };
-    let expected = "a positive stiffness [force/length] such as 1e8, or a positive multiple of the contact stiffness such as 100x";
-    let v: f64 = number
-        .parse()
-        .map_err(|_| anyhow!("--penalty {text:?}: expected {expected}"))?;
-    if !(v.is_finite() && v > 0.0) {
-        bail!("--penalty must be positive, got {text}: expected {expected}");
-    }
-    Ok(if relative {
-        Penalty::Relative(v)
-    } else {
-        Penalty::Stiffness(v)
-    })
 }
 
 /// Quadrature of the Fourier coefficients of the contact displacement.
@@ -161,11 +136,11 @@ pub struct MethodArgs {
 
     /// Newton tolerance: max-norm of the residual relative to the model's length scale
     /// (the largest gap or static deflection of the contact DOFs).
-    #[arg(long, default_value_t = 1e-10, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = DEFAULT_TOLERANCE, allow_negative_numbers = true)]
     pub tolerance: f64,
 
     /// Newton iteration limit per solution.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = DEFAULT_MAX_ITERATIONS)]
     pub max_iterations: usize,
 
     /// Model DOF whose response is reported (numbered as in the model file, from 0).
@@ -204,149 +179,42 @@ pub struct MethodArgs {
 }
 
 impl MethodArgs {
-    pub fn newton(&self) -> Result<NewtonOptions> {
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0) {
-            bail!("--tolerance must be positive, got {}", self.tolerance);
-        }
-        if self.max_iterations == 0 {
-            bail!("--max-iterations must be at least 1");
-        }
-        Ok(NewtonOptions {
+    /// The library's request of these options (its checks and defaults:
+    /// [`mshbm::request::MethodRequest`]).
+    pub fn request(&self) -> MethodRequest {
+        MethodRequest {
+            method: match self.method {
+                Method::Redistributed => MethodKind::Redistributed,
+                Method::Mshbm => MethodKind::General,
+                Method::HbmAft => MethodKind::HbmAft,
+            },
+            samples: self.samples,
+            quadrature: self.quadrature.map(|q| match q {
+                QuadratureArg::Exact => Quadrature::Exact,
+                QuadratureArg::Sampled => Quadrature::Sampled,
+            }),
+            mass: self.mass.map(|m| match m {
+                MassArg::Consistent => MassKind::Consistent,
+                MassArg::Redistributed => MassKind::Redistributed,
+            }),
+            penalty: self.penalty.clone(),
+            tangential_penalty: self.tangential_penalty.clone(),
             tolerance: self.tolerance,
             max_iterations: self.max_iterations,
-            ..NewtonOptions::default()
-        })
-    }
-
-    /// The penalties of `--penalty` (validated), or the default `100x`.
-    /// The receptance of --receptance and --receptance-modes.
-    fn receptance_choice(&self) -> Result<ReceptanceChoice> {
-        Ok(match (self.receptance, self.receptance_modes) {
-            (_, Some(0)) => bail!("--receptance-modes must be at least 1"),
-            (ReceptanceArg::Modal, modes) => ReceptanceChoice::Modal {
-                modes: modes.unwrap_or(DEFAULT_RECEPTANCE_MODES),
+            dof: self.dof,
+            stability_modes: self.stability_modes,
+            receptance: match self.receptance {
+                ReceptanceArg::Auto => ReceptanceKind::Auto,
+                ReceptanceArg::Exact => ReceptanceKind::Exact,
+                ReceptanceArg::Modal => ReceptanceKind::Modal,
             },
-            (_, Some(_)) => bail!("--receptance-modes needs --receptance modal"),
-            (ReceptanceArg::Auto, None) => ReceptanceChoice::Auto,
-            (ReceptanceArg::Exact, None) => ReceptanceChoice::Exact,
-        })
-    }
-
-    pub fn penalties(&self) -> Result<Vec<Penalty>> {
-        if self.penalty.is_empty() {
-            return Ok(vec![Penalty::default()]);
-        }
-        self.penalty.iter().map(|s| parse_penalty(s)).collect()
-    }
-
-    /// The methods to run for `harmonics`, from the combination of options (checked): one
-    /// per `--penalty` value for hbm-aft, one otherwise.
-    pub fn methods(&self, harmonics: usize) -> Result<Vec<MethodSettings>> {
-        match self.stability_modes {
-            Some(0) => bail!("--stability-modes must be at least 1"),
-            Some(_) if self.method != Method::Redistributed => {
-                bail!("--stability-modes applies to --method redistributed only (the method with Floquet multipliers)")
-            }
-            _ => {}
-        }
-        if self.method != Method::Redistributed
-            && (self.receptance != ReceptanceArg::Auto || self.receptance_modes.is_some())
-        {
-            bail!("--receptance and --receptance-modes apply to --method redistributed only");
-        }
-        if self.method != Method::Redistributed && self.jacobian != JacobianArg::Auto {
-            bail!("--jacobian applies to --method redistributed only");
-        }
-        let quadrature = |default| match self.quadrature.unwrap_or(default) {
-            QuadratureArg::Exact => Quadrature::Exact,
-            QuadratureArg::Sampled => Quadrature::Sampled,
-        };
-        let tangential_penalty = match &self.tangential_penalty {
-            Some(_) if self.method != Method::HbmAft => bail!(
-                "--tangential-penalty applies to --method hbm-aft only (the MS-HBM treats friction exactly)"
-            ),
-            Some(text) => Some(
-                parse_penalty(text)
-                    .map_err(|e| anyhow!("{}", e.to_string().replace("--penalty", "--tangential-penalty")))?,
-            ),
-            None => None,
-        };
-        if self.method == Method::HbmAft {
-            return Ok(self
-                .penalties()?
-                .into_iter()
-                .map(|penalty| {
-                    MethodSettings::HbmAft(HbmAftOptions {
-                        harmonics,
-                        samples: self.samples,
-                        mass: match self.mass.unwrap_or(MassArg::Consistent) {
-                            MassArg::Consistent => MassKind::Consistent,
-                            MassArg::Redistributed => MassKind::Redistributed,
-                        },
-                        penalty,
-                        tangential_penalty,
-                        quadrature: quadrature(QuadratureArg::Sampled),
-                    })
-                })
-                .collect());
-        }
-        if !self.penalty.is_empty() {
-            bail!("--penalty applies to --method hbm-aft only (the MS-HBM treats contact exactly)");
-        }
-        if self.mass.is_some() {
-            bail!("--mass applies to --method hbm-aft only (the MS-HBM methods fix their mass)");
-        }
-        Ok(vec![match self.method {
-            Method::Redistributed => MethodSettings::Redistributed {
-                options: RedistributedOptions {
-                    harmonics,
-                    samples: self.samples,
-                    quadrature: quadrature(QuadratureArg::Exact),
-                    receptance: self.receptance_choice()?,
-                    jacobian: match self.jacobian {
-                        JacobianArg::Auto => JacobianForm::Auto,
-                        JacobianArg::Dense => JacobianForm::Dense,
-                        JacobianArg::Operator => JacobianForm::Operator,
-                    },
-                },
-                stability: StabilityOptions {
-                    modes: self.stability_modes,
-                },
+            receptance_modes: self.receptance_modes,
+            jacobian: match self.jacobian {
+                JacobianArg::Auto => JacobianForm::Auto,
+                JacobianArg::Dense => JacobianForm::Dense,
+                JacobianArg::Operator => JacobianForm::Operator,
             },
-            Method::Mshbm => MethodSettings::General(GeneralOptions {
-                steps: self.samples,
-                ..GeneralOptions::new(harmonics)
-            }),
-            Method::HbmAft => unreachable!("returned above"),
-        }])
-    }
-
-    /// The one method to run for `harmonics` (hbm-aft: with one `--penalty` value).
-    pub fn single_method(&self, harmonics: usize) -> Result<MethodSettings> {
-        let mut methods = self.methods(harmonics)?;
-        if methods.len() > 1 {
-            bail!("solve takes one --penalty value (frf traces one branch per value)");
         }
-        Ok(methods.remove(0))
-    }
-
-    /// The response DOF (model numbering).
-    pub fn response_dof(&self, model: &Model) -> Result<usize> {
-        let dof = match self.dof {
-            Some(d) => d,
-            None => match (model.contacts.first(), model.frictions.first()) {
-                (Some(c), _) => c.dofs[0],
-                (None, Some(f)) => f.dofs[0],
-                (None, None) => bail!("the model has no contact: give --dof"),
-            },
-        };
-        if dof >= model.n_dofs() {
-            bail!(
-                "--dof {dof} out of range: the model has DOFs 0..{}",
-                model.n_dofs() - 1
-            );
-        }
-        Ok(dof)
     }
 }
 
@@ -361,7 +229,7 @@ pub struct SolveArgs {
     pub frequency: f64,
 
     /// Number of harmonics H of the linear part.
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = DEFAULT_HARMONICS)]
     pub harmonics: usize,
 
     #[command(flatten)]
@@ -573,13 +441,7 @@ const PLOT_BYTES_PER_SAMPLE: u64 = 64;
 /// written atomically) fit the memory budget: they grow with the samples (`--samples`) and
 /// the contacts. The method's own plan counts its arrays; this counts the text.
 fn check_output_memory(args: &SolveArgs, model: &Model) -> Result<()> {
-    let samples = args
-        .method
-        .samples
-        .unwrap_or_else(|| match args.method.method {
-            Method::Mshbm => mshbm::method::general::default_steps(args.harmonics),
-            _ => mshbm::method::default_samples(args.harmonics),
-        }) as u64;
+    let samples = args.method.request().samples_for(args.harmonics) as u64;
     let contacts = model.contacts.len().max(1) as u64;
     let per_sample = |option: &str, bytes: u64| (option.to_string(), samples.checked_mul(bytes));
     let mut outputs = Vec::new();
@@ -625,87 +487,41 @@ fn stability_word(s: &PeriodicSolution) -> &'static str {
     }
 }
 
-/// The library's settings of `mshbm solve`.
-pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> {
-    Ok(SolveSettings {
-        newton: args.method.newton()?,
+/// The library's request of `mshbm solve`, without its start solution.
+fn solve_request(args: &SolveArgs) -> SolveRequest {
+    SolveRequest {
+        harmonics: args.harmonics,
+        method: args.method.request(),
         stability: !args.no_stability,
-        response_dof: Some(args.method.response_dof(model)?),
-        limits: args.model.limits(),
-        observer: Some(crate::progress::newton_progress()),
-        start: solve_start(args, model)?,
-        branch_observer: Some(crate::progress::branch_progress()),
-        setup_observer: Some(crate::progress::setup_progress()),
-    })
+        start: match args.start {
+            StartArg::Auto => StartKind::Auto,
+            StartArg::Linear => StartKind::Linear,
+        },
+        sweep_from: args.sweep_from,
+        sweep_to: args.sweep_to,
+        ..SolveRequest::new(args.frequency)
+    }
 }
 
-/// Where `mshbm solve` starts Newton (`--from-solution`, `--start`, `--sweep-from`).
-fn solve_start(args: &SolveArgs, model: &Model) -> Result<SolveStart> {
+/// The library's settings of `mshbm solve` (`--from-solution` read here).
+pub fn solve_settings(args: &SolveArgs, model: &Model) -> Result<SolveSettings> {
+    let mut request = solve_request(args);
     if let Some(path) = &args.from_solution {
-        let s = super::read_solution(path, &args.model.limits())?;
-        let method = args.method.single_method(args.harmonics)?.kind();
-        if let Some(why) = s.unusable_start(model, method) {
-            bail!("{}: cannot start from this solution: {why}", path.display());
-        }
-        let Some(x) = s.unknowns else {
-            bail!("{}: the solution has no `unknowns` (written by an older mshbm, or not by `solve --json`); solve it again with `solve --json`", path.display());
-        };
-        // another H: the same signals with harmonics added (zero) or dropped
-        let Some(x) = mshbm::harmonic::with_harmonics(&x, s.harmonics, args.harmonics) else {
-            bail!(
-                "{}: its {} unknowns are not a whole number of {}-harmonic signals",
-                path.display(),
-                x.len(),
-                s.harmonics
-            );
-        };
-        return Ok(SolveStart::Unknowns(x));
-    }
-    if let Some(from) = args.sweep_from {
-        if !(from.is_finite() && from > 0.0) {
-            bail!("--sweep-from must be a positive number of Hz, got {from}");
-        }
-        let f = args.frequency;
-        let to = args
-            .sweep_to
-            .unwrap_or(if from < f { 1.5 * f } else { f / 1.5 });
-        if !(to.is_finite() && to > 0.0) {
-            bail!("--sweep-to must be a positive number of Hz, got {to}");
-        }
-        if !((from < f && f <= to) || (to <= f && f < from)) {
-            bail!("--frequency {f} Hz must lie between --sweep-from {from} Hz (excluded) and --sweep-to {to} Hz");
-        }
-        return Ok(SolveStart::Sweep {
-            from_hz: from,
-            to_hz: to,
+        request.start_solution = Some(StartSolution {
+            source: path.display().to_string(),
+            solution: super::read_solution(path, &args.model.limits())?,
         });
     }
-    Ok(match args.start {
-        StartArg::Auto => SolveStart::Auto,
-        StartArg::Linear => SolveStart::Linear,
+    Ok(SolveSettings {
+        observer: Some(crate::progress::newton_progress()),
+        branch_observer: Some(crate::progress::branch_progress()),
+        setup_observer: Some(crate::progress::setup_progress()),
+        ..request.settings(model, args.model.limits()).spelled()?
     })
 }
 
 pub fn run(args: &SolveArgs) -> Result<()> {
-    if !(args.frequency.is_finite() && args.frequency > 0.0) {
-        bail!(
-            "--frequency must be a positive number of Hz, got {}",
-            args.frequency
-        );
-    }
-    if args.harmonics == 0 {
-        bail!("--harmonics must be at least 1");
-    }
-    if let Some(ns) = args.method.samples {
-        if ns < 2 * args.harmonics + 1 {
-            bail!(
-                "--samples {ns} is too few for {} harmonics: need at least 2H+1 = {}",
-                args.harmonics,
-                2 * args.harmonics + 1
-            );
-        }
-    }
-    let method = args.method.single_method(args.harmonics)?;
+    let method = solve_request(args).method().spelled()?;
     let model = args.model.load()?;
     let vtk_files = match &args.vtk {
         Some(dir) => {
@@ -763,14 +579,16 @@ pub fn run(args: &SolveArgs) -> Result<()> {
     // a signal stops a long fallback continuation (its observer returns an error): report
     // the interruption, not that error
     crate::output::interrupt::check("nothing was written")?;
+    let solved = solved?;
+    let not_converged = solved.not_converged(args.frequency);
     let Solved {
         solution,
         label,
-        outcome,
         stability_error,
         path,
         others,
-    } = solved?;
+        ..
+    } = solved;
     if let Some(e) = stability_error {
         crate::note!("note: stability not computed: {e}");
     }
@@ -814,16 +632,6 @@ pub fn run(args: &SolveArgs) -> Result<()> {
             );
         }
     }
-    let not_converged = (!outcome.converged).then(|| {
-        format!(
-            "Newton did not converge at {} Hz: {}",
-            args.frequency,
-            outcome
-                .reason
-                .as_ref()
-                .map_or_else(|| "unknown reason".into(), |r| r.to_string())
-        )
-    });
     let json = if args.json {
         Some(to_json("standard output", &solution)?)
     } else {

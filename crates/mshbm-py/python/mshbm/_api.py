@@ -1,19 +1,24 @@
-"""The computations: thin wrappers over the extension, with the CLI's defaults."""
+"""The computations: thin wrappers over the extension. Every default and check is the
+library's request layer (``mshbm::request``, shared with the CLI): an option left at
+``None`` takes the library's default, named in each docstring."""
 
 from __future__ import annotations
 
-from typing import Any, Callable, Iterable
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 from . import _native
-from ._model import Model
 from ._native import ArgumentError, NotConvergedError
 from ._results import Floquet, FrequencyResponse, Modes, Simulation, Solution
+
+if TYPE_CHECKING:  # for annotations only: _model imports this module (Model.solve, …)
+    from ._model import Model
 
 __all__ = ["solve", "frf", "modes", "simulate", "stability"]
 
 
 def _model(model: Any) -> Model:
-    if not isinstance(model, Model):
+    """``model`` if it is an :class:`mshbm.Model` (one that holds a native model)."""
+    if not isinstance(getattr(model, "_native", None), _native.NativeModel):
         raise ArgumentError(f"expected an mshbm.Model, got {type(model).__name__}")
     return model
 
@@ -27,31 +32,41 @@ def _penalties(penalty: Any) -> list[str]:
     return [p if isinstance(p, str) else repr(float(p)) for p in penalty]
 
 
-def _harmonics(harmonics: Any) -> list[int]:
+def _tangential(penalty: Any) -> str | None:
+    """``tangential_penalty`` as the CLI's ``--tangential-penalty`` string."""
+    if penalty is None or isinstance(penalty, str):
+        return penalty
+    return repr(float(penalty))
+
+
+def _harmonics(harmonics: Any) -> list[int] | None:
+    if harmonics is None:
+        return None
     if isinstance(harmonics, int):
         return [harmonics]
-    return [int(h) for h in harmonics]
+    return list(harmonics)
 
 
 def solve(
     model: Model,
     frequency: float,
-    harmonics: int = 5,
+    harmonics: int | None = None,
     *,
-    method: str = "redistributed",
+    method: str | None = None,
     samples: int | None = None,
     quadrature: str | None = None,
     mass: str | None = None,
     penalty: float | str | None = None,
-    tolerance: float = 1e-10,
-    max_iterations: int = 50,
+    tangential_penalty: float | str | None = None,
+    tolerance: float | None = None,
+    max_iterations: int | None = None,
     dof: int | None = None,
     stability_modes: int | None = None,
-    receptance: str = "auto",
+    receptance: str | None = None,
     receptance_modes: int | None = None,
-    jacobian: str = "auto",
-    stability: bool = True,
-    start: str | Solution = "auto",
+    jacobian: str | None = None,
+    stability: bool | None = None,
+    start: str | Solution | None = None,
     sweep_from: float | None = None,
     sweep_to: float | None = None,
     threads: int | None = None,
@@ -59,12 +74,14 @@ def solve(
     """One periodic solution at ``frequency`` [Hz] (``mshbm solve``), with its Floquet
     multipliers (``stability=False`` skips them).
 
-    ``harmonics``: H. ``method``: ``"redistributed"`` (default, the paper's MS-HBM),
+    ``harmonics``: H (default 5). ``method``: ``"redistributed"`` (default, the paper's MS-HBM),
     ``"hbm-aft"`` (penalty contact; ``penalty`` a stiffness [force/length] or
     ``"100x"`` the contact stiffness, the default; ``mass`` ``"consistent"`` or
     ``"redistributed"``) or ``"mshbm"`` (the general MS-HBM). ``samples``: samples per
     period (default max(256, 16(2H+1))); ``quadrature``: ``"exact"`` or ``"sampled"``;
-    ``tolerance``: Newton's max-norm residual relative to the model's length scale;
+    ``tolerance``: Newton's max-norm residual relative to the model's length scale
+    (default 1e-10; ``max_iterations`` default 50); ``tangential_penalty``: hbm-aft's
+    tangential stiffness on contacts with friction (default the normal one);
     ``dof``: the response DOF (default: the first contact's). ``receptance``:
     ``"auto"`` (modal above 20 000 DOFs with a stiffness factor of more than 40 values per
     DOF, exact otherwise), ``"exact"`` or ``"modal"`` (the
@@ -83,26 +100,27 @@ def solve(
     # a start solution goes to the library as the CLI's --from-solution JSON: the library
     # refuses one of another method or model (PeriodicSolution::unusable_start)
     if isinstance(start, Solution):
-        start_kind, start_solution = "auto", start.to_json()
+        start_kind, start_solution = None, start.to_json()
     else:
         start_kind, start_solution = start, None
     data = _native.solve(
         _model(model)._native,
-        float(frequency),
-        int(harmonics),
+        frequency,
+        harmonics,
         method=method,
         samples=samples,
         quadrature=quadrature,
         mass=mass,
         penalty=_penalties(penalty),
-        tolerance=float(tolerance),
-        max_iterations=int(max_iterations),
+        tangential_penalty=_tangential(tangential_penalty),
+        tolerance=tolerance,
+        max_iterations=max_iterations,
         dof=dof,
         stability_modes=stability_modes,
         receptance=receptance,
         receptance_modes=receptance_modes,
         jacobian=jacobian,
-        stability=bool(stability),
+        stability=stability,
         start=start_kind,
         start_solution=start_solution,
         sweep_from=sweep_from,
@@ -136,26 +154,27 @@ def frf(
     model: Model,
     from_hz: float,
     to_hz: float,
-    harmonics: int | Iterable[int] = 5,
+    harmonics: int | Iterable[int] | None = None,
     *,
-    method: str = "redistributed",
+    method: str | None = None,
     samples: int | None = None,
     quadrature: str | None = None,
     mass: str | None = None,
     penalty: float | str | Iterable[float | str] | None = None,
-    tolerance: float = 1e-10,
-    max_iterations: int = 50,
+    tangential_penalty: float | str | None = None,
+    tolerance: float | None = None,
+    max_iterations: int | None = None,
     dof: int | None = None,
     stability_modes: int | None = None,
-    receptance: str = "auto",
+    receptance: str | None = None,
     receptance_modes: int | None = None,
-    jacobian: str = "auto",
-    step: float = 0.01,
-    max_step: float = 0.1,
-    min_step: float = 1e-12,
-    max_turn: float = 20.0,
-    stability: bool = False,
-    overlay_mshbm: bool = False,
+    jacobian: str | None = None,
+    step: float | None = None,
+    max_step: float | None = None,
+    min_step: float | None = None,
+    max_turn: float | None = None,
+    stability: bool | None = None,
+    overlay_mshbm: bool | None = None,
     max_points: int | None = None,
     callback: Callable[[dict], Any] | None = None,
     threads: int | None = None,
@@ -165,7 +184,7 @@ def frf(
     (and per ``penalty`` with ``method="hbm-aft"``), folds located.
 
     Options as :func:`solve`, and: ``step``, ``max_step``, ``min_step`` (arclength
-    steps, dimensionless), ``max_turn`` [degrees], ``stability`` (multipliers of every
+    steps, dimensionless; default 0.01, 0.1, 1e-12), ``max_turn`` [degrees, default 20], ``stability`` (multipliers of every
     point), ``overlay_mshbm`` (with hbm-aft: also the MS-HBM), ``max_points`` per branch
     (default 20000).
 
@@ -180,27 +199,28 @@ def frf(
     """
     data = _native.frf(
         _model(model)._native,
-        float(from_hz),
-        float(to_hz),
+        from_hz,
+        to_hz,
         _harmonics(harmonics),
         method=method,
         samples=samples,
         quadrature=quadrature,
         mass=mass,
         penalty=_penalties(penalty),
-        tolerance=float(tolerance),
-        max_iterations=int(max_iterations),
+        tangential_penalty=_tangential(tangential_penalty),
+        tolerance=tolerance,
+        max_iterations=max_iterations,
         dof=dof,
         stability_modes=stability_modes,
         receptance=receptance,
         receptance_modes=receptance_modes,
         jacobian=jacobian,
-        step=float(step),
-        max_step=float(max_step),
-        min_step=float(min_step),
-        max_turn=float(max_turn),
-        stability=bool(stability),
-        overlay_mshbm=bool(overlay_mshbm),
+        step=step,
+        max_step=max_step,
+        min_step=min_step,
+        max_turn=max_turn,
+        stability=stability,
+        overlay_mshbm=overlay_mshbm,
         max_points=max_points,
         callback=callback,
         threads=threads,
@@ -226,9 +246,9 @@ def simulate(
     restitution: float | None = None,
     theta: float | None = None,
     steady_state: bool = False,
-    periodicity: str = "response",
+    periodicity: str | None = None,
     tolerance: float | None = None,
-    harmonics: int = 10,
+    harmonics: int | None = None,
     dof: int | None = None,
     start: Solution | None = None,
     record: bool = True,
@@ -240,14 +260,14 @@ def simulate(
     ``frequency`` [Hz] of the harmonic load; ``periods`` or ``duration`` [s];
     ``steps_per_period`` (default 2000 forced, 8000 free) or ``dt`` [s].
     ``steady_state``: integrate period by period until the response repeats
-    (``periodicity`` ``"response"`` or ``"state"``, ``tolerance``, ``harmonics`` of the
-    reported solution, ``periods`` the limit, default 1000); raises
+    (``periodicity`` ``"response"`` (default) or ``"state"``, ``tolerance``, ``harmonics`` of
+    the reported solution (default 10), ``periods`` the limit, default 1000); raises
     :class:`NotConvergedError` (with ``result``) when it does not become periodic.
     ``start``: a :class:`Solution` to start from. ``record=False`` keeps no time series.
     """
     data = _native.simulate(
         _model(model)._native,
-        None if frequency is None else float(frequency),
+        frequency,
         periods=periods,
         duration=duration,
         steps_per_period=steps_per_period,
@@ -258,7 +278,7 @@ def simulate(
         steady_state=bool(steady_state),
         periodicity=periodicity,
         tolerance=tolerance,
-        harmonics=int(harmonics),
+        harmonics=harmonics,
         dof=dof,
         start_solution=None if start is None else start.to_json(),
         record=bool(record),

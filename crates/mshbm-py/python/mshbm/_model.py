@@ -280,13 +280,13 @@ class Model:
         return f"<mshbm.Model {self.name!r}: {self.n_dofs} DOFs, {len(self.contact_dofs)} contacts, from {self.source}>"
 
     # --- computations (the module-level functions) ---------------------------------------
-    def solve(self, frequency: float, harmonics: int = 5, **options):
+    def solve(self, frequency: float, harmonics: int | None = None, **options):
         """:func:`mshbm.solve` on this model."""
         from ._api import solve
 
         return solve(self, frequency, harmonics, **options)
 
-    def frf(self, from_hz: float, to_hz: float, harmonics=5, **options):
+    def frf(self, from_hz: float, to_hz: float, harmonics=None, **options):
         """:func:`mshbm.frf` on this model."""
         from ._api import frf
 

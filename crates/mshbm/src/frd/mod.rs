@@ -21,5 +21,10 @@ pub use report::{
     branch_values_at, describe_stop, BifurcationReport, BranchReport, BranchValue, FoldReport,
     FrdPoint, FrdReport,
 };
-pub use settings::{response_dof, FrdSettings};
-pub use trace::{trace_diagram, trace_frd_branch, BranchInfo, FrdObserver, TracedBranch};
+pub use settings::{
+    check_frequencies, response_dof, FrdSettings, DEFAULT_INITIAL_STEP, DEFAULT_MAX_POINTS,
+    DEFAULT_MAX_STEP, DEFAULT_MAX_TURN_DEG, DEFAULT_MIN_STEP,
+};
+pub use trace::{
+    trace_diagram, trace_frd_branch, BranchInfo, FrdObserver, PointEvent, TracedBranch,
+};

@@ -1,11 +1,22 @@
 //! Settings of a frequency response diagram, validated, with documented defaults.
 
 use crate::continuation::arclength::ContinuationOptions;
-use crate::error::{Error, Result};
+use crate::error::{OptionError, Result};
 use crate::limits::Limits;
 use crate::method::SetupObserver;
 use crate::model::Model;
 use crate::newton::NewtonOptions;
+
+/// Default first arclength step.
+pub const DEFAULT_INITIAL_STEP: f64 = 0.01;
+/// Default largest arclength step.
+pub const DEFAULT_MAX_STEP: f64 = 0.1;
+/// Default smallest arclength step.
+pub const DEFAULT_MIN_STEP: f64 = 1e-12;
+/// Default largest turn of the tangent between two points, degrees.
+pub const DEFAULT_MAX_TURN_DEG: f64 = 20.0;
+/// Default most points per branch.
+pub const DEFAULT_MAX_POINTS: usize = 20_000;
 
 /// What to trace and how finely. Step sizes are in the continuation's scaled arclength
 /// (unknowns divided by the model's length scale, frequency as `ln(ω/ω_start)`).
@@ -48,14 +59,14 @@ impl FrdSettings {
         FrdSettings {
             from_hz,
             to_hz,
-            initial_step: 0.01,
-            min_step: 1e-12,
-            max_step: 0.1,
-            max_turn_deg: 20.0,
+            initial_step: DEFAULT_INITIAL_STEP,
+            min_step: DEFAULT_MIN_STEP,
+            max_step: DEFAULT_MAX_STEP,
+            max_turn_deg: DEFAULT_MAX_TURN_DEG,
             newton: NewtonOptions::default(),
             stability: false,
             response_dof: None,
-            max_points: 20_000,
+            max_points: DEFAULT_MAX_POINTS,
             limits: Limits::default(),
             setup_observer: None,
         }
@@ -65,17 +76,7 @@ impl FrdSettings {
     /// point limit and Newton settings as the continuation checks them
     /// ([`ContinuationOptions::validate`]).
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [("from", self.from_hz), ("to", self.to_hz)] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::argument(
-                    name,
-                    format!("must be a positive number of Hz, got {v}"),
-                ));
-            }
-        }
-        if self.from_hz == self.to_hz {
-            return Err(Error::argument("from/to", "the frequencies must differ"));
-        }
+        check_frequencies(self.from_hz, self.to_hz)?;
         self.continuation().validate()
     }
 
@@ -94,27 +95,49 @@ impl FrdSettings {
     }
 }
 
+/// The sweep's end frequencies [Hz]: positive, finite and different.
+pub fn check_frequencies(from_hz: f64, to_hz: f64) -> std::result::Result<(), OptionError> {
+    for (name, v) in [("from_hz", from_hz), ("to_hz", to_hz)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(OptionError::new(
+                name,
+                format!("⟨{name}⟩ must be a positive number of Hz, got {v}"),
+            ));
+        }
+    }
+    if from_hz == to_hz {
+        return Err(OptionError::new(
+            "to_hz",
+            "⟨from_hz⟩ and ⟨to_hz⟩ must differ",
+        ));
+    }
+    Ok(())
+}
+
 /// The response DOF of `model` (model numbering): `requested`, or the first DOF of the
 /// first contact (else of the first friction element).
-pub fn response_dof(model: &Model, requested: Option<usize>) -> Result<usize> {
+pub fn response_dof(
+    model: &Model,
+    requested: Option<usize>,
+) -> std::result::Result<usize, OptionError> {
     let dof = match requested {
         Some(d) => d,
         None => match (model.contacts.first(), model.frictions.first()) {
             (Some(c), _) => c.dofs[0],
             (None, Some(f)) => f.dofs[0],
             (None, None) => {
-                return Err(Error::argument(
+                return Err(OptionError::new(
                     "dof",
-                    "the model has no contact and no friction element: name the response DOF",
+                    "the model has no contact and no friction element: give ⟨dof⟩",
                 ))
             }
         },
     };
     if dof >= model.n_dofs() {
-        return Err(Error::argument(
+        return Err(OptionError::new(
             "dof",
             format!(
-                "DOF {dof} does not exist (the model has DOFs 0..{})",
+                "⟨dof⟩ {dof} out of range: the model has DOFs 0..{}",
                 model.n_dofs() - 1
             ),
         ));

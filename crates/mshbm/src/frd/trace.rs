@@ -27,19 +27,25 @@ pub struct BranchInfo {
 
 /// Receives what a diagram finds, as it is found. Every method has a default that does
 /// nothing.
+/// A point as an [`FrdObserver`] is told it.
+#[derive(Clone, Copy, Debug)]
+pub struct PointEvent<'a> {
+    /// The branch it belongs to.
+    pub branch: &'a BranchInfo,
+    /// The point.
+    pub point: &'a FrdPoint,
+    /// The branch's points so far, this one included.
+    pub points: usize,
+    /// The arclength step that led to it (0 for folds).
+    pub step: f64,
+}
+
 pub trait FrdObserver {
     /// A branch starts (its method is built).
     fn start(&mut self, _branch: &BranchInfo) {}
-    /// A point of the branch — a continuation point, or a located fold (`point.fold`);
-    /// `points`: the branch's points so far, this one included; `step`: the arclength step
-    /// that led to it (0 for folds). An error stops the diagram at once and is returned.
-    fn point(
-        &mut self,
-        _branch: &BranchInfo,
-        _point: &FrdPoint,
-        _points: usize,
-        _step: f64,
-    ) -> Result<()> {
+    /// A point of the branch — a continuation point, or a located fold (`point.fold`).
+    /// An error stops the diagram at once and is returned.
+    fn point(&mut self, _event: &PointEvent<'_>) -> Result<()> {
         Ok(())
     }
     /// A fold was located (after its point was reported).
@@ -189,7 +195,12 @@ pub fn trace_frd_branch(
             dissipated_energy: s.dissipated_energy,
             state_fractions: s.state_fractions.clone(),
         };
-        observer.point(&info, &point, points.len() + 1, step)?;
+        observer.point(&PointEvent {
+            branch: &info,
+            point: &point,
+            points: points.len() + 1,
+            step,
+        })?;
         if let Event::Fold(f) = &event {
             let report = FoldReport {
                 harmonics,

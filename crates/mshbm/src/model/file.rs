@@ -96,39 +96,14 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::limits::{read_model_file, Limits};
 use crate::model::bar::{BarParameters, ClampedEnd, ForceLocation};
+use crate::model::damping_section::DampingSection;
 use crate::model::dropped_bar::DroppedBarParameters;
 use crate::model::excerpt::{data_excerpt, excerpt, sanitize_message};
 use crate::model::input_files::InputFiles;
 pub use crate::model::input_files::LoadOptions;
 use crate::model::matrix_market::{declared_dimensions, parse_matrix_with};
 use crate::model::overrides::apply_override;
-use crate::model::{Contact, Damping, Friction, FrictionNormal, Model, MODEL_BYTES_PER_DOF};
-
-#[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-pub(super) struct DampingSection {
-    #[serde(default)]
-    alpha: f64,
-    #[serde(default)]
-    beta: f64,
-    #[serde(default)]
-    beta_linear: f64,
-    #[serde(default)]
-    beta_condensed: f64,
-    first_mode_ratio: Option<f64>,
-}
-
-impl From<DampingSection> for Damping {
-    fn from(d: DampingSection) -> Self {
-        Damping {
-            alpha: d.alpha,
-            beta: d.beta,
-            beta_linear: d.beta_linear,
-            beta_condensed: d.beta_condensed,
-            first_mode_ratio: d.first_mode_ratio,
-        }
-    }
-}
+use crate::model::{Contact, Friction, FrictionNormal, Model, MODEL_BYTES_PER_DOF};
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]

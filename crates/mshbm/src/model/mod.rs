@@ -10,6 +10,7 @@
 //! DOFs are numbered from 0; DOF `node * dofs_per_node + component`.
 
 pub mod bar;
+mod damping_section;
 pub mod dropped_bar;
 pub mod excerpt;
 pub mod export;

@@ -76,7 +76,7 @@ pub(super) struct SolidFile {
     #[serde(default)]
     interfaces: Vec<InterfaceSection>,
     #[serde(default)]
-    damping: super::file::DampingSection,
+    damping: super::damping_section::DampingSection,
 }
 
 #[derive(Deserialize)]

@@ -119,6 +119,23 @@ pub struct Solved {
     pub others: Vec<PeriodicSolution>,
 }
 
+impl Solved {
+    /// Why the solution at `frequency_hz` (the one asked for) is not converged (`None`
+    /// when it is): "Newton did not converge at F Hz: REASON", the sentence every front
+    /// end reports.
+    pub fn not_converged(&self, frequency_hz: f64) -> Option<String> {
+        (!self.outcome.converged).then(|| {
+            format!(
+                "Newton did not converge at {frequency_hz} Hz: {}",
+                self.outcome
+                    .reason
+                    .as_ref()
+                    .map_or_else(|| "unknown reason".into(), |r| r.to_string())
+            )
+        })
+    }
+}
+
 /// Solve `method` for `model` at `frequency_hz`, starting as `settings.start` says.
 pub fn solve_periodic(
     model: &Model,

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use anyhow::{bail, Result};
 
-use super::run::{Job, Output};
+use super::{Job, Output};
 use mshbm::method::settings::MethodSettings;
 use mshbm::solve::{solve_periodic, SolveSettings, Solved};
 

@@ -9,7 +9,8 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use super::run::{Job, Output, Progress};
+use super::run::Progress;
+use super::{Job, Output};
 use mshbm::frd::{trace_frd_branch, BranchReport, FoldReport, FrdPoint, FrdSettings, TracedBranch};
 use mshbm::harmonic::Quadrature;
 use mshbm::method::hbm_aft::{HbmAftOptions, Penalty};

@@ -12,8 +12,8 @@ use mshbm::analytic::DroppedBarSolution;
 use mshbm::model::dropped_bar::DroppedBarParameters;
 use mshbm::simulation::contact_intervals;
 
-use super::run::{Job, Output};
 use super::{models, FigureReport, Setup};
+use super::{Job, Output};
 use crate::commands::simulate::{transient_figures, transient_run, SchemeArg};
 use crate::output::write_csv_atomic;
 use crate::plot::Figure;

@@ -6,8 +6,8 @@ use std::fmt::Write as _;
 
 use anyhow::Result;
 
-use super::run::{Job, Output};
 use super::{models, percent, FigureReport, Setup};
+use super::{Job, Output};
 use crate::commands::modes::relative_error_figure;
 use crate::output::write_csv_atomic;
 use crate::plot::{Series, Style};

@@ -18,7 +18,8 @@ use anyhow::Result;
 use mshbm::integrate::steady_state::{simulate_to_steady_state, Periodicity, SteadyStateOptions};
 use mshbm::integrate::{Integrator, Settings};
 
-use super::run::{Job, Output, Progress};
+use super::run::Progress;
+use super::{Job, Output};
 use mshbm::frd::{
     branch_values_at, trace_frd_branch, BifurcationReport, BranchReport, FoldReport, FrdPoint,
     FrdSettings, TracedBranch,
@@ -27,9 +28,7 @@ use mshbm::method::settings::MethodSettings;
 
 use super::{models, FigureReport, Setup, DAMPING_OVERRIDE, DAMPING_TEXT};
 use crate::commands::frf::{frd_csv_header, frd_csv_row, frd_figure};
-use crate::commands::simulate::{
-    scheme_and_mass, SchemeArg, SIMULATE_HARMONICS, SIMULATE_TOLERANCE,
-};
+use crate::commands::simulate::{scheme_and_mass, SchemeArg, SIMULATE_HARMONICS};
 use crate::output::write_csv_atomic;
 use crate::plot::{Series, Style};
 
@@ -227,7 +226,7 @@ impl Plan {
         let options = SteadyStateOptions {
             steps_per_period: n,
             max_periods: self.max_periods,
-            tolerance: SIMULATE_TOLERANCE,
+            tolerance: Periodicity::State.default_tolerance(),
             harmonics: SIMULATE_HARMONICS,
             response_dof: contact.0,
             periodicity: Periodicity::State,

@@ -45,7 +45,19 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
-use run::{run_jobs, Job, Progress};
+use run::{run_jobs, Progress};
+
+/// What a job of `mshbm paper` produces: a finished figure (its number and report), or a
+/// part of Fig. 9 or Fig. 11 that is assembled when all parts are done.
+pub(crate) enum Output {
+    Figure(u32, FigureReport),
+    Branch9(fig9::Traced9),
+    Branch11(fig11::Traced11),
+    TimeIntegration(fig9::Integration),
+}
+
+/// A part of `mshbm paper` ([`run::Job`] producing an [`Output`]).
+pub(crate) type Job<'a> = run::Job<'a, Output>;
 
 /// Image format of `mshbm paper`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -196,10 +208,10 @@ pub fn run(args: &PaperArgs) -> Result<()> {
     let mut integrations = Vec::new();
     for (name, output, _) in outputs {
         match output {
-            Ok(run::Output::Figure(number, report)) => reports.push((number, report)),
-            Ok(run::Output::Branch9(b)) => branches9.push(Ok(b)),
-            Ok(run::Output::Branch11(b)) => branches11.push(Ok(b)),
-            Ok(run::Output::TimeIntegration(t)) => integrations.push(Ok(t)),
+            Ok(Output::Figure(number, report)) => reports.push((number, report)),
+            Ok(Output::Branch9(b)) => branches9.push(Ok(b)),
+            Ok(Output::Branch11(b)) => branches11.push(Ok(b)),
+            Ok(Output::TimeIntegration(t)) => integrations.push(Ok(t)),
             Err(e) => {
                 let number = run::figure_of(&name);
                 match number {

@@ -8,24 +8,12 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Result};
 
-use super::fig11::Traced11;
-use super::fig9::{Integration, Traced9};
-use super::FigureReport;
-use mshbm::frd::{BranchInfo, FrdObserver, FrdPoint};
+use mshbm::frd::{FrdObserver, PointEvent};
 
-/// What a job produces: a finished figure (its number and report), or a part of Fig. 9 or
-/// Fig. 11 that is assembled when all parts are done.
-pub(crate) enum Output {
-    Figure(u32, FigureReport),
-    Branch9(Traced9),
-    Branch11(Traced11),
-    TimeIntegration(Integration),
-}
-
-/// A named part; the name starts with "Fig. N" (see [`figure_of`]).
-pub(crate) struct Job<'a> {
+/// A named part producing a `T`; the name starts with "Fig. N" (see [`figure_of`]).
+pub(crate) struct Job<'a, T> {
     pub name: String,
-    pub work: Box<dyn FnOnce() -> Result<Output> + Send + 'a>,
+    pub work: Box<dyn FnOnce() -> Result<T> + Send + 'a>,
 }
 
 /// The figure number in a job name "Fig. N …".
@@ -107,13 +95,8 @@ pub(crate) struct BranchLines<'a> {
 }
 
 impl FrdObserver for BranchLines<'_> {
-    fn point(
-        &mut self,
-        _branch: &BranchInfo,
-        point: &FrdPoint,
-        points: usize,
-        _step: f64,
-    ) -> mshbm::Result<()> {
+    fn point(&mut self, event: &PointEvent<'_>) -> mshbm::Result<()> {
+        let PointEvent { point, points, .. } = *event;
         if self.last.elapsed() >= self.every {
             self.last = Instant::now();
             self.progress.line(
@@ -129,15 +112,22 @@ impl FrdObserver for BranchLines<'_> {
 }
 
 /// The result of one job: its name, its output and how long it ran [s].
-pub(crate) type Done = (String, Result<Output>, f64);
+pub(crate) type Done<T> = (String, Result<T>, f64);
+
+/// Where a job's result and time wait for the job's turn in the output.
+type Slot<T> = Mutex<Option<(Result<T>, f64)>>;
 
 /// Run `jobs` on `threads` threads in the given order (put the longest first); a job that
 /// fails or panics gives an error in its slot and the others go on. Results in job order.
-pub(crate) fn run_jobs(jobs: Vec<Job<'_>>, threads: usize, progress: &Progress) -> Vec<Done> {
+pub(crate) fn run_jobs<T: Send>(
+    jobs: Vec<Job<'_, T>>,
+    threads: usize,
+    progress: &Progress,
+) -> Vec<Done<T>> {
     let names: Vec<String> = jobs.iter().map(|j| j.name.clone()).collect();
-    let queue: Vec<Mutex<Option<Job>>> = jobs.into_iter().map(|j| Mutex::new(Some(j))).collect();
-    type Slot = Mutex<Option<(Result<Output>, f64)>>;
-    let results: Vec<Slot> = (0..queue.len()).map(|_| Mutex::new(None)).collect();
+    let queue: Vec<Mutex<Option<Job<T>>>> = jobs.into_iter().map(|j| Mutex::new(Some(j))).collect();
+
+    let results: Vec<Slot<T>> = (0..queue.len()).map(|_| Mutex::new(None)).collect();
     let next = AtomicUsize::new(0);
     std::thread::scope(|scope| {
         for _ in 0..threads.max(1).min(queue.len().max(1)) {
@@ -148,7 +138,7 @@ pub(crate) fn run_jobs(jobs: Vec<Job<'_>>, threads: usize, progress: &Progress) 
                 let own_pool = (threads > 1)
                     .then(|| rayon::ThreadPoolBuilder::new().num_threads(1).build().ok())
                     .flatten();
-                let run = |job: Job| match &own_pool {
+                let run = |job: Job<T>| match &own_pool {
                     Some(pool) => pool.install(|| catch_unwind(AssertUnwindSafe(job.work))),
                     None => catch_unwind(AssertUnwindSafe(job.work)),
                 };
