@@ -68,7 +68,7 @@ pub(super) struct MeshFile {
     #[serde(default)]
     interfaces: Vec<InterfaceSection>,
     #[serde(default)]
-    damping: super::file::DampingSection,
+    damping: super::damping_section::DampingSection,
 }
 
 #[derive(Deserialize)]

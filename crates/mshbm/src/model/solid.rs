@@ -281,7 +281,7 @@ pub(super) fn build_solid_model(
     (mass, stiffness): (crate::sparse::SparseMatrix, crate::sparse::SparseMatrix),
     conditions: &Conditions,
     name: String,
-    damping: super::file::DampingSection,
+    damping: super::damping_section::DampingSection,
     path: &Path,
     inputs: &mut InputFiles,
 ) -> Result<Model> {
