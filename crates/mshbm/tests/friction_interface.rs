@@ -452,20 +452,9 @@ fn the_operator_jacobian_with_friction_applies_the_jacobian_and_newton_reaches_t
         let err = max_abs(&mut by_matrix.iter().zip(&jv).map(|(p, q)| p - q))
             / max_abs(&mut by_matrix.iter().copied());
         assert!(err < 1e-12, "direction {seed}: action vs matrix {err:.2e}");
-        let h = 1e-7 * operator.length_scale();
-        let xp: Vec<f64> = x.iter().zip(&v).map(|(p, q)| p + h * q).collect();
-        let xm: Vec<f64> = x.iter().zip(&v).map(|(p, q)| p - h * q).collect();
-        let (rp, rm) = (
-            operator.residual(&xp, omega).unwrap(),
-            operator.residual(&xm, omega).unwrap(),
-        );
-        let fd: Vec<f64> = rp
-            .iter()
-            .zip(&rm)
-            .map(|(p, q)| (p - q) / (2.0 * h))
-            .collect();
-        let err =
-            max_abs(&mut fd.iter().zip(&jv).map(|(p, q)| p - q)) / max_abs(&mut fd.iter().copied());
+        let fd = common::directional_difference(&mut operator, &x, omega, &v);
+        let err = common::max_abs(fd.iter().zip(&jv).map(|(p, q)| p - q))
+            / common::max_abs(fd.iter().copied());
         assert!(
             err < 1e-6,
             "direction {seed}: action vs central differences {err:.2e}"

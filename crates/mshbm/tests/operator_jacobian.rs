@@ -57,19 +57,7 @@ fn the_operator_applies_the_jacobian_of_the_residual() {
                 .collect();
             let mut jv = vec![0.0; n];
             op.apply(&v, &mut jv);
-            // central differences of the residual along v
-            let h = 1e-7 * p.length_scale();
-            let xp: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + h * b).collect();
-            let xm: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a - h * b).collect();
-            let (rp, rm) = (
-                p.residual(&xp, omega).unwrap(),
-                p.residual(&xm, omega).unwrap(),
-            );
-            let fd: Vec<f64> = rp
-                .iter()
-                .zip(&rm)
-                .map(|(a, b)| (a - b) / (2.0 * h))
-                .collect();
+            let fd = common::directional_difference(&mut p, &x, omega, &v);
             let err = max_abs(fd.iter().zip(&jv).map(|(a, b)| a - b)) / max_abs(fd.iter().copied());
             assert!(
                 err < 1e-6,

@@ -92,6 +92,27 @@ pub fn try_ms_hbm(
 }
 
 /// A point off the solution `x`: every unknown scaled by `1 + 0.05 sin i`.
+/// Central differences of `p`'s residual at `(x, ω)` along `v`, with the step `10⁻⁷` of the
+/// problem's length scale: the reference for a Jacobian's action `J v`.
+pub fn directional_difference(
+    p: &mut dyn mshbm::problem::PeriodicProblem,
+    x: &[f64],
+    omega: f64,
+    v: &[f64],
+) -> Vec<f64> {
+    let h = 1e-7 * p.length_scale();
+    let xp: Vec<f64> = x.iter().zip(v).map(|(a, b)| a + h * b).collect();
+    let xm: Vec<f64> = x.iter().zip(v).map(|(a, b)| a - h * b).collect();
+    let (rp, rm) = (
+        p.residual(&xp, omega).unwrap(),
+        p.residual(&xm, omega).unwrap(),
+    );
+    rp.iter()
+        .zip(&rm)
+        .map(|(a, b)| (a - b) / (2.0 * h))
+        .collect()
+}
+
 pub fn perturbed(x: &[f64]) -> Vec<f64> {
     x.iter()
         .enumerate()
