@@ -18,6 +18,7 @@ pub mod limits;
 pub mod model;
 pub mod modes;
 pub mod newton;
+pub mod ode;
 pub mod roots;
 pub mod sparse;
 pub mod stability;

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 /// and of the layers before it.
 const LAYERS: &[&[&str]] = &[
     &[
-        "error", "limits", "sparse", "dense", "roots", "analytic", "krylov",
+        "error", "limits", "sparse", "dense", "roots", "analytic", "krylov", "ode",
     ],
     &["harmonic", "fe", "contact", "modes"],
     &["model"],
