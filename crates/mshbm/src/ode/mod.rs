@@ -125,21 +125,21 @@ impl Dop853 {
         h * factor
     }
 
-    /// Integrate from `t0` to `t1` (`t1 > t0`) with steps of at most `max_step`, starting with
-    /// `h0`; `x` holds the start on entry and the end on return. Returns the steps taken.
+    /// Integrate over `span` (`span.start < span.end`) with steps of at most `max_step`,
+    /// starting with `h0`; `x` holds the start on entry and the end on return. Returns the
+    /// steps taken.
     pub fn integrate<F>(
         &mut self,
         f: &mut F,
-        t0: f64,
-        t1: f64,
+        span: std::ops::Range<f64>,
         x: &mut [f64],
-        h0: f64,
-        max_step: f64,
+        (h0, max_step): (f64, f64),
         tolerance: Tolerance,
     ) -> Result<usize>
     where
         F: FnMut(f64, &[f64], &mut [f64]) -> Result<()>,
     {
+        let (t0, t1) = (span.start, span.end);
         let mut t = t0;
         let mut h = h0.min(max_step).min(t1 - t0);
         let mut next = vec![0.0; x.len()];
@@ -182,9 +182,9 @@ mod tests {
             relative: 1e-13,
             absolute: 1e-13,
         };
-        let t1 = 20.0;
+        let t1: f64 = 20.0;
         let steps = ode
-            .integrate(&mut f, 0.0, t1, &mut x, 0.1, 1.0, tol)
+            .integrate(&mut f, 0.0..t1, &mut x, (0.1, 1.0), tol)
             .unwrap();
         assert!((x[0] - t1.cos()).abs() < 1e-11, "{}", x[0] - t1.cos());
         assert!((x[1] + t1.sin()).abs() < 1e-11, "{}", x[1] + t1.sin());
@@ -195,7 +195,7 @@ mod tests {
     /// about 2⁸: the pair is of order 8 (here `ẋ = x` from 1 to `e`).
     #[test]
     fn the_step_is_of_order_eight() {
-        let mut f = |_t: f64, x: &[f64], dx: &mut [f64]| {
+        let f = |_t: f64, x: &[f64], dx: &mut [f64]| {
             dx[0] = x[0];
             Ok(())
         };

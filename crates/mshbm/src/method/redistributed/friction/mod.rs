@@ -20,6 +20,7 @@
 #![allow(clippy::needless_range_loop)]
 
 mod centring;
+pub mod cone;
 mod march;
 mod modes;
 

@@ -1,0 +1,219 @@
+//! Coulomb friction in the cone of a 3D interface (docs/theory.md (T185)–(T192)): contacts
+//! with a normal and two tangential coordinates, ordered `[normals; first tangents; second
+//! tangents]`. The state of every closed contact with friction is its tangential displacement
+//! `a_c ∈ ℝ²`, held while the contact sticks and moved by the slip flow (T187) while it slips;
+//! the forces of a set of closed contacts are affine in the free gap and those displacements
+//! (T186). A phase without slip is exact; a phase with slip is integrated by DOP853 with the
+//! Fourier integrals of the displacements carried along (T189). Switches (T188) are located
+//! by bisection on the length of the step from its start; the slipping contacts are put back
+//! on the cone after every step. The periodic state is the fixed point of the period's
+//! march (T190).
+//!
+//! Not yet differentiated (T191): the law gives `λ̂` and its phases, not `∂λ̂/∂γ̂`.
+
+use std::collections::HashMap;
+use std::f64::consts::PI;
+use std::rc::Rc;
+
+use faer::Mat;
+
+use crate::contact::lcp::{LcpMatrix, LcpSolver};
+use crate::dense::solve_small_lu_columns;
+use crate::error::{Error, Result};
+use crate::harmonic::{add_interval_gram, basis_into, n_coefficients};
+use crate::ode::{Dop853, Tolerance};
+use crate::roots::find_sign_change;
+
+/// The state of one contact of the cone law (T185).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ConeMode {
+    /// Gap open, no force.
+    Open,
+    /// Closed, the tangential displacement held.
+    Stick,
+    /// Closed and slipping (for `μ = 0`: closed with no tangential force).
+    Slip,
+}
+
+/// Contacts with Coulomb friction in the cone: the Delassus matrix of the normal and the two
+/// tangential coordinates and the friction coefficients.
+#[derive(Clone, Debug)]
+pub struct ConeContacts {
+    n: usize,
+    /// `3n × 3n`, row-major, coordinates `[normals; t₁; t₂]`.
+    delassus: Vec<f64>,
+    mu: Vec<f64>,
+}
+
+/// One interval of constant modes.
+#[derive(Clone, Debug)]
+pub struct ConePhase {
+    pub start: f64,
+    pub end: f64,
+    pub modes: Vec<ConeMode>,
+    /// Tangential displacements at the start (`2n`: first tangents, then second).
+    pub anchors: Vec<f64>,
+}
+
+/// The periodic contact forces of a free-gap signal.
+#[derive(Clone, Debug)]
+pub struct ConePeriodic {
+    pub harmonics: usize,
+    /// `λ̂`, harmonic-major, `3n` per coefficient.
+    pub forces: Vec<f64>,
+    /// The period cut at the mode changes, in order.
+    pub phases: Vec<ConePhase>,
+    /// Marches of one period the fixed point needed.
+    pub passes: usize,
+    /// Integration steps of the last march.
+    pub steps: usize,
+    gamma: Vec<f64>,
+}
+
+/// Relative tolerance of the indicators (T153).
+const INDICATOR_TOLERANCE: f64 = 1e-11;
+/// Relative tolerance of the slip flow's integration (T188).
+const FLOW_TOLERANCE: f64 = 1e-12;
+/// Passes of one period before the fixed point is given up.
+const MAX_PASSES: usize = 400;
+/// Mode changes in one period before the march is given up (a chattering contact).
+const MAX_EVENTS_PER_CONTACT: usize = 1000;
+
+mod flow;
+mod march;
+
+use march::March;
+
+impl ConeContacts {
+    /// `delassus` is `3n × 3n` row-major in the coordinates `[normals; t₁; t₂]`, `mu` the `n`
+    /// friction coefficients (finite, non-negative).
+    pub fn new(delassus: Vec<f64>, mu: Vec<f64>) -> Result<Self> {
+        let n = mu.len();
+        if delassus.len() != 9 * n * n {
+            return Err(Error::Numerical(format!(
+                "friction cone: a Delassus matrix of {} entries for {n} contacts ({} expected)",
+                delassus.len(),
+                9 * n * n
+            )));
+        }
+        if let Some(c) = mu.iter().position(|m| !(m.is_finite() && *m >= 0.0)) {
+            return Err(Error::Numerical(format!(
+                "friction cone: contact {c} has the friction coefficient {}, not a finite \
+                 non-negative number",
+                mu[c]
+            )));
+        }
+        if delassus.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical(
+                "friction cone: the Delassus matrix is not finite".into(),
+            ));
+        }
+        Ok(ConeContacts { n, delassus, mu })
+    }
+
+    pub fn contacts(&self) -> usize {
+        self.n
+    }
+
+    fn d(&self, i: usize, j: usize) -> f64 {
+        self.delassus[i * 3 * self.n + j]
+    }
+
+    /// The frictionless state at `τ = 0` (T156): the normal LCP on `D_NN`, closed contacts
+    /// stuck at their tangential displacement.
+    fn initial_state(&self, gamma0: &[f64]) -> Result<(Vec<ConeMode>, Vec<f64>)> {
+        let n = self.n;
+        let dnn: Vec<f64> = (0..n * n).map(|k| self.d(k / n, k % n)).collect();
+        let solution = LcpSolver::new(LcpMatrix::new(n, dnn))
+            .solve(&gamma0[..n])
+            .map_err(|e| Error::Numerical(format!("friction cone: initial state: {e}")))?;
+        let modes = (0..n)
+            .map(|c| match (solution.active[c], self.mu[c] > 0.0) {
+                (false, _) => ConeMode::Open,
+                (true, true) => ConeMode::Stick,
+                (true, false) => ConeMode::Slip,
+            })
+            .collect();
+        let anchors = (0..2 * n)
+            .map(|t| {
+                gamma0[n + t]
+                    + (0..n)
+                        .map(|k| self.d(n + t, k) * solution.lambda[k])
+                        .sum::<f64>()
+            })
+            .collect();
+        Ok((modes, anchors))
+    }
+
+    /// The periodic contact forces for the free gap with coefficients `gamma` (harmonic-major,
+    /// `3n` per coefficient, `harmonics` harmonics), integration steps at most one of `cells`
+    /// cells of the period (a switch that comes and goes within one step is not seen), the
+    /// state at `τ = 0` repeated until periodic (T190).
+    pub fn periodic(&self, harmonics: usize, gamma: &[f64], cells: usize) -> Result<ConePeriodic> {
+        let (n, m) = (self.n, 3 * self.n);
+        let ncoef = n_coefficients(harmonics);
+        if gamma.len() != m * ncoef {
+            return Err(Error::Numerical(format!(
+                "friction cone: {} free-gap coefficients, {} expected",
+                gamma.len(),
+                m * ncoef
+            )));
+        }
+        if gamma.iter().any(|v| !v.is_finite()) {
+            return Err(Error::Numerical(
+                "friction cone: the free gap is not finite".into(),
+            ));
+        }
+        let mut march = March::new(self, harmonics, gamma, cells.max(1));
+        let mut g0 = vec![0.0; m];
+        march.gamma_at(0.0, &mut g0, None);
+        let (mut modes0, mut anchors0) = self.initial_state(&g0)?;
+        let scale = march.gamma_scale.max(f64::MIN_POSITIVE);
+        for pass in 1..=MAX_PASSES {
+            march.steps = 0;
+            let out = march.run(&modes0, &anchors0)?;
+            let (modes_end, anchors_end) = out.end;
+            let converged = modes_end == modes0
+                && (0..n).all(|c| {
+                    modes0[c] == ConeMode::Open
+                        || self.mu[c] == 0.0
+                        || ((anchors_end[c] - anchors0[c]).abs() <= 1e-12 * scale
+                            && (anchors_end[n + c] - anchors0[n + c]).abs() <= 1e-12 * scale)
+                });
+            if converged {
+                return Ok(ConePeriodic {
+                    harmonics,
+                    forces: out.forces,
+                    phases: out.phases,
+                    passes: pass,
+                    steps: march.steps,
+                    gamma: gamma.to_vec(),
+                });
+            }
+            modes0 = modes_end;
+            anchors0 = anchors_end;
+        }
+        Err(Error::Numerical(format!(
+            "friction cone: the contact state did not become periodic in {MAX_PASSES} periods"
+        )))
+    }
+
+    /// The forces (`3n`) at `τ` of a periodic state, the slip flow integrated again from the
+    /// start of `τ`'s phase.
+    pub fn force_at(&self, periodic: &ConePeriodic, tau: f64) -> Result<Vec<f64>> {
+        let tau = tau.rem_euclid(2.0 * PI);
+        let phase = periodic
+            .phases
+            .iter()
+            .find(|p| p.start <= tau && tau <= p.end)
+            .or(periodic.phases.last())
+            .ok_or_else(|| Error::Numerical("friction cone: no phases".into()))?;
+        let mut march = March::new(self, periodic.harmonics, &periodic.gamma, 64);
+        let anchors = march.flow_to(phase, tau)?;
+        let closed = march.closed(&phase.modes)?;
+        Ok(march.evaluate(tau, &phase.modes, &anchors, &closed)?.lambda)
+    }
+}
+
+#[cfg(test)]
+mod tests;
