@@ -19,7 +19,6 @@ impl March<'_> {
         closed: &Closed,
     ) -> Result<Evaluation> {
         let n = self.law.n;
-        let k = closed.rows.len();
         let lambda = self.forces(tau, anchors, closed);
         let slipping: Vec<usize> = (0..n)
             .filter(|&c| modes[c] == ConeMode::Slip && closed.tangent_row[c].is_some())
@@ -31,18 +30,7 @@ impl March<'_> {
                 direction: Vec::new(),
             });
         }
-        let direction = self.directions(&slipping, &lambda);
-        let mut g = vec![0.0; 3 * n];
-        let mut gd = vec![0.0; 3 * n];
-        self.gamma_at(tau, &mut g, Some(&mut gd));
-        // Y γ̇_K, and the system (T187)
-        let yg: Vec<f64> = (0..k)
-            .map(|i| {
-                (0..k)
-                    .map(|j| closed.y[i * k + j] * gd[closed.rows[j]])
-                    .sum()
-            })
-            .collect();
+        let direction = self.directions_at(tau, closed, &slipping, &lambda);
         // a contact whose normal force has reached 0 (within (T153)'s tolerance, as it opens)
         // has no slip direction: it is held where it is until the opening is located
         let loaded: Vec<usize> = (0..slipping.len())
@@ -50,17 +38,7 @@ impl March<'_> {
             .collect();
         let active: Vec<usize> = loaded.iter().map(|&i| slipping[i]).collect();
         let active_direction: Vec<[f64; 2]> = loaded.iter().map(|&i| direction[i]).collect();
-        let b: Vec<f64> = active
-            .iter()
-            .zip(&active_direction)
-            .map(|(&c, e)| {
-                let (nc, tc) = (
-                    closed.normal_row[c].unwrap(),
-                    closed.tangent_row[c].unwrap(),
-                );
-                self.law.mu[c] * yg[nc] + e[0] * yg[tc] + e[1] * yg[tc + 1]
-            })
-            .collect();
+        let b = self.driving_rates(tau, closed, &active, &active_direction);
         let active_speed = self.solve_slip(closed, &active, &active_direction, &b)?;
         let mut speed = vec![f64::INFINITY; slipping.len()];
         for (q, &i) in loaded.iter().enumerate() {
@@ -99,11 +77,40 @@ impl March<'_> {
         direction: &[[f64; 2]],
         b: &[f64],
     ) -> Result<Vec<f64>> {
-        let k = closed.rows.len();
         let s = slipping.len();
         if s == 0 {
             return Ok(Vec::new());
         }
+        let a = self.slip_matrix(closed, slipping, direction);
+        if s == 1 {
+            if a[0] == 0.0 {
+                return Err(Error::Numerical(
+                    "friction cone: a slipping contact without tangential force".into(),
+                ));
+            }
+            return Ok(vec![b[0] / a[0]]);
+        }
+        let x = solve_small_lu_columns(&a, faer::MatRef::from_column_major_slice(b, s, 1), 1e-14)
+            .map_err(|_| {
+            Error::Numerical(
+                "friction cone: the slip speeds of the slipping contacts are not \
+                     determined (T187)"
+                    .into(),
+            )
+        })?;
+        Ok((0..s).map(|i| x[(i, 0)]).collect())
+    }
+
+    /// The matrix `A` of (T187) (`|S| × |S|`, row-major) for the contacts `slipping` moving
+    /// along `direction`.
+    pub(super) fn slip_matrix(
+        &self,
+        closed: &Closed,
+        slipping: &[usize],
+        direction: &[[f64; 2]],
+    ) -> Vec<f64> {
+        let k = closed.rows.len();
+        let s = slipping.len();
         let mut a = vec![0.0; s * s];
         for (i, &c) in slipping.iter().enumerate() {
             let (nc, tc) = (
@@ -125,23 +132,7 @@ impl March<'_> {
                 a[i * s + j] = v;
             }
         }
-        if s == 1 {
-            if a[0] == 0.0 {
-                return Err(Error::Numerical(
-                    "friction cone: a slipping contact without tangential force".into(),
-                ));
-            }
-            return Ok(vec![b[0] / a[0]]);
-        }
-        let x = solve_small_lu_columns(&a, faer::MatRef::from_column_major_slice(b, s, 1), 1e-14)
-            .map_err(|_| {
-            Error::Numerical(
-                "friction cone: the slip speeds of the slipping contacts are not \
-                     determined (T187)"
-                    .into(),
-            )
-        })?;
-        Ok((0..s).map(|i| x[(i, 0)]).collect())
+        a
     }
 
     /// Move the slipping contacts' displacements along their directions until their forces

@@ -440,6 +440,9 @@ impl March<'_> {
                     )));
                 }
                 self.switch(tau, c, watch, &mut modes, &mut anchors)?;
+                if matches!(watch, Watch::Cone | Watch::Speed) {
+                    self.choose_slip(tau, &mut modes, &anchors)?;
+                }
                 self.settle(tau, &mut modes, &mut anchors)?;
             }
         }
@@ -507,7 +510,15 @@ impl March<'_> {
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             match worst {
                 None => return Ok(()),
-                Some(&(_, c, watch)) => self.switch(tau, c, watch, modes, anchors)?,
+                Some(&(_, c, watch)) => {
+                    // slip or stick: chosen for all the contacts on the cone's boundary at
+                    // once (T193), one contact flipped where that changes nothing
+                    if !(matches!(watch, Watch::Cone | Watch::Speed)
+                        && self.choose_slip(tau, modes, anchors)?)
+                    {
+                        self.switch(tau, c, watch, modes, anchors)?;
+                    }
+                }
             }
         }
         Err(Error::Numerical(format!(

@@ -81,6 +81,7 @@ const MAX_EVENTS_PER_CONTACT: usize = 1000;
 
 mod flow;
 mod march;
+mod rates;
 
 use march::March;
 

@@ -383,3 +383,160 @@ fn coupled_contacts_in_space_match_the_catching_up_scheme() {
         .any(|p| p.modes.contains(&ConeMode::Open));
     assert!(slips && opens, "{:?}", periodic.phases);
 }
+
+#[test]
+#[ignore]
+fn scaling_probe() {
+    for &n in &[60usize] {
+        let m = 3 * n;
+        let d = coupled_space(n, 3);
+        let mu = vec![0.3; n];
+        let h = 5;
+        let nc = 2 * h + 1;
+        let mut gamma = vec![0.0; m * nc];
+        for c in 0..n {
+            let phase = c as f64 / n as f64 * 2.0;
+            gamma[c] = -0.5;
+            gamma[m + c] = 0.3 * phase.cos();
+            gamma[2 * m + c] = 0.3 * phase.sin();
+            gamma[m + n + c] = 0.8 * phase.cos();
+            gamma[2 * m + n + c] = 0.8 * phase.sin();
+            gamma[m + 2 * n + c] = -0.5 * phase.sin();
+            gamma[2 * m + 2 * n + c] = 0.5 * phase.cos();
+        }
+        let law = ConeContacts::new(d, mu).unwrap();
+        let t = std::time::Instant::now();
+        let p = law.periodic(h, &gamma, 8 * nc).unwrap();
+        eprintln!(
+            "n={n}: {:.2} s, {} phases, {} passes, {} steps",
+            t.elapsed().as_secs_f64(),
+            p.phases.len(),
+            p.passes,
+            p.steps
+        );
+    }
+}
+
+/// `x = M⁻¹ b` by Gaussian elimination with partial pivoting (`M` row-major, `m × m`).
+fn gauss(mut a: Vec<f64>, mut b: Vec<f64>) -> Vec<f64> {
+    let m = b.len();
+    for col in 0..m {
+        let p = (col..m)
+            .max_by(|&i, &j| a[i * m + col].abs().total_cmp(&a[j * m + col].abs()))
+            .unwrap();
+        for j in 0..m {
+            a.swap(col * m + j, p * m + j);
+        }
+        b.swap(col, p);
+        for i in col + 1..m {
+            let f = a[i * m + col] / a[col * m + col];
+            for j in col..m {
+                a[i * m + j] -= f * a[col * m + j];
+            }
+            b[i] -= f * b[col];
+        }
+    }
+    for i in (0..m).rev() {
+        let s: f64 = (i + 1..m).map(|j| a[i * m + j] * b[j]).sum();
+        b[i] = (b[i] - s) / a[i * m + i];
+    }
+    b
+}
+
+/// (T193) Contacts that all stick on the boundary of their cones, coupled through a general
+/// Delassus matrix: the slipping set chosen is the one, among all `2ⁿ`, whose slip speeds
+/// are non-negative and whose stuck contacts' cone margins do not decrease — each candidate
+/// set's rates derived here from (T186) by solves with `D` itself.
+#[test]
+fn the_contacts_that_slip_on_the_cone_boundary_are_the_consistent_set() {
+    let (n, h) = (4, 1);
+    let m = 3 * n;
+    for seed in 0..6u64 {
+        let d = coupled_space(n, 11 + seed);
+        let mu = vec![0.6; n];
+        // forces on the cone's boundary, tangential displacements, free-gap rates
+        let mut lambda = vec![0.0; m];
+        let mut anchors = vec![0.0; 2 * n];
+        for c in 0..n {
+            let theta = 1.3 * c as f64 + 0.7 * seed as f64;
+            lambda[c] = 1.0 + 0.2 * c as f64;
+            lambda[n + c] = mu[c] * lambda[c] * theta.cos();
+            lambda[2 * n + c] = mu[c] * lambda[c] * theta.sin();
+            anchors[c] = 0.1 * (c as f64 + seed as f64).sin();
+            anchors[n + c] = 0.1 * (2.0 * c as f64 - seed as f64).cos();
+        }
+        // γ(0) = [0; a] − D λ, γ̇(0) = γ̂_sin
+        let mut gamma = vec![0.0; m * (2 * h + 1)];
+        let mut rate = vec![0.0; m];
+        for r in 0..m {
+            let dl: f64 = (0..m).map(|j| d[r * m + j] * lambda[j]).sum();
+            let held = if r < n { 0.0 } else { anchors[r - n] };
+            gamma[m + r] = 0.3 * ((r * 7 + seed as usize) as f64).sin();
+            gamma[r] = held - dl - gamma[m + r];
+            rate[r] = ((r * 5 + 3 * seed as usize) as f64).cos();
+            gamma[2 * m + r] = rate[r];
+        }
+        let law = ConeContacts::new(d.clone(), mu.clone()).unwrap();
+        let mut march = march::March::new(&law, h, &gamma, 64);
+        let mut modes = vec![ConeMode::Stick; n];
+        assert!(march.choose_slip(0.0, &mut modes, &anchors).is_ok());
+        // the reference: every slipping set, its speeds and its margins' rates
+        let e: Vec<[f64; 2]> = (0..n)
+            .map(|c| {
+                let t = lambda[n + c].hypot(lambda[2 * n + c]);
+                [-lambda[n + c] / t, -lambda[2 * n + c] / t]
+            })
+            .collect();
+        let margin_rates = |kappa: &[f64]| -> Vec<f64> {
+            let mut rhs: Vec<f64> = rate.iter().map(|v| -v).collect();
+            for c in 0..n {
+                rhs[n + c] += kappa[c] * e[c][0];
+                rhs[2 * n + c] += kappa[c] * e[c][1];
+            }
+            let dl = gauss(d.clone(), rhs);
+            (0..n)
+                .map(|c| mu[c] * dl[c] + e[c][0] * dl[n + c] + e[c][1] * dl[2 * n + c])
+                .collect()
+        };
+        let base = margin_rates(&vec![0.0; n]);
+        let columns: Vec<Vec<f64>> = (0..n)
+            .map(|s| {
+                let mut unit = vec![0.0; n];
+                unit[s] = 1.0;
+                let r = margin_rates(&unit);
+                (0..n).map(|c| r[c] - base[c]).collect()
+            })
+            .collect();
+        let mut consistent = Vec::new();
+        for set in 0..1usize << n {
+            let s: Vec<usize> = (0..n).filter(|&c| set >> c & 1 == 1).collect();
+            let a: Vec<f64> = s
+                .iter()
+                .flat_map(|&c| s.iter().map(move |&q| (c, q)))
+                .map(|(c, q)| columns[q][c])
+                .collect();
+            let kappa_s = if s.is_empty() {
+                Vec::new()
+            } else {
+                gauss(a, s.iter().map(|&c| -base[c]).collect())
+            };
+            let mut kappa = vec![0.0; n];
+            for (i, &c) in s.iter().enumerate() {
+                kappa[c] = kappa_s[i];
+            }
+            let rates = margin_rates(&kappa);
+            if kappa.iter().all(|&k| k >= -1e-12) && rates.iter().all(|&r| r >= -1e-12) {
+                consistent.push(set);
+            }
+        }
+        assert_eq!(
+            consistent.len(),
+            1,
+            "seed {seed}: consistent sets {consistent:?}"
+        );
+        let chosen = (0..n)
+            .filter(|&c| modes[c] == ConeMode::Slip)
+            .fold(0usize, |s, c| s | 1 << c);
+        assert_eq!(chosen, consistent[0], "seed {seed}: modes {modes:?}");
+    }
+}
