@@ -384,10 +384,14 @@ fn coupled_contacts_in_space_match_the_catching_up_scheme() {
     assert!(slips && opens, "{:?}", periodic.phases);
 }
 
+/// The cost of the law against the number of contacts on coupled contacts in space, most of
+/// them slipping (BENCHMARKS.md §14d): `cargo test --release -p mshbm --lib scaling_probe --
+/// --ignored --nocapture`. At `n = 60` a contact unloads to the cone's apex while slipping
+/// and closes again there, the case (T193) settles.
 #[test]
 #[ignore]
 fn scaling_probe() {
-    for &n in &[60usize] {
+    for &n in &[10usize, 30, 48, 60] {
         let m = 3 * n;
         let d = coupled_space(n, 3);
         let mu = vec![0.3; n];
