@@ -39,7 +39,9 @@
 //! nodes of its faces) becomes massless under redistribution, with the total mass and the
 //! first and second moments kept (docs/theory.md (T208)–(T210)).
 //!
-//! Physical groups without a name are `physical_<dim>_<tag>`. The model's node `p` is the
+//! From an Abaqus file the groups are its node sets, element sets (the nodes of their
+//! elements) and node surfaces, named as the file first writes them; a node set shadows an
+//! element set of the same name. Physical groups without a name are `physical_<dim>_<tag>`. The model's node `p` is the
 //! `p`-th smallest Gmsh node tag among the nodes of the solid cells. Errors name the model
 //! file and the field, and for the mesh file its path and line.
 

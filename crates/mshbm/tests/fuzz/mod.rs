@@ -192,7 +192,12 @@ impl Harness {
             .map(|p| std::fs::read(p).unwrap())
             .collect();
         let gmsh = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gmsh");
-        for f in ["box_tet4.msh", "plate_tri6.msh", "box_tet10.msh", "box_hex20.msh"] {
+        for f in [
+            "box_tet4.msh",
+            "plate_tri6.msh",
+            "box_tet10.msh",
+            "box_hex20.msh",
+        ] {
             meshes.push(std::fs::read(gmsh.join(f)).unwrap());
         }
         // the model a mesh is read by: every group name of the seeds, so that a mutated
@@ -204,7 +209,12 @@ impl Harness {
             .map(|p| std::fs::read(p).unwrap())
             .collect();
         let abaqus = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/abaqus");
-        for f in ["box_tet4.inp", "plate_tri6.inp", "box_tet10.inp", "box_hex20.inp"] {
+        for f in [
+            "box_tet4.inp",
+            "plate_tri6.inp",
+            "box_tet10.inp",
+            "box_hex20.inp",
+        ] {
             inps.push(std::fs::read(abaqus.join(f)).unwrap());
         }
         std::fs::write(
