@@ -41,9 +41,10 @@
 //!
 //! From an Abaqus file the groups are its node sets, element sets (the nodes of their
 //! elements) and node surfaces, named as the file first writes them; a node set shadows an
-//! element set of the same name. Physical groups without a name are `physical_<dim>_<tag>`. The model's node `p` is the
-//! `p`-th smallest Gmsh node tag among the nodes of the solid cells. Errors name the model
-//! file and the field, and for the mesh file its path and line.
+//! element set of the same name. Physical groups without a name are
+//! `physical_<dim>_<tag>`. The model's node `p` is the `p`-th smallest Gmsh node tag
+//! (Abaqus node label) among the nodes of the solid cells. Errors name the model file and
+//! the field, and for the mesh file its path and line.
 
 use std::path::Path;
 
