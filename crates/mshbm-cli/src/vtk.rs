@@ -99,6 +99,7 @@ pub fn unstructured_grid(model: &Model, fields: &[(&str, &[f64])]) -> Result<Vec
                 CellKind::Tet4 => CellType::Tetra,
                 CellKind::Tet10 => CellType::QuadraticTetra,
                 CellKind::Hex8 => CellType::Hexahedron,
+                CellKind::Hex20 => CellType::QuadraticHexahedron,
             },
         ),
         None => ((0..model.n_nodes() as u64).collect(), 1, CellType::Vertex),

@@ -1,6 +1,6 @@
 //! Smoke run of the fuzz campaign (`tests/fuzz/mod.rs`; the campaign itself,
 //! ≥ 10⁵ inputs per target, is `tools/fuzz-inputs`): the model reader, the Matrix Market
-//! reader, the contact and gap tables a model names, `--set` overrides, Gmsh meshes and
+//! reader, the contact and gap tables a model names, `--set` overrides, Gmsh meshes, Abaqus input files and
 //! `--from-solution` JSON, each fed inputs mutated from a committed seed corpus
 //! (`tests/fuzz_corpus/` and the examples) by a deterministic generator. Every input must
 //! give `Ok` or `Err` — never a panic — within 2 s (a watchdog ends the run after 10 s),
@@ -72,6 +72,7 @@ fn every_reader_returns_ok_or_err_on_mutated_inputs() {
         ("tables", 1000),
         ("overrides", 1000),
         ("mesh", 2000),
+        ("inp", 2000),
         ("solution", 300),
     ] {
         campaign(&harness, &watchdog, target, cases * scale);

@@ -7,7 +7,9 @@ use std::collections::BTreeMap;
 /// Kind of the cells of a mesh (node order as in VTK: counter-clockwise for the
 /// quadrilateral and the triangles; bottom face counter-clockwise then top face for the
 /// hexahedron; vertices, then the mid-side nodes of the edges 01, 12, 20 (triangle) or 01,
-/// 12, 20, 03, 13, 23 (tetrahedron) for the quadratic simplices, docs/theory.md (T200)).
+/// 12, 20, 03, 13, 23 (tetrahedron) for the quadratic simplices, docs/theory.md (T200); the
+/// 20-node hexahedron's corners as Hex8, then the mid-side nodes of the edges 01, 12, 23,
+/// 30, 45, 56, 67, 74, 04, 15, 26, 37, (T211)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CellKind {
     /// Two-node line (bars).
@@ -24,6 +26,8 @@ pub enum CellKind {
     Tet4,
     /// Ten-node tetrahedron (3D solids, quadratic).
     Tet10,
+    /// Twenty-node (serendipity) hexahedron (3D solids, quadratic).
+    Hex20,
 }
 
 impl CellKind {
@@ -37,6 +41,7 @@ impl CellKind {
             CellKind::Tri6 => 6,
             CellKind::Tet4 => 4,
             CellKind::Tet10 => 10,
+            CellKind::Hex20 => 20,
         }
     }
 
@@ -45,7 +50,7 @@ impl CellKind {
         match self {
             CellKind::Line2 => 1,
             CellKind::Quad4 | CellKind::Tri3 | CellKind::Tri6 => 2,
-            CellKind::Hex8 | CellKind::Tet4 | CellKind::Tet10 => 3,
+            CellKind::Hex8 | CellKind::Tet4 | CellKind::Tet10 | CellKind::Hex20 => 3,
         }
     }
 
@@ -73,9 +78,34 @@ impl CellKind {
                 &[1, 2, 3, 5, 9, 8],
                 &[0, 3, 2, 7, 9, 6],
             ],
+            CellKind::Hex20 => &[
+                &[0, 1, 2, 3, 8, 9, 10, 11],
+                &[4, 5, 6, 7, 12, 13, 14, 15],
+                &[0, 1, 5, 4, 8, 17, 12, 16],
+                &[1, 2, 6, 5, 9, 18, 13, 17],
+                &[2, 3, 7, 6, 10, 19, 14, 18],
+                &[3, 0, 4, 7, 11, 16, 15, 19],
+            ],
         }
     }
 }
+
+/// The edges of the hexahedron whose mid-side nodes follow the corners of a Hex20, in VTK
+/// order (T211).
+pub const HEX20_EDGES: [[usize; 2]; 12] = [
+    [0, 1],
+    [1, 2],
+    [2, 3],
+    [3, 0],
+    [4, 5],
+    [5, 6],
+    [6, 7],
+    [7, 4],
+    [0, 4],
+    [1, 5],
+    [2, 6],
+    [3, 7],
+];
 
 /// The cells of a mesh: `connectivity[c * nodes_per_cell + a]` is node `a` of cell `c`.
 #[derive(Clone, Debug, PartialEq)]

@@ -10,7 +10,7 @@
 use std::collections::HashMap;
 
 use crate::error::{Error, Result};
-use crate::fe::mesh::{CellKind, Cells};
+use crate::fe::mesh::{CellKind, Cells, HEX20_EDGES};
 
 /// The edges of the quadratic triangle and tetrahedron whose mid-side nodes follow the
 /// vertices, in VTK order (T200).
@@ -121,17 +121,19 @@ pub fn tetrahedron_rule(degree: usize) -> Vec<([f64; 3], f64)> {
     out
 }
 
-/// The quadratic mesh (Tri6 or Tet10) of a linear one (Tri3 or Tet4): one new node at the
-/// middle of every edge, shared by the cells around it, numbered after the existing nodes
-/// in the order the edges are met. Straight-sided cells, so the geometry is unchanged.
+/// The quadratic mesh (Tri6, Tet10 or Hex20) of a linear one (Tri3, Tet4 or Hex8): one new
+/// node at the middle of every edge, shared by the cells around it, numbered after the
+/// existing nodes in the order the edges are met. Straight-sided cells, so the geometry is
+/// unchanged.
 pub fn quadratic_mesh(coordinates: &[Vec<f64>], cells: &Cells) -> Result<(Vec<Vec<f64>>, Cells)> {
     let (edges, kind): (&[[usize; 2]], CellKind) = match cells.kind {
         CellKind::Tri3 => (&TRIANGLE_EDGES, CellKind::Tri6),
         CellKind::Tet4 => (&TETRAHEDRON_EDGES, CellKind::Tet10),
+        CellKind::Hex8 => (&HEX20_EDGES, CellKind::Hex20),
         other => {
             return Err(Error::argument(
                 "mesh",
-                format!("only Tri3 and Tet4 meshes can be made quadratic, got {other:?}"),
+                format!("only Tri3, Tet4 and Hex8 meshes can be made quadratic, got {other:?}"),
             ))
         }
     };

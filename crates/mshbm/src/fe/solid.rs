@@ -148,6 +148,42 @@ fn shape<const D: usize>(nodes: &[[f64; D]], xi: [f64; D]) -> (Vec<f64>, Vec<[f6
     (n, dn)
 }
 
+/// The 20-node serendipity hexahedron (T211): at a corner `ξ^a ∈ {±1}³`
+/// `N_a = ⅛ Π_i (1 + ξ_i ξ_i^a) (Σ_i ξ_i ξ_i^a − 2)`, at the middle of an edge along axis
+/// `k` (`ξ_k^a = 0`) `N_a = ¼ (1 − ξ_k²) Π_{i≠k} (1 + ξ_i ξ_i^a)`; nodes in VTK order.
+pub fn hex20_shape(xi: [f64; 3]) -> (Vec<f64>, Vec<[f64; 3]>) {
+    let mut n = Vec::with_capacity(20);
+    let mut dn = Vec::with_capacity(20);
+    for a in &HEX_NODES {
+        let f: [f64; 3] = std::array::from_fn(|i| 1.0 + xi[i] * a[i]);
+        let s = xi[0] * a[0] + xi[1] * a[1] + xi[2] * a[2] - 2.0;
+        n.push(0.125 * f[0] * f[1] * f[2] * s);
+        dn.push(std::array::from_fn(|i| {
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            0.125 * f[j] * f[k] * a[i] * (s + f[i])
+        }));
+    }
+    for [p, q] in crate::fe::mesh::HEX20_EDGES {
+        let (a, b) = (HEX_NODES[p], HEX_NODES[q]);
+        let m: [f64; 3] = std::array::from_fn(|i| 0.5 * (a[i] + b[i]));
+        let k = (0..3).find(|&i| m[i] == 0.0).unwrap_or(0);
+        let f: [f64; 3] = std::array::from_fn(|i| {
+            if i == k {
+                1.0 - xi[i] * xi[i]
+            } else {
+                1.0 + xi[i] * m[i]
+            }
+        });
+        n.push(0.25 * f[0] * f[1] * f[2]);
+        dn.push(std::array::from_fn(|i| {
+            let (j, l) = ((i + 1) % 3, (i + 2) % 3);
+            let d = if i == k { -2.0 * xi[i] } else { m[i] };
+            0.25 * d * f[j] * f[l]
+        }));
+    }
+    (n, dn)
+}
+
 /// Shape functions and reference derivatives at a point of the reference cell.
 type ShapeFn<const D: usize> = fn([f64; D]) -> (Vec<f64>, Vec<[f64; D]>);
 
@@ -165,6 +201,23 @@ fn gauss2<const D: usize>() -> Vec<([f64; D], f64)> {
         .map(|point| {
             let xi = std::array::from_fn(|i| if point >> i & 1 == 1 { g } else { -g });
             (xi, 1.0)
+        })
+        .collect()
+}
+
+/// The tensor Gauss rule of 3 points per direction (`ξ = 0, ±√(3/5)`, weights 8/9, 5/9),
+/// exact to degree 5 in each coordinate: Hex20's mass on parallelepipeds (T211).
+fn gauss3<const D: usize>() -> Vec<([f64; D], f64)> {
+    let g = [
+        (-(0.6f64.sqrt()), 5.0 / 9.0),
+        (0.0, 8.0 / 9.0),
+        (0.6f64.sqrt(), 5.0 / 9.0),
+    ];
+    (0..3usize.pow(D as u32))
+        .map(|point| {
+            let at = |i: usize| g[point / 3usize.pow(i as u32) % 3];
+            let xi = std::array::from_fn(|i| at(i).0);
+            (xi, (0..D).map(|i| at(i).1).product())
         })
         .collect()
 }
@@ -189,6 +242,13 @@ fn reference<const D: usize>(kind: CellKind) -> Option<Reference<D>> {
         },
         (CellKind::Tri3, 2) | (CellKind::Tet4, 3) => linear_shape::<D>,
         (CellKind::Tri6, 2) | (CellKind::Tet10, 3) => quadratic_shape::<D>,
+        (CellKind::Hex20, 3) => |xi| {
+            let (n, dn) = hex20_shape(std::array::from_fn(|i| xi[i]));
+            (
+                n,
+                dn.iter().map(|g| std::array::from_fn(|i| g[i])).collect(),
+            )
+        },
         _ => return None,
     };
     // exact for the consistent mass of straight-sided simplices (T203)–(T204)
@@ -208,6 +268,7 @@ fn reference<const D: usize>(kind: CellKind) -> Option<Reference<D>> {
     let rule = match kind {
         CellKind::Quad4 | CellKind::Hex8 => gauss2::<D>(),
         CellKind::Tri3 | CellKind::Tet4 => simplex(2),
+        CellKind::Hex20 => gauss3::<D>(),
         _ => simplex(5),
     };
     Some(Reference { shape, rule })

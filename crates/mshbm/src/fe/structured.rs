@@ -261,6 +261,17 @@ pub fn mesh_face_weights(x: &[Vec<f64>], cells: &Cells, nodes: &[usize]) -> Resu
         CellKind::Tet4 => &[1.0 / 3.0; 3],
         CellKind::Tri6 => &[1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0],
         CellKind::Tet10 => &[0.0, 0.0, 0.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
+        // the 8-node serendipity face (T212)
+        CellKind::Hex20 => &[
+            -1.0 / 12.0,
+            -1.0 / 12.0,
+            -1.0 / 12.0,
+            -1.0 / 12.0,
+            1.0 / 3.0,
+            1.0 / 3.0,
+            1.0 / 3.0,
+            1.0 / 3.0,
+        ],
     };
     let mut weights = vec![0.0; nodes.len()];
     for c in 0..cells.len() {
@@ -276,6 +287,12 @@ pub fn mesh_face_weights(x: &[Vec<f64>], cells: &Cells, nodes: &[usize]) -> Resu
                 CellKind::Line2 => 1.0,
                 CellKind::Quad4 | CellKind::Tri3 | CellKind::Tri6 => dist(&x[face[0]], &x[face[1]]),
                 CellKind::Hex8 => dist(&x[face[0]], &x[face[1]]) * dist(&x[face[1]], &x[face[2]]),
+                // a flat quadrilateral: half the cross product of its diagonals
+                CellKind::Hex20 => {
+                    let u: Vec<f64> = (0..3).map(|a| x[face[2]][a] - x[face[0]][a]).collect();
+                    let v: Vec<f64> = (0..3).map(|a| x[face[3]][a] - x[face[1]][a]).collect();
+                    0.5 * norm(&cross(&u, &v))
+                }
                 CellKind::Tet4 | CellKind::Tet10 => {
                     let u: Vec<f64> = (0..3).map(|a| x[face[1]][a] - x[face[0]][a]).collect();
                     let v: Vec<f64> = (0..3).map(|a| x[face[2]][a] - x[face[0]][a]).collect();
@@ -300,6 +317,18 @@ pub fn mesh_face_weights(x: &[Vec<f64>], cells: &Cells, nodes: &[usize]) -> Resu
         ));
     }
     Ok(weights.iter().map(|w| w / total).collect())
+}
+
+fn cross(u: &[f64], v: &[f64]) -> [f64; 3] {
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+fn norm(n: &[f64]) -> f64 {
+    n.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
 
 fn dist(a: &[f64], b: &[f64]) -> f64 {

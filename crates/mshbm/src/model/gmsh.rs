@@ -5,8 +5,9 @@
 //! What is read: `$MeshFormat` (4.1, ASCII), `$PhysicalNames`, `$Entities` (which physical
 //! groups each point, curve, surface and volume belongs to), `$Nodes` and `$Elements`;
 //! other sections are skipped. The solid cells are the elements of the highest dimension
-//! (Tri3, Tri6 or Quad4 in 2D; Tet4, Tet10 or Hex8 in 3D; one kind per mesh), in VTK node
-//! order (Gmsh's Tet10 lists the edges 23 and 13 the other way round, (T200)). The model's
+//! (Tri3, Tri6 or Quad4 in 2D; Tet4, Tet10, Hex8 or Hex20 in 3D; one kind per mesh), in VTK
+//! node order (Gmsh's Tet10 lists the edges 23 and 13 the other way round, (T200); its
+//! Hex20 orders the edges otherwise, (T211)). The model's
 //! nodes are the nodes of the solid cells, numbered from 0 in increasing Gmsh node tag.
 //! Each physical group becomes a node set: the nodes of its elements, in increasing model
 //! number; its name is the group's name from `$PhysicalNames`, or `physical_<dim>_<tag>`.
@@ -148,7 +149,7 @@ fn element_type(t: u32) -> Option<(usize, Option<CellKind>, usize)> {
         4 => (4, Some(CellKind::Tet4), 3),
         11 => (10, Some(CellKind::Tet10), 3),
         5 => (8, Some(CellKind::Hex8), 3),
-        17 => (20, None, 3),
+        17 => (20, Some(CellKind::Hex20), 3),
         12 => (27, None, 3),
         6 => (6, None, 3),
         7 => (5, None, 3),
@@ -423,7 +424,7 @@ fn assemble_mesh(
     let mut kind = None;
     for b in &solid {
         let Some(k) = b.kind else {
-            return fail(b.line, "these cells (quadratic hexahedra or quadrilaterals, prisms, pyramids) are not supported yet: mesh with Tri3/Tri6/Quad4 or Tet4/Tet10/Hex8");
+            return fail(b.line, "these cells (27-node hexahedra, 8- or 9-node quadrilaterals, prisms, pyramids) are not supported: mesh with Tri3/Tri6/Quad4 or Tet4/Tet10/Hex8/Hex20 (Gmsh: Mesh.SecondOrderIncomplete = 1 for Hex20)");
         };
         if kind.is_some_and(|kind| kind != k) {
             return fail(
@@ -471,6 +472,9 @@ fn assemble_mesh(
         match (kind, a) {
             (CellKind::Tet10, 8) => 9,
             (CellKind::Tet10, 9) => 8,
+            // Gmsh's Hex20 edges 01 03 04 12 15 23 26 37 45 47 56 67 (8–19) in VTK's order
+            // 01 12 23 30 45 56 67 74 04 15 26 37 (T211)
+            (CellKind::Hex20, 8..=19) => [8, 11, 13, 9, 16, 18, 19, 17, 10, 12, 14, 15][a - 8],
             _ => a,
         }
     };

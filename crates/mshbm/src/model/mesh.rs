@@ -1,7 +1,9 @@
 //! `kind = "mesh"` model files: a linear-elastic solid meshed in Gmsh (an MSH 4.1 ASCII
-//! file read by [`crate::model::gmsh`]: triangles or quadrilaterals in 2D, linear or
-//! quadratic tetrahedra or hexahedra in 3D, docs/theory.md §21), whose physical groups
-//! name the clamped set, the loaded sets and the contact interfaces. Everything after the
+//! file read by [`crate::model::gmsh`]) or written as an Abaqus input file (a file ending
+//! in `.inp`, the subset read by [`crate::model::abaqus`]): triangles or quadrilaterals in
+//! 2D, linear or quadratic tetrahedra or hexahedra in 3D, docs/theory.md §21, whose
+//! physical groups (Abaqus: node sets, element sets, node surfaces) name the clamped set,
+//! the loaded sets and the contact interfaces. Everything after the
 //! `[mesh]` table is as for `kind = "solid"` ([`crate::model::solid`]), with the physical
 //! groups as the node sets.
 //!
@@ -9,7 +11,7 @@
 //! kind = "mesh"
 //! name = "bracket"
 //! [mesh]
-//! file = "bracket.msh"          # relative to this file; MSH 4.1 ASCII
+//! file = "bracket.msh"          # relative to this file; MSH 4.1 ASCII, or Abaqus `.inp`
 //! young = 2.1e5                 # [MPa], with the mesh's length unit in mm
 //! poisson = 0.3
 //! density = 7.85e-9             # [t/mm^3]
@@ -37,9 +39,12 @@
 //! nodes of its faces) becomes massless under redistribution, with the total mass and the
 //! first and second moments kept (docs/theory.md (T208)–(T210)).
 //!
-//! Physical groups without a name are `physical_<dim>_<tag>`. The model's node `p` is the
-//! `p`-th smallest Gmsh node tag among the nodes of the solid cells. Errors name the model
-//! file and the field, and for the mesh file its path and line.
+//! From an Abaqus file the groups are its node sets, element sets (the nodes of their
+//! elements) and node surfaces, named as the file first writes them; a node set shadows an
+//! element set of the same name. Physical groups without a name are
+//! `physical_<dim>_<tag>`. The model's node `p` is the `p`-th smallest Gmsh node tag
+//! (Abaqus node label) among the nodes of the solid cells. Errors name the model file and
+//! the field, and for the mesh file its path and line.
 
 use std::path::Path;
 
@@ -48,6 +53,7 @@ use serde::Deserialize;
 use crate::error::{Error, Result};
 use crate::fe::solid::{assemble_plane, assemble_solid, ElasticMaterial, PlaneKind};
 use crate::fe::structured::StructuredMesh;
+use crate::model::abaqus::parse_inp;
 use crate::model::gmsh::parse_msh;
 use crate::model::input_files::InputFiles;
 use crate::model::interface::InterfaceSection;
@@ -99,8 +105,16 @@ const ASSEMBLY_BYTES_PER_ENTRY: u64 = 48;
 pub(super) fn mesh_model(f: MeshFile, path: &Path, inputs: &mut InputFiles) -> Result<Model> {
     let s = &f.mesh;
     let (shown, text) = inputs.read("mesh.file", &s.file)?;
-    let mesh = parse_msh(&text)
-        .map_err(|e| Error::field(path, "mesh.file", format!("{}, {e}", shown.display())))?;
+    // the reader by the file's extension: `.inp` Abaqus, anything else Gmsh
+    let abaqus = Path::new(&s.file)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("inp"));
+    let mesh = if abaqus {
+        parse_inp(&text)
+    } else {
+        parse_msh(&text)
+    }
+    .map_err(|e| Error::field(path, "mesh.file", format!("{}, {e}", shown.display())))?;
     drop(text);
     let d = mesh.dimension;
     // the model's memory before the matrices are assembled

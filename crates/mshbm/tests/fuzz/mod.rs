@@ -3,7 +3,7 @@
 //! (`examples/fuzz_inputs.rs`, run by `tools/fuzz-inputs`, ≥ 10⁵ inputs per target with a
 //! per-input time limit and a per-input peak-memory check).
 //!
-//! Six targets, each fed inputs mutated from seeds (byte flips, random insertions,
+//! Seven targets, each fed inputs mutated from seeds (byte flips, random insertions,
 //! deletions, duplicated lines, splices from another seed, numbers replaced by extreme
 //! values) by a deterministic generator: case `c` of seed `s` is always the same input, so
 //! a finding is replayed alone.
@@ -18,6 +18,8 @@
 //! * `mesh`: a Gmsh MSH 4.1 file (the meshes of tests/data/gmsh and
 //!   `tests/fuzz_corpus/meshes/`) parsed alone, every fourth also read as the mesh of a
 //!   `kind = "mesh"` model (clamped, loaded and in contact on its groups) and assembled;
+//! * `inp`: an Abaqus input file (tests/data/abaqus and `tests/fuzz_corpus/abaqus/`)
+//!   parsed alone, every fourth also read as the mesh of the same model;
 //! * `solution`: a `--from-solution` JSON (a solution of the bar written by `solve --json`,
 //!   mutated mostly near the fields a start uses), parsed, checked against the bar
 //!   (`PeriodicSolution::unusable_start`), resized to H and solved from, as `mshbm solve
@@ -44,7 +46,15 @@ pub use mutate::{mutate, Rng};
 pub use watch::{peak_rss, reset_peak_rss, Watchdog};
 
 /// The targets, in the order of the campaign.
-pub const TARGETS: &[&str] = &["model", "matrix", "tables", "overrides", "mesh", "solution"];
+pub const TARGETS: &[&str] = &[
+    "model",
+    "matrix",
+    "tables",
+    "overrides",
+    "mesh",
+    "inp",
+    "solution",
+];
 
 fn corpus() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_corpus")
@@ -98,6 +108,7 @@ enum Run {
     Overrides { seed: usize, sets: Vec<String> },
     Solution { harmonics: usize },
     Mesh { as_model: bool },
+    Inp { as_model: bool },
 }
 
 /// The seeds, a scratch directory with the files they reference (removed on drop), and
@@ -107,6 +118,7 @@ pub struct Harness {
     models: Vec<ModelSeed>,
     matrices: Vec<Vec<u8>>,
     meshes: Vec<Vec<u8>>,
+    inps: Vec<Vec<u8>>,
     tables: Vec<TableSeed>,
     solution: Vec<u8>,
     bar: Model,
@@ -180,13 +192,36 @@ impl Harness {
             .map(|p| std::fs::read(p).unwrap())
             .collect();
         let gmsh = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gmsh");
-        for f in ["box_tet4.msh", "plate_tri6.msh", "box_tet10.msh"] {
+        for f in [
+            "box_tet4.msh",
+            "plate_tri6.msh",
+            "box_tet10.msh",
+            "box_hex20.msh",
+        ] {
             meshes.push(std::fs::read(gmsh.join(f)).unwrap());
         }
         // the model a mesh is read by: every group name of the seeds, so that a mutated
         // mesh still reaches the assembly and the conditions
         std::fs::create_dir_all(root.join("mesh")).unwrap();
         std::fs::write(root.join("mesh/model.toml"), MESH_MODEL).unwrap();
+        let mut inps: Vec<Vec<u8>> = files_in(&corpus().join("abaqus"))
+            .iter()
+            .map(|p| std::fs::read(p).unwrap())
+            .collect();
+        let abaqus = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/abaqus");
+        for f in [
+            "box_tet4.inp",
+            "plate_tri6.inp",
+            "box_tet10.inp",
+            "box_hex20.inp",
+        ] {
+            inps.push(std::fs::read(abaqus.join(f)).unwrap());
+        }
+        std::fs::write(
+            root.join("mesh/model_inp.toml"),
+            MESH_MODEL.replace("mesh.msh", "mesh.inp"),
+        )
+        .unwrap();
 
         let tables_dir = root.join("tables");
         let table = |model: &str, name: &'static str| TableSeed {
@@ -222,6 +257,7 @@ impl Harness {
             models,
             matrices,
             meshes,
+            inps,
             tables,
             solution,
             bar,
@@ -326,6 +362,16 @@ impl Harness {
                     },
                 }
             }
+            "inp" => {
+                let seed = &self.inps[rng.below(self.inps.len())];
+                let other = &self.inps[rng.below(self.inps.len())];
+                Input {
+                    bytes: mutate(seed, other, rng),
+                    run: Run::Inp {
+                        as_model: rng.below(4) == 0,
+                    },
+                }
+            }
             other => panic!("unknown target {other:?} (one of {TARGETS:?})"),
         }
     }
@@ -379,6 +425,15 @@ impl Harness {
                 if *as_model {
                     std::fs::write(self.root.join("mesh/mesh.msh"), &input.bytes).unwrap();
                     let model = self.root.join("mesh/model.toml");
+                    let _ = load_model_with(&model, &[], &self.options);
+                }
+                ok
+            }
+            Run::Inp { as_model } => {
+                let ok = mshbm::model::abaqus::parse_inp(&text()).is_ok();
+                if *as_model {
+                    std::fs::write(self.root.join("mesh/mesh.inp"), &input.bytes).unwrap();
+                    let model = self.root.join("mesh/model_inp.toml");
                     let _ = load_model_with(&model, &[], &self.options);
                 }
                 ok
