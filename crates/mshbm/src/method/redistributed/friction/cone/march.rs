@@ -486,7 +486,13 @@ impl March<'_> {
                 };
             }
             Watch::Normal => modes[c] = ConeMode::Open,
-            Watch::Cone => modes[c] = ConeMode::Slip,
+            Watch::Cone => {
+                // a force outside the cone (after a jump of the forces, where another contact
+                // opened or closed) slips back onto it at once (T194)
+                modes[c] = ConeMode::Slip;
+                let closed = self.closed(modes)?;
+                self.project(tau, modes, anchors, &closed)?;
+            }
             Watch::Speed => modes[c] = ConeMode::Stick,
         }
         Ok(())
