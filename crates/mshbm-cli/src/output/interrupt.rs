@@ -29,7 +29,7 @@ static STREAMING: AtomicBool = AtomicBool::new(false);
 
 /// How long a command that streams nothing has, after the first signal, to stop at a
 /// checkpoint of its own before it is stopped at once.
-pub const GRACE: Duration = Duration::from_secs(1);
+pub const GRACE: Duration = Duration::from_millis(500);
 
 /// Temporary files being written, removed by a second signal.
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
