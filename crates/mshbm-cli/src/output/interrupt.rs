@@ -4,7 +4,7 @@
 //! iterations, a method's set-up phases, the eigensolvers' phases: [`cancel`], given to
 //! the library as `Limits::cancel`); they then finish what they stream with an "incomplete"
 //! marker, write nothing else and exit with status 130. A command that streams no CSV and
-//! reaches no checkpoint within [`GRACE`] of the signal (a long factorization) is stopped
+//! reaches no checkpoint within [`GRACE`] of the signal (an assembly, a dense product) is stopped
 //! then, as by a second signal. A second signal removes every temporary output file still
 //! registered and exits at once.
 
