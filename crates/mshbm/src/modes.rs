@@ -552,6 +552,8 @@ enum Krylov {
 /// with the basis (each vector meets `K` and `M` once); Rayleigh–Ritz is tried every
 /// `count/4` vectors from `2·count` on, and the residuals are formed once the `count`
 /// lowest Ritz values have settled (relative change below `1e-9` since the last try).
+// the factor, both matrices, the start, the sizes and the caller's request
+#[allow(clippy::too_many_arguments)]
 fn block_krylov(
     llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
     k: &SparseMatrix,
