@@ -522,3 +522,86 @@ fn indefinite_stiffness_is_refused_naming_the_model() {
         "{err}"
     );
 }
+
+/// Issue 46, item 5: the methods that integrate in time refuse an indefinite stiffness
+/// before they start, naming the model file, the field and the matrix file: `simulate`
+/// (which ended in "numerical failure: contact LCP ... natural residual NaN", naming
+/// nothing) and the general MS-HBM (which panicked in its event location on a NaN gap). A
+/// free structure (the dropped bar, `K` singular but not indefinite) is still integrated.
+#[test]
+fn time_integrations_refuse_an_indefinite_stiffness_naming_the_file() {
+    let m = GeneralModel::new();
+    let k = std::fs::read_to_string(examples().join("bar_matrices/stiffness.mtx")).unwrap();
+    let indefinite = k.replacen("\n51 51 ", "\n51 51 -", 1);
+    assert_ne!(indefinite, k, "fixture lacks entry (51, 51)");
+    m.write("stiffness.mtx", &indefinite);
+    let toml = m.toml();
+    for args in [
+        vec!["simulate", &toml, "--frequency", "30000", "--periods", "1"],
+        vec![
+            "simulate",
+            &toml,
+            "--frequency",
+            "30000",
+            "--periods",
+            "1",
+            "--scheme",
+            "moreau",
+            "--theta",
+            "0.6",
+        ],
+        vec!["solve", &toml, "--frequency", "30000", "--method", "mshbm"],
+    ] {
+        let out = mshbm(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        let err = fails(&args);
+        assert!(
+            err.contains("model.toml: field `matrices.stiffness`: stiffness.mtx: the stiffness is indefinite")
+                && err.contains("negative stiffness"),
+            "{args:?}: {err}"
+        );
+    }
+    // a free structure is not indefinite: the dropped bar still falls and bounces
+    let out = mshbm(&["simulate", &example("dropped_bar.toml"), "--periods", "1"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Issue 46, item 5: a `K_NN` (the stiffness of the contact-node DOFs with the rest held)
+/// that is not positive definite is refused naming the model file, the field and the
+/// matrix file, and says what is wrong (it said "K_NN ... is singular (not positive
+/// definite): the contact nodes must not form a free-floating part", naming no file, for
+/// a negative stiffness at the contact node).
+#[test]
+fn a_contact_stiffness_that_is_not_positive_definite_names_the_file() {
+    let m = GeneralModel::new();
+    let k = std::fs::read_to_string(examples().join("bar_matrices/stiffness.mtx")).unwrap();
+    // the contact DOF is the last one (1-based 101; the size line is "101 101 NNZ")
+    let at = k
+        .rfind("\n101 101 ")
+        .expect("fixture lacks entry (101, 101)");
+    assert!(
+        at > k.find('\n').unwrap(),
+        "entry (101, 101) is the size line"
+    );
+    let negative = format!("{}\n101 101 -{}", &k[..at], &k[at + "\n101 101 ".len()..]);
+    m.write("stiffness.mtx", &negative);
+    let toml = m.toml();
+    for args in [
+        vec!["solve", &toml, "--frequency", "30000"],
+        vec!["frf", &toml, "--from", "29000", "--to", "31000"],
+    ] {
+        let err = fails(&args);
+        assert!(
+            err.contains("model.toml: field `matrices.stiffness`: stiffness.mtx: K_NN")
+                && err.contains("not positive definite")
+                && err.contains("stiffness is negative"),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -434,3 +434,52 @@ fn from_solution_starts_a_2d_solid_on_the_orbit() {
         max(&s)
     );
 }
+
+/// Issue 46, item 5: `simulate --from-solution` refuses another model's solution (its
+/// `contact_dofs` are not the model's), naming the file, the field and both contact sets;
+/// it extended it silently and exited with 0. A solution of another method of the same
+/// model still starts it (its contact-node harmonics mean the same).
+#[test]
+fn from_solution_of_another_model_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = example("clamped_bar.toml");
+    let solved = mshbm(&[
+        "solve",
+        model.as_str(),
+        "--frequency",
+        "30000",
+        "--harmonics",
+        "3",
+        "--json",
+    ]);
+    assert_success(&solved);
+    let mut other = stdout_json(&solved);
+    other["contact_dofs"] = serde_json::json!([7]);
+    let file = tmp(&dir, "other.json");
+    std::fs::write(&file, other.to_string()).unwrap();
+    let err = fails(&[
+        "simulate",
+        model.as_str(),
+        "--periods",
+        "1",
+        "--from-solution",
+        file.to_str().unwrap(),
+    ]);
+    assert!(
+        err.contains("other.json: field `contact_dofs`")
+            && err.contains("another model")
+            && err.contains("DOFs [7]")
+            && err.contains("DOFs [100]"),
+        "{err}"
+    );
+    let same = tmp(&dir, "same.json");
+    std::fs::write(&same, &solved.stdout).unwrap();
+    let out = simulate(&[
+        model.as_str(),
+        "--periods",
+        "1",
+        "--from-solution",
+        same.to_str().unwrap(),
+    ]);
+    assert_success(&out);
+}

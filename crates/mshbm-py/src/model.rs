@@ -253,6 +253,7 @@ impl NativeModel {
             .map(|r| r.to_vec())
             .collect();
         let model = Model {
+            stiffness_file: None,
             source: PathBuf::from(ARRAYS),
             input_files: Vec::new(),
             name: name.unwrap_or_else(|| "model from arrays".into()),

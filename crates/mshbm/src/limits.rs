@@ -28,6 +28,10 @@ pub const MAX_MODEL_FILE_BYTES: u64 = 4 << 20;
 /// Peak memory of parsing a TOML model file per byte of the file (measured: 52 bytes).
 pub const TOML_BYTES_PER_FILE_BYTE: u64 = 64;
 
+/// The name of the helper thread on which [`Cancel::wait_for`] runs a call that cannot
+/// check the request itself (visible in `/proc/PID/task/*/comm`).
+pub const UNINTERRUPTIBLE_THREAD: &str = "mshbm-uninterr";
+
 /// A request to stop a long computation, given by the caller (the CLI sets it on SIGINT or
 /// SIGTERM; the library knows nothing of signals). Long loops (Newton's iterations and line
 /// search, the set-up phases of a method, the iterations of an eigensolver) check it and
@@ -55,6 +59,44 @@ impl Cancel {
             Err(Error::Cancelled)
         } else {
             Ok(())
+        }
+    }
+
+    /// Run `work`, a long call that cannot check this request itself (a sparse
+    /// factorization of a 3D model takes tens of seconds), so that the caller can stop
+    /// waiting for it: with a request that can cancel, `work` runs on a helper thread named
+    /// [`UNINTERRUPTIBLE_THREAD`] while this thread checks the request every 20 ms and
+    /// returns [`Error::Cancelled`] as soon as it is set. The abandoned call then finishes
+    /// on its own thread and its result is dropped (a process that exits on the
+    /// cancellation, as the CLI does, ends it at once). [`Cancel::NEVER`] runs `work` here.
+    pub fn wait_for<T: Send + 'static>(
+        self,
+        work: impl FnOnce() -> T + Send + 'static,
+    ) -> Result<T> {
+        if self.0.is_none() {
+            return Ok(work());
+        }
+        self.check()?;
+        let (send, receive) = std::sync::mpsc::sync_channel(1);
+        std::thread::Builder::new()
+            .name(UNINTERRUPTIBLE_THREAD.into())
+            // the main thread's stack size: a factorization may recurse
+            .stack_size(8 << 20)
+            .spawn(move || {
+                // the receiver is gone when the caller stopped waiting
+                let _ = send.send(work());
+            })
+            .map_err(|e| Error::Numerical(format!("cannot start a helper thread: {e}")))?;
+        loop {
+            match receive.recv_timeout(std::time::Duration::from_millis(20)) {
+                Ok(result) => return Ok(result),
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => self.check()?,
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(Error::Numerical(
+                        "a helper thread ended without a result (it panicked)".into(),
+                    ))
+                }
+            }
         }
     }
 
@@ -419,6 +461,32 @@ fn open_nonblocking(path: &Path) -> std::io::Result<std::fs::File> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A request set while a long call runs ends the wait at once with `Cancelled` (the
+    /// call finishes on its helper thread); an unset one returns the call's result, and
+    /// `NEVER` runs it on the caller's thread.
+    #[test]
+    fn waiting_for_an_uninterruptible_call_stops_on_the_request() {
+        static FLAG: AtomicBool = AtomicBool::new(false);
+        let cancel = Cancel::on(&FLAG);
+        assert_eq!(cancel.wait_for(|| 7).unwrap(), 7);
+        let caller = std::thread::current().id();
+        assert!(Cancel::NEVER
+            .wait_for(move || std::thread::current().id() == caller)
+            .unwrap());
+        let setter = std::thread::spawn(|| {
+            std::thread::sleep(std::time::Duration::from_millis(100));
+            FLAG.store(true, Ordering::SeqCst);
+        });
+        let start = std::time::Instant::now();
+        let result = cancel.wait_for(|| std::thread::sleep(std::time::Duration::from_secs(5)));
+        let waited = start.elapsed().as_secs_f64();
+        setter.join().unwrap();
+        assert!(matches!(result, Err(Error::Cancelled)), "{result:?}");
+        assert!(waited < 1.0, "waited {waited} s");
+        // a request already set does not start the call
+        assert!(matches!(cancel.wait_for(|| 1), Err(Error::Cancelled)));
+    }
 
     #[test]
     fn memory_check_names_what_and_overflow() {

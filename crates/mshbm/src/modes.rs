@@ -14,7 +14,7 @@ use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Mat, Par, Side};
 
 use crate::error::{Error, Result};
-use crate::limits::{dense_f64_bytes, Limits};
+use crate::limits::{dense_f64_bytes, Cancel, Limits};
 use crate::sparse::SparseMatrix;
 
 /// Indices of DOFs whose mass row is identically zero.
@@ -102,10 +102,13 @@ pub fn eigenfrequencies_hz_within(
             &format!("the lowest {count} modes of {n} DOFs (sparse block Krylov)"),
             block.zip(factor).and_then(|(a, b)| a.checked_add(b)),
         )?;
-        let modes = lowest_modes(mass, stiffness, count).map_err(|e| match e {
-            Error::Singular(_) => not_definite(None),
-            other => other,
-        })?;
+        let modes =
+            lowest_modes_cancellable(mass, stiffness, None, count, limits.cancel).map_err(|e| {
+                match e {
+                    Error::Singular(_) => not_definite(None),
+                    other => other,
+                }
+            })?;
         return Ok(modes.eigenvalues.into_iter().map(to_hz).collect());
     }
     limits.check_memory(
@@ -170,12 +173,22 @@ fn not_definite(rigid: Option<usize>) -> Error {
 /// ratio `ω₁²/ω₁₀²`, so close second modes (plates) do not slow it down as they slow inverse
 /// iteration.
 pub fn first_angular_frequency(mass: &SparseMatrix, stiffness: &SparseMatrix) -> Result<f64> {
+    first_angular_frequency_cancellable(mass, stiffness, Cancel::NEVER)
+}
+
+/// [`first_angular_frequency`], stopped by `cancel` (its factorization and iterations:
+/// [`lowest_modes_cancellable`]).
+pub fn first_angular_frequency_cancellable(
+    mass: &SparseMatrix,
+    stiffness: &SparseMatrix,
+    cancel: Cancel,
+) -> Result<f64> {
     if massless_dofs(mass).len() == mass.nrows() {
         return Err(Error::Singular(
             "the mass matrix has no positive mass".into(),
         ));
     }
-    let modes = lowest_modes(mass, stiffness, 1).map_err(|e| match e {
+    let modes = lowest_modes_cancellable(mass, stiffness, None, 1, cancel).map_err(|e| match e {
         Error::Singular(_) => Error::Singular("a first-mode damping ratio needs a held structure: the stiffness is not positive definite with the Dirichlet DOFs fixed (a rigid-body motion, or a negative stiffness)".into()),
         other => other,
     })?;
@@ -245,9 +258,18 @@ pub type StiffnessFactor = faer::sparse::linalg::solvers::Llt<usize, f64>;
 
 /// The sparse Cholesky factor of `K` (an error when `K` is not positive definite).
 pub fn stiffness_factor(stiffness: &SparseMatrix) -> Result<StiffnessFactor> {
-    stiffness
-        .to_faer()
-        .sp_cholesky(Side::Lower)
+    stiffness_factor_cancellable(stiffness, Cancel::NEVER)
+}
+
+/// [`stiffness_factor`] that `cancel` stops waiting for ([`Cancel::wait_for`]: faer's
+/// factorization cannot check a request itself, and takes tens of seconds on a 3D model).
+pub fn stiffness_factor_cancellable(
+    stiffness: &SparseMatrix,
+    cancel: Cancel,
+) -> Result<StiffnessFactor> {
+    let k = stiffness.to_faer();
+    cancel
+        .wait_for(move || k.sp_cholesky(Side::Lower))?
         .map_err(|_| Error::Singular("the stiffness matrix is not positive definite".into()))
 }
 
@@ -407,6 +429,19 @@ pub fn lowest_modes_factored(
     factor: Option<&StiffnessFactor>,
     count: usize,
 ) -> Result<LowestModes> {
+    lowest_modes_cancellable(mass, stiffness, factor, count, Cancel::NEVER)
+}
+
+/// [`lowest_modes_factored`] stopped by `cancel`: checked at every block of the Krylov
+/// space and every subspace iteration, and while `K` is factored
+/// ([`stiffness_factor_cancellable`]).
+pub fn lowest_modes_cancellable(
+    mass: &SparseMatrix,
+    stiffness: &SparseMatrix,
+    factor: Option<&StiffnessFactor>,
+    count: usize,
+    cancel: Cancel,
+) -> Result<LowestModes> {
     let n = stiffness.nrows();
     // massless DOFs follow statically: K⁻¹ M x has rank n − massless
     let massive = n - massless_dofs(mass).len();
@@ -435,7 +470,7 @@ pub fn lowest_modes_factored(
         }
     };
     let owned = match factor {
-        None if p < n => Some(stiffness_factor(stiffness)?),
+        None if p < n => Some(stiffness_factor_cancellable(stiffness, cancel)?),
         _ => None,
     };
     let llt = if p < n {
@@ -453,6 +488,7 @@ pub fn lowest_modes_factored(
             p,
             count,
             massive,
+            cancel,
         ) {
             Ok(Krylov::Converged(modes)) => return Ok(modes),
             Ok(Krylov::Unconverged(shapes)) if shapes.ncols() == p => polished = Some(shapes),
@@ -466,6 +502,7 @@ pub fn lowest_modes_factored(
     let m = mass.to_faer();
     let mut previous: Option<Vec<f64>> = None;
     for _ in 0..500 {
+        cancel.check()?;
         let y = match llt {
             Some(llt) => {
                 let mut y = &m * &x;
@@ -515,6 +552,8 @@ enum Krylov {
 /// with the basis (each vector meets `K` and `M` once); Rayleigh–Ritz is tried every
 /// `count/4` vectors from `2·count` on, and the residuals are formed once the `count`
 /// lowest Ritz values have settled (relative change below `1e-9` since the last try).
+// the factor, both matrices, the start, the sizes and the caller's request
+#[allow(clippy::too_many_arguments)]
 fn block_krylov(
     llt: &faer::sparse::linalg::solvers::Llt<usize, f64>,
     k: &SparseMatrix,
@@ -523,6 +562,7 @@ fn block_krylov(
     p: usize,
     count: usize,
     massive: usize,
+    cancel: Cancel,
 ) -> Result<Krylov> {
     let block = first.ncols();
     let cap = massive.min(6 * count + block);
@@ -542,6 +582,7 @@ fn block_krylov(
     let mut next = apply(first);
     let mut previous: Option<Vec<f64>> = None;
     loop {
+        cancel.check()?;
         let basis = storage.subcols(0, len);
         // orthonormalise the new block against the basis (twice) and itself
         for _ in 0..2 {

@@ -88,6 +88,14 @@ fn known_harmonics(
     solution: &PeriodicSolution,
     source: &Path,
 ) -> Result<(KnownHarmonics, &'static str)> {
+    // another model's solution of as many unknowns would be extended silently
+    if let Some(why) = solution.other_model(model) {
+        return Err(Error::field(
+            source,
+            "contact_dofs",
+            format!("cannot start from this solution: {why}"),
+        ));
+    }
     let n = system.nonlinear_dofs.len();
     let nc = 2 * solution.harmonics + 1;
     // the redistributed MS-HBM's unknowns are free gaps: its contact-node harmonics are

@@ -238,6 +238,13 @@ impl PeriodicSolution {
                 self.method
             ));
         }
+        self.other_model(model)
+    }
+
+    /// Why this solution belongs to another model than `model` (its contacts are not the
+    /// model's), or `None`: no start from it, by Newton ([`PeriodicSolution::unusable_start`])
+    /// or by a time integration ([`crate::simulation::state_from_solution`]).
+    pub fn other_model(&self, model: &crate::Model) -> Option<String> {
         let contacts: Vec<usize> = model.contacts.iter().map(|c| c.dofs[0]).collect();
         if self.contact_dofs != contacts {
             let shown = |v: &[usize]| -> String {

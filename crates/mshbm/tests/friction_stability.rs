@@ -74,6 +74,7 @@ fn without_friction_coefficient_the_multipliers_are_the_frictionless_ones() {
 /// normal, the node's tangent.
 fn jenkins_oscillator(m: f64, k: f64, k_c: f64, p: f64, mu: f64, force: f64, alpha: f64) -> Model {
     Model {
+        stiffness_file: None,
         source: PathBuf::from("jenkins oscillator"),
         input_files: vec![],
         cells: None,
@@ -452,6 +453,7 @@ fn stop_oscillator(
     alpha: f64,
 ) -> Model {
     Model {
+        stiffness_file: None,
         source: PathBuf::from("stop oscillator"),
         input_files: vec![],
         cells: None,

@@ -45,6 +45,7 @@ fn friction_chain(n: usize, friction_limit: f64) -> Model {
     let mut harmonic_load = vec![0.0; n];
     harmonic_load[0] = force;
     Model {
+        stiffness_file: None,
         source: "friction chain (test)".into(),
         input_files: vec![],
         cells: None,

@@ -57,6 +57,7 @@ fn model(
     alpha: f64,
 ) -> Model {
     Model {
+        stiffness_file: None,
         source: PathBuf::from(name),
         input_files: vec![],
         cells: None,

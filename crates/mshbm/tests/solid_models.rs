@@ -919,3 +919,41 @@ fn a_gap_file_line_for_another_node_is_refused() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue 46, item 5: two nodes of a `pairs` interface's second set at the same place are
+/// refused naming the interface's `sets` and both nodes (one of them was silently dropped
+/// from the pairing, so a lip node had no contact).
+#[test]
+fn a_pairs_set_with_two_nodes_at_the_same_place_is_refused() {
+    let cracked = parse(BEAM).unwrap();
+    let (a, b) = (&cracked.node_sets["crack_a"], &cracked.node_sets["crack_b"]);
+    assert!(!a.is_empty() && a.len() == b.len());
+    // the two lips together: every place holds two nodes
+    let both: Vec<String> = a.iter().chain(b).map(|n| n.to_string()).collect();
+    let text = BEAM.replacen(
+        "[[interfaces]]",
+        &format!(
+            "[[node_sets]]\nname = \"both_lips\"\nnodes = [{}]\n[[interfaces]]",
+            both.join(", ")
+        ),
+        1,
+    );
+    // the set alone is fine
+    parse(&text).unwrap();
+    let doubled = text.replacen(
+        "sets = [\"crack_a\", \"crack_b\"]",
+        "sets = [\"crack_a\", \"both_lips\"]",
+        1,
+    );
+    assert_ne!(doubled, text, "fixture lacks the interface's sets");
+    let e = match parse(&doubled) {
+        Ok(_) => panic!("two nodes at one place were accepted"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains("solid.toml: field `interfaces[0].sets`")
+            && e.contains("are at the same place")
+            && e.contains("\"both_lips\""),
+        "{e}"
+    );
+}

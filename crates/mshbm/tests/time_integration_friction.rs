@@ -59,6 +59,7 @@ fn jenkins(kn: f64, kt: f64, p: f64, a: f64, mu: f64) -> System {
         beta: 0.0,
         beta_condensed: 0.0,
         source: "<Jenkins element>".into(),
+        stiffness_file: None,
     }
 }
 

@@ -4,7 +4,7 @@
 //! iterations, a method's set-up phases, the eigensolvers' phases: [`cancel`], given to
 //! the library as `Limits::cancel`); they then finish what they stream with an "incomplete"
 //! marker, write nothing else and exit with status 130. A command that streams no CSV and
-//! reaches no checkpoint within [`GRACE`] of the signal (a long factorization) is stopped
+//! reaches no checkpoint within [`GRACE`] of the signal (an assembly, a dense product) is stopped
 //! then, as by a second signal. A second signal removes every temporary output file still
 //! registered and exits at once.
 
@@ -29,7 +29,7 @@ static STREAMING: AtomicBool = AtomicBool::new(false);
 
 /// How long a command that streams nothing has, after the first signal, to stop at a
 /// checkpoint of its own before it is stopped at once.
-pub const GRACE: Duration = Duration::from_secs(1);
+pub const GRACE: Duration = Duration::from_millis(500);
 
 /// Temporary files being written, removed by a second signal.
 static TEMPORARIES: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());

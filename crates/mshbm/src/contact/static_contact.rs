@@ -218,7 +218,11 @@ impl StaticContact {
         let factor = stiffness
             .to_faer()
             .sp_cholesky(faer::Side::Lower)
-            .map_err(|_| singular("not positive definite".into()))?;
+            .map_err(|_| {
+                Error::Singular(format!(
+                    "K_NN (the stiffness of the {n} contact-node DOFs with everything else held) is not positive definite: the contact nodes form a free-floating part, or their stiffness is negative"
+                ))
+            })?;
         // condition estimate ‖K‖ / λ_min(K): λ_min by a few inverse iterations (a lower
         // bound of ‖K⁻¹‖ that converges fast when K_NN is nearly singular)
         if n > 0 {

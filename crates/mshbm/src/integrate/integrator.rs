@@ -130,6 +130,9 @@ impl Integrator {
                 "friction needs the Moreau-Jean scheme (the position-level scheme is frictionless)",
             ));
         }
+        // a negative stiffness makes any scheme's response grow without bound (it ended in a
+        // NaN inside the contact solver, naming nothing)
+        system.check_not_indefinite()?;
         let data = Data {
             n,
             dt,

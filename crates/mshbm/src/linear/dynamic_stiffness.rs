@@ -223,12 +223,22 @@ impl LinearPart {
 
     /// Factor `A_k(ω)` for `k = 0..=harmonics`.
     pub fn factor(&self, omega: f64, harmonics: usize) -> Result<HarmonicFactors> {
+        self.factor_cancellable(omega, harmonics, crate::limits::Cancel::NEVER)
+    }
+
+    /// [`LinearPart::factor`] stopped by `cancel` ([`LinearPart::factor_into_cancellable`]).
+    pub fn factor_cancellable(
+        &self,
+        omega: f64,
+        harmonics: usize,
+        cancel: crate::limits::Cancel,
+    ) -> Result<HarmonicFactors> {
         let mut factors = HarmonicFactors {
             omega,
             factors: Factors::Sparse(Vec::new()),
             frequencies: Vec::new(),
         };
-        self.factor_into(omega, harmonics, &mut factors)?;
+        self.factor_into_cancellable(omega, harmonics, &mut factors, cancel)?;
         Ok(factors)
     }
 
@@ -239,6 +249,19 @@ impl LinearPart {
         omega: f64,
         harmonics: usize,
         factors: &mut HarmonicFactors,
+    ) -> Result<()> {
+        self.factor_into_cancellable(omega, harmonics, factors, crate::limits::Cancel::NEVER)
+    }
+
+    /// [`LinearPart::factor_into`] that `cancel` stops: each sparse LU (seconds on a 3D
+    /// model, and faer's cannot check a request) is waited for cancellably
+    /// ([`crate::limits::Cancel::wait_for`]). The band factors of small models are not.
+    pub fn factor_into_cancellable(
+        &self,
+        omega: f64,
+        harmonics: usize,
+        factors: &mut HarmonicFactors,
+        cancel: crate::limits::Cancel,
     ) -> Result<()> {
         factors.omega = omega;
         let value = |e: usize, kw: f64| {
@@ -278,13 +301,14 @@ impl LinearPart {
                         .map(|e| value(e, kw))
                         .collect();
                     let a = faer::sparse::SparseColMat::new(self.pattern.faer_symbolic(), values);
-                    lus.push(
-                        Lu::try_new_with_symbolic(symbolic.clone(), a.as_ref()).map_err(|e| {
-                            Error::Numerical(format!(
-                                "sparse LU of the dynamic stiffness (harmonic {k}): {e:?}"
-                            ))
-                        })?,
-                    );
+                    let symbolic = symbolic.clone();
+                    let lu =
+                        cancel.wait_for(move || Lu::try_new_with_symbolic(symbolic, a.as_ref()))?;
+                    lus.push(lu.map_err(|e| {
+                        Error::Numerical(format!(
+                            "sparse LU of the dynamic stiffness (harmonic {k}): {e:?}"
+                        ))
+                    })?);
                 }
                 factors.factors = Factors::Sparse(lus);
             }

@@ -271,7 +271,9 @@ impl ExactReceptance {
             && n.saturating_mul(nc + 1).saturating_mul(harmonics + 1) <= kept_values;
         let mut at = ExactReceptanceAt {
             omega,
-            factors: parts.structure.factor(omega, harmonics)?,
+            factors: parts
+                .structure
+                .factor_cancellable(omega, harmonics, parts.cancel)?,
             receptance: vec![vec![ZERO; nc * nc]; harmonics + 1],
             load_response: vec![vec![ZERO; nc]; harmonics + 1],
             columns: Vec::new(),
@@ -415,9 +417,12 @@ impl ReceptanceAtFrequency for ExactReceptanceAt {
 
     fn refresh(&mut self, omega: f64) -> Result<bool> {
         let harmonics = self.harmonics();
-        self.parts
-            .structure
-            .factor_into(omega, harmonics, &mut self.factors)?;
+        self.parts.structure.factor_into_cancellable(
+            omega,
+            harmonics,
+            &mut self.factors,
+            self.parts.cancel,
+        )?;
         self.omega = omega;
         self.solve_columns()?;
         Ok(true)

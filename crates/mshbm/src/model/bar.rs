@@ -212,6 +212,7 @@ impl BarParameters {
             None => vec![],
         };
         let model = Model {
+            stiffness_file: None,
             source: source.to_path_buf(),
             input_files: vec![],
             cells: None,

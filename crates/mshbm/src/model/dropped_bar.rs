@@ -115,6 +115,7 @@ impl DroppedBarParameters {
         let (mass, stiffness) =
             bar1d::assemble(ne, self.length, self.density, self.young, self.area)?;
         let model = Model {
+            stiffness_file: None,
             source: source.to_path_buf(),
             input_files: vec![],
             cells: None,

@@ -89,7 +89,7 @@
 //!
 //! Unknown keys are errors. Errors name the file and the field.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
@@ -800,6 +800,7 @@ fn matrices_model(f: MatricesFile, path: &Path, inputs: &mut InputFiles) -> Resu
     )?;
     contacts.extend(interface_contacts);
     let model = Model {
+        stiffness_file: Some(PathBuf::from(&f.matrices.stiffness)),
         source: path.to_path_buf(),
         input_files: std::mem::take(&mut inputs.read),
         cells: None,

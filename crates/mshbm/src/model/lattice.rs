@@ -82,6 +82,7 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
     let mut harmonic_load = vec![0.0; n];
     harmonic_load[2 * idx(nx / 2, ny - 1) + 1] = -force;
     Model {
+        stiffness_file: None,
         source: PathBuf::from("lattice model (built in code)"),
         input_files: vec![],
         cells: None,

@@ -144,6 +144,11 @@ pub struct Model {
     pub mass: SparseMatrix,
     /// Stiffness matrix of the unconstrained mesh.
     pub stiffness: SparseMatrix,
+    /// The file the stiffness was read from, as the model file's field
+    /// `matrices.stiffness` gives it (a `matrices` model), for the errors that blame the
+    /// stiffness ([`crate::model::System::stiffness_error`]); `None` when the stiffness was
+    /// built from parameters.
+    pub stiffness_file: Option<PathBuf>,
     /// Optional explicit damping matrix, added to the Rayleigh part.
     pub damping_matrix: Option<SparseMatrix>,
     /// Node coordinates (dimension 1, 2 or 3), for mass redistribution.
@@ -210,10 +215,8 @@ impl Model {
     /// exceeds `limits` ([`eigenfrequencies_hz_within`]).
     pub fn compare_masses_within(&self, count: usize, limits: &Limits) -> Result<MassComparison> {
         // the caller's request to stop is checked between the phases
-        limits.cancel.check()?;
-        let consistent = self.system(MassKind::Consistent)?;
-        limits.cancel.check()?;
-        let redistributed = self.system(MassKind::Redistributed)?;
+        let consistent = self.system_cancellable(MassKind::Consistent, limits.cancel)?;
+        let redistributed = self.system_cancellable(MassKind::Redistributed, limits.cancel)?;
         limits.cancel.check()?;
         let original_hz =
             eigenfrequencies_hz_within(&consistent.mass, &consistent.stiffness, count, limits)?;

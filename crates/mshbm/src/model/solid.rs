@@ -378,6 +378,7 @@ pub(super) fn build_solid_model(
         inputs,
     )?;
     let model = Model {
+        stiffness_file: None,
         source: PathBuf::from(path),
         input_files: std::mem::take(&mut inputs.read),
         name,

@@ -8,8 +8,9 @@ use crate::error::{Error, Result};
 use crate::fe::redistribution::{
     expand_to_dofs, redistribute_scalar_mass, scalar_mass, Redistribution,
 };
+use crate::limits::Cancel;
 use crate::model::Model;
-use crate::modes::first_angular_frequency;
+use crate::modes::first_angular_frequency_cancellable;
 use crate::sparse::SparseMatrix;
 
 /// Which mass matrix a method uses.
@@ -50,6 +51,11 @@ pub struct SystemFriction {
     pub normal: crate::model::FrictionNormal,
 }
 
+/// The shift of [`System::check_not_indefinite`], relative to `max K_ii / max M_ii`: a
+/// negative eigenvalue `λ` of `K φ = λ M φ` with `|λ|` below it (a growth rate below
+/// `10⁻⁴` of the highest eigenfrequency) is not seen.
+pub const INDEFINITE_SHIFT: f64 = 1e-8;
+
 /// A model with its mass choice applied and Dirichlet DOFs removed.
 #[derive(Clone, Debug)]
 pub struct System {
@@ -87,6 +93,8 @@ pub struct System {
     /// Where the model came from ([`Model::source`]), for the errors of the methods that
     /// find the system unusable (a stiffness that is not positive definite).
     pub source: PathBuf,
+    /// [`Model::stiffness_file`].
+    pub stiffness_file: Option<PathBuf>,
 }
 
 impl Model {
@@ -115,6 +123,13 @@ impl Model {
 
     /// Build the [`System`] for a mass choice (see the module docs).
     pub fn system(&self, kind: MassKind) -> Result<System> {
+        self.system_cancellable(kind, Cancel::NEVER)
+    }
+
+    /// [`Model::system`] stopped by `cancel` between its phases and in the eigensolver of
+    /// a first-mode damping ratio (a factorization of `K`: tens of seconds on a 3D model).
+    pub fn system_cancellable(&self, kind: MassKind, cancel: Cancel) -> Result<System> {
+        cancel.check()?;
         self.validate()?;
         let n = self.n_dofs();
         let full_mass = self.mass_matrix(kind)?;
@@ -150,15 +165,18 @@ impl Model {
         let alpha = match self.damping.first_mode_ratio {
             Some(zeta) if zeta > 0.0 => {
                 2.0 * zeta
-                    * first_angular_frequency(&mass, &stiffness).map_err(|e| match e {
-                        Error::Singular(why) => {
-                            Error::field(&self.source, "damping.first_mode_ratio", why)
-                        }
-                        other => other,
-                    })?
+                    * first_angular_frequency_cancellable(&mass, &stiffness, cancel).map_err(
+                        |e| match e {
+                            Error::Singular(why) => {
+                                Error::field(&self.source, "damping.first_mode_ratio", why)
+                            }
+                            other => other,
+                        },
+                    )?
             }
             _ => self.damping.alpha,
         };
+        cancel.check()?;
         let beta = self.damping.beta;
         let mut damping = SparseMatrix::linear_combination(alpha, &mass, beta, &stiffness);
         // damping on the linear part only (docs/theory.md (T121)): β_L K_LL (the contact-node
@@ -260,11 +278,51 @@ impl Model {
             beta,
             beta_condensed: self.damping.beta_condensed,
             source: self.source.clone(),
+            stiffness_file: self.stiffness_file.clone(),
         })
     }
 }
 
 impl System {
+    /// An error that blames the stiffness, naming the model file and, when the stiffness
+    /// was read from a file, the field `matrices.stiffness` and that file:
+    /// `MODEL: field `matrices.stiffness` (FILE): MESSAGE`, else `MODEL: MESSAGE`.
+    pub fn stiffness_error(&self, message: impl std::fmt::Display) -> Error {
+        match &self.stiffness_file {
+            Some(file) => Error::field(
+                &self.source,
+                "matrices.stiffness",
+                format!("{}: {message}", file.display()),
+            ),
+            None => Error::Singular(format!("{}: {message}", self.source.display())),
+        }
+    }
+
+    /// Refuse a stiffness with a negative eigenvalue (`K φ = λ M φ`, `λ < 0`) before a
+    /// time integration or a method that integrates in time: `K + σ M` must have a
+    /// Cholesky factor, with `σ = INDEFINITE_SHIFT · max|K_ii| / max|M_ii|`. A structure
+    /// that is not held (rigid-body modes, `K` semidefinite) passes, since its rigid-body
+    /// motions carry mass; a negative stiffness, whose response grows exponentially and
+    /// ended in a NaN deep inside the contact solver (or a panic), is refused naming the
+    /// model. So is a part without mass that the stiffness does not hold.
+    pub fn check_not_indefinite(&self) -> Result<()> {
+        let diag_max =
+            |a: &SparseMatrix| (0..a.nrows()).fold(0.0f64, |m, i| m.max(a.get(i, i).abs()));
+        let (k, m) = (diag_max(&self.stiffness), diag_max(&self.mass));
+        if self.n_dofs() == 0 || !(k > 0.0 && m > 0.0 && k.is_finite() && m.is_finite()) {
+            // nothing to shift by: the methods' own checks decide
+            return Ok(());
+        }
+        let sigma = INDEFINITE_SHIFT * k / m;
+        let shifted = SparseMatrix::linear_combination(1.0, &self.stiffness, sigma, &self.mass);
+        match shifted.to_faer().sp_cholesky(faer::Side::Lower) {
+            Ok(_) => Ok(()),
+            Err(_) => Err(self.stiffness_error(format!(
+                "the stiffness is indefinite with the Dirichlet DOFs fixed (K + σM is not positive definite for σ = {sigma:.3e} = {INDEFINITE_SHIFT:e} max K_ii / max M_ii): a negative stiffness, whose response grows without bound, or a part without mass that the stiffness does not hold"
+            ))),
+        }
+    }
+
     /// Number of free DOFs.
     pub fn n_dofs(&self) -> usize {
         self.model_dof.len()

@@ -256,6 +256,7 @@ pub use mshbm::model::lattice::lattice_model;
 /// the mass; mass-proportional damping `alpha`.
 pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha: f64) -> Model {
     Model {
+        stiffness_file: None,
         source: PathBuf::from("bilinear oscillator"),
         input_files: vec![],
         cells: None,

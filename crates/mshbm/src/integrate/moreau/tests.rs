@@ -13,6 +13,7 @@ fn model(
     let n = mass.len();
     let m: Vec<(usize, usize, f64)> = mass.iter().enumerate().map(|(i, &v)| (i, i, v)).collect();
     Model {
+        stiffness_file: None,
         source: "friction unit test".into(),
         input_files: vec![],
         cells: None,

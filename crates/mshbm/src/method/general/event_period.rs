@@ -752,6 +752,16 @@ pub(super) fn integrate(pb: &EventProblem, q0: &[f64], v0: &[f64]) -> Result<Eve
         }
         it.at(target);
         it.monitors_into(&iv, target, &mut after, &mut after_rates);
+        // a gap that is not finite (a flow that overflowed) cannot be scanned for its
+        // events: the root finders need a sign at both ends (a NaN panicked there)
+        if let Some(c) =
+            (0..n_contacts).find(|&c| !(after[c].is_finite() && after_rates[c].is_finite()))
+        {
+            return Err(Error::Numerical(format!(
+                "the gap of contact {c} is not finite at {target:e} rad within the period at {} rad/s: the flow of the nonlinear subsystem overflowed (an indefinite stiffness, or a period far too long for its fastest mode)",
+                pb.omega
+            )));
+        }
         // the earliest contact whose event function crosses zero in (θ, target]
         let mut first: Option<(f64, usize)> = None;
         let mut e = std::mem::take(&mut probe);

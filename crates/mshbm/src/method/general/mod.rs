@@ -252,7 +252,9 @@ impl GeneralMsHbm {
             ));
         }
         model.refuse_contact_friction("the general MS-HBM")?;
-        let system = model.system(MassKind::Consistent)?;
+        let system = model.system_cancellable(MassKind::Consistent, limits.cancel)?;
+        // it integrates the nonlinear subsystem in time: a negative stiffness overflows
+        system.check_not_indefinite()?;
         super::memory::general(&system, h, steps).check(
             &format!("the general MS-HBM with {h} harmonics and {steps} steps per period"),
             limits,
@@ -285,6 +287,7 @@ impl GeneralMsHbm {
         }
         let subsystem = System {
             source: system.source.clone(),
+            stiffness_file: system.stiffness_file.clone(),
             mass_kind: MassKind::Consistent,
             mass: nn[1].clone(),
             stiffness: nn[0].clone(),

@@ -271,7 +271,7 @@ impl HbmAft {
                 ));
             }
         }
-        let system = model.system(options.mass)?;
+        let system = model.system_cancellable(options.mass, limits.cancel)?;
         super::memory::hbm_aft(&system, h, samples).check(
             &format!("HBM-AFT with {h} harmonics and {samples} samples"),
             limits,

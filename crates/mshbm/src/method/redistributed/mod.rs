@@ -372,7 +372,7 @@ impl RedistributedMsHbm {
                 model.stiffness.nrows()
             )
         });
-        let system = model.system(MassKind::Redistributed)?;
+        let system = model.system_cancellable(MassKind::Redistributed, limits.cancel)?;
         limits.cancel.check()?;
         // with friction the contact coordinates are the normals, then the tangents (T150)
         let (system, friction) = frictional::with_tangent_coordinates(system, &model.source)?;
@@ -406,7 +406,12 @@ impl RedistributedMsHbm {
         let stiffness_nn = system.stiffness.submatrix(nl, nl);
         let gap: Vec<f64> = system.contacts.iter().map(|c| c.gap).collect();
         let directions = contact_directions(&system);
-        let contact = StaticContact::new(&stiffness_nn, directions.clone(), gap)?;
+        // K_NN comes from the model's stiffness: its refusal names the model and the field
+        let contact =
+            StaticContact::new(&stiffness_nn, directions.clone(), gap).map_err(|e| match e {
+                Error::Singular(why) => system.stiffness_error(why),
+                e => e,
+            })?;
         let residual_scale = contact.displacement_scale()?;
         let friction = match friction {
             Some(mu) => Some(friction::FrictionalContacts::new(
