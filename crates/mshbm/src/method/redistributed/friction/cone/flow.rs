@@ -19,7 +19,7 @@ impl March<'_> {
         closed: &Closed,
     ) -> Result<Evaluation> {
         let n = self.law.n;
-        let lambda = self.forces(tau, anchors, closed);
+        let lambda = self.forces(tau, modes, anchors, closed);
         let slipping: Vec<usize> = (0..n)
             .filter(|&c| modes[c] == ConeMode::Slip && closed.tangent_row[c].is_some())
             .collect();
@@ -152,7 +152,7 @@ impl March<'_> {
             return Ok(());
         }
         for _ in 0..3 {
-            let lambda = self.forces(tau, anchors, closed);
+            let lambda = self.forces(tau, modes, anchors, closed);
             let slipping: Vec<usize> = slipping
                 .iter()
                 .copied()
@@ -175,22 +175,65 @@ impl March<'_> {
         Ok(())
     }
 
-    /// The forces (T186) at `τ` (`3n`).
-    pub(super) fn forces(&self, tau: f64, anchors: &[f64], closed: &Closed) -> Vec<f64> {
+    /// The forces (T186) at `τ` (`3n`) of the contacts in `modes` with tangential
+    /// displacements `anchors`: `λ_C = −Y_C γ_C(τ) + Y_C [0; a_C]`, the first term from its
+    /// coefficients `Y_C γ̂_C` (computed once per closed set), the second from the stuck
+    /// contacts' part (computed once per set of their displacements) and the slipping
+    /// contacts' columns.
+    pub(super) fn forces(
+        &self,
+        tau: f64,
+        modes: &[ConeMode],
+        anchors: &[f64],
+        closed: &Closed,
+    ) -> Vec<f64> {
         let n = self.law.n;
         let k = closed.rows.len();
-        let mut g = vec![0.0; 3 * n];
-        self.gamma_at(tau, &mut g, None);
-        let mut rhs: Vec<f64> = closed.rows.iter().map(|&r| -g[r]).collect();
-        for c in 0..n {
-            if let Some(t) = closed.tangent_row[c] {
-                rhs[t] += anchors[c];
-                rhs[t + 1] += anchors[n + c];
+        let ncoef = n_coefficients(self.harmonics);
+        let mut b = vec![0.0; ncoef];
+        basis_into(self.harmonics, tau, &mut b);
+        let mut lambda_k: Vec<f64> = (0..k)
+            .map(|i| {
+                closed.free[i * ncoef..(i + 1) * ncoef]
+                    .iter()
+                    .zip(&b)
+                    .map(|(f, v)| f * v)
+                    .sum()
+            })
+            .collect();
+        let (stuck, slipping): (Vec<usize>, Vec<usize>) = (0..n)
+            .filter(|&c| closed.tangent_row[c].is_some())
+            .partition(|&c| modes[c] != ConeMode::Slip);
+        let add_columns = |contacts: &[usize], out: &mut [f64]| {
+            for &c in contacts {
+                let t = closed.tangent_row[c].unwrap();
+                let (a1, a2) = (anchors[c], anchors[n + c]);
+                for (i, v) in out.iter_mut().enumerate() {
+                    *v += closed.y[i * k + t] * a1 + closed.y[i * k + t + 1] * a2;
+                }
+            }
+        };
+        let held: Vec<f64> = stuck
+            .iter()
+            .flat_map(|&c| [anchors[c], anchors[n + c]])
+            .collect();
+        {
+            let mut cache = closed.stuck.borrow_mut();
+            let fresh = matches!(&*cache, Some((s, h, _)) if *s == stuck && *h == held);
+            if !fresh {
+                let mut part = vec![0.0; k];
+                add_columns(&stuck, &mut part);
+                *cache = Some((stuck, held, part));
+            }
+            let (_, _, part) = cache.as_ref().unwrap();
+            for (v, p) in lambda_k.iter_mut().zip(part) {
+                *v += p;
             }
         }
+        add_columns(&slipping, &mut lambda_k);
         let mut lambda = vec![0.0; 3 * n];
-        for i in 0..k {
-            lambda[closed.rows[i]] = (0..k).map(|j| closed.y[i * k + j] * rhs[j]).sum();
+        for (i, &r) in closed.rows.iter().enumerate() {
+            lambda[r] = lambda_k[i];
         }
         lambda
     }

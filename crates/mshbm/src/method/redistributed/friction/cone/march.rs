@@ -5,6 +5,8 @@
 // the small dense matrices of the law are indexed as the equations write them
 #![allow(clippy::needless_range_loop)]
 
+use std::cell::RefCell;
+
 use super::*;
 
 /// The forces of one set of closed contacts (T186): the constrained coordinates and
@@ -20,6 +22,12 @@ pub(super) struct Closed {
     pub(super) tangent_row: Vec<Option<usize>>,
     /// `k × k`, row-major.
     pub(super) y: Vec<f64>,
+    /// `−Y γ̂_K`: `k × (2H+1)`, row-major, the forces' free-gap part by coefficient.
+    pub(super) free: Vec<f64>,
+    /// The stuck contacts, their displacements and their part `Y_{:,T} a` of the forces,
+    /// for the last set of displacements asked.
+    #[allow(clippy::type_complexity)]
+    pub(super) stuck: RefCell<Option<(Vec<usize>, Vec<f64>, Vec<f64>)>>,
 }
 
 /// What an indicator (T188) watches.
@@ -155,12 +163,23 @@ impl<'a> March<'a> {
                 )
             },
         )?;
-        let y = (0..k * k).map(|e| y[(e / k, e % k)]).collect();
+        let y: Vec<f64> = (0..k * k).map(|e| y[(e / k, e % k)]).collect();
+        let (m, ncoef) = (3 * n, n_coefficients(self.harmonics));
+        let mut free = vec![0.0; k * ncoef];
+        for i in 0..k {
+            for q in 0..ncoef {
+                free[i * ncoef + q] = -(0..k)
+                    .map(|j| y[i * k + j] * self.gamma[q * m + rows[j]])
+                    .sum::<f64>();
+            }
+        }
         let closed = Rc::new(Closed {
             rows,
             normal_row,
             tangent_row,
             y,
+            free,
+            stuck: RefCell::new(None),
         });
         self.closed.insert(key, closed.clone());
         Ok(closed)

@@ -55,7 +55,7 @@ impl March<'_> {
     ) -> Result<bool> {
         let n = self.law.n;
         let closed = self.closed(modes)?;
-        let lambda = self.forces(tau, anchors, &closed);
+        let lambda = self.forces(tau, modes, anchors, &closed);
         let boundary = BOUNDARY_TOLERANCES * INDICATOR_TOLERANCE * self.force_scale;
         let candidates: Vec<usize> = (0..n)
             .filter(|&c| {

@@ -384,43 +384,6 @@ fn coupled_contacts_in_space_match_the_catching_up_scheme() {
     assert!(slips && opens, "{:?}", periodic.phases);
 }
 
-/// The cost of the law against the number of contacts on coupled contacts in space, most of
-/// them slipping (BENCHMARKS.md §14d): `cargo test --release -p mshbm --lib scaling_probe --
-/// --ignored --nocapture`. At `n = 60` a contact unloads to the cone's apex while slipping
-/// and closes again there, the case (T193) settles.
-#[test]
-#[ignore]
-fn scaling_probe() {
-    for &n in &[10usize, 30, 48, 60] {
-        let m = 3 * n;
-        let d = coupled_space(n, 3);
-        let mu = vec![0.3; n];
-        let h = 5;
-        let nc = 2 * h + 1;
-        let mut gamma = vec![0.0; m * nc];
-        for c in 0..n {
-            let phase = c as f64 / n as f64 * 2.0;
-            gamma[c] = -0.5;
-            gamma[m + c] = 0.3 * phase.cos();
-            gamma[2 * m + c] = 0.3 * phase.sin();
-            gamma[m + n + c] = 0.8 * phase.cos();
-            gamma[2 * m + n + c] = 0.8 * phase.sin();
-            gamma[m + 2 * n + c] = -0.5 * phase.sin();
-            gamma[2 * m + 2 * n + c] = 0.5 * phase.cos();
-        }
-        let law = ConeContacts::new(d, mu).unwrap();
-        let t = std::time::Instant::now();
-        let p = law.periodic(h, &gamma, 8 * nc).unwrap();
-        eprintln!(
-            "n={n}: {:.2} s, {} phases, {} passes, {} steps",
-            t.elapsed().as_secs_f64(),
-            p.phases.len(),
-            p.passes,
-            p.steps
-        );
-    }
-}
-
 /// `x = M⁻¹ b` by Gaussian elimination with partial pivoting (`M` row-major, `m × m`).
 fn gauss(mut a: Vec<f64>, mut b: Vec<f64>) -> Vec<f64> {
     let m = b.len();
@@ -542,41 +505,5 @@ fn the_contacts_that_slip_on_the_cone_boundary_are_the_consistent_set() {
             .filter(|&c| modes[c] == ConeMode::Slip)
             .fold(0usize, |s, c| s | 1 << c);
         assert_eq!(chosen, consistent[0], "seed {seed}: modes {modes:?}");
-    }
-}
-
-/// The cost of the law on a preloaded patch where most contacts stick and a few at its edge
-/// slip (a joint's microslip; BENCHMARKS.md §14d): `cargo test --release -p mshbm --lib
-/// microslip_probe -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn microslip_probe() {
-    for &n in &[50usize, 100] {
-        let m = 3 * n;
-        let d = coupled_space(n, 5);
-        let mu = vec![0.3; n];
-        let h = 5;
-        let nc = 2 * h + 1;
-        let mut gamma = vec![0.0; m * nc];
-        for c in 0..n {
-            // the tangential drive grows towards the patch's edge (the last tenth slips)
-            let edge = (c as f64 / n as f64).powi(8);
-            gamma[c] = -1.0;
-            gamma[m + n + c] = 0.6 * edge;
-            gamma[2 * m + 2 * n + c] = 0.4 * edge;
-        }
-        let law = ConeContacts::new(d, mu).unwrap();
-        let t = std::time::Instant::now();
-        let p = law.periodic(h, &gamma, 8 * nc).unwrap();
-        let slipping = (0..n)
-            .filter(|&c| p.phases.iter().any(|ph| ph.modes[c] == ConeMode::Slip))
-            .count();
-        eprintln!(
-            "n={n}: {:.2} s, {} phases, {} passes, {} steps, {slipping} contacts slip",
-            t.elapsed().as_secs_f64(),
-            p.phases.len(),
-            p.passes,
-            p.steps
-        );
     }
 }
