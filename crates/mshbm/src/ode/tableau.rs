@@ -1,6 +1,10 @@
 //! The Butcher tableau of DOP853 (Hairer, Nørsett & Wanner, *Solving Ordinary Differential
 //! Equations I*, §II.10; the coefficients as published with Hairer's code).
 
+// the digits as published, beyond what an f64 holds, so that they can be compared with the
+// source
+#![allow(clippy::excessive_precision)]
+
 /// Nodes `c_i` of the 12 stages.
 pub(super) const C: [f64; 12] = [
     0.0,
