@@ -80,6 +80,7 @@ const MAX_PASSES: usize = 400;
 const MAX_EVENTS_PER_CONTACT: usize = 1000;
 
 mod flow;
+mod fourier;
 mod march;
 mod rates;
 
