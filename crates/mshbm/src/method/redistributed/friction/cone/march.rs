@@ -439,6 +439,7 @@ impl March<'_> {
                 end: tau,
                 modes: modes.clone(),
                 anchors: start_anchors,
+                event,
             });
             if let Some((c, watch)) = event {
                 events += 1;

@@ -9,7 +9,8 @@
 //! on the cone after every step. The periodic state is the fixed point of the period's
 //! march (T190).
 //!
-//! Not yet differentiated (T191): the law gives `λ̂` and its phases, not `∂λ̂/∂γ̂`.
+//! Its derivative along directions of the free gap is the tangent-linear march of
+//! `tangent.rs` (T191), (T214)–(T218).
 
 use std::collections::HashMap;
 use std::f64::consts::PI;
@@ -53,6 +54,8 @@ pub struct ConePhase {
     pub modes: Vec<ConeMode>,
     /// Tangential displacements at the start (`2n`: first tangents, then second).
     pub anchors: Vec<f64>,
+    /// The contact and the indicator whose root ended the phase (none for the last).
+    event: Option<(usize, march::Watch)>,
 }
 
 /// The periodic contact forces of a free-gap signal.
@@ -83,6 +86,7 @@ mod flow;
 mod fourier;
 mod march;
 mod rates;
+mod tangent;
 
 use march::March;
 
@@ -217,5 +221,7 @@ impl ConeContacts {
     }
 }
 
+#[cfg(test)]
+mod tangent_tests;
 #[cfg(test)]
 mod tests;

@@ -7,7 +7,7 @@ use super::*;
 
 /// A contact that sticks with its cone margin below this many (T153) tolerances is on the
 /// boundary of the cone for (T193).
-const BOUNDARY_TOLERANCES: f64 = 10.0;
+pub(super) const BOUNDARY_TOLERANCES: f64 = 10.0;
 
 impl March<'_> {
     /// The right-hand side of (T187) for `contacts` along `direction`: the rate at which the

@@ -4,7 +4,7 @@ use super::*;
 use crate::method::redistributed::friction::FrictionalContacts;
 
 /// `3 × 3` Delassus matrix of one isotropic contact decoupled from everything.
-fn isotropic(kn: f64, kt: f64) -> Vec<f64> {
+pub(super) fn isotropic(kn: f64, kt: f64) -> Vec<f64> {
     vec![1.0 / kn, 0.0, 0.0, 0.0, 1.0 / kt, 0.0, 0.0, 0.0, 1.0 / kt]
 }
 
@@ -59,7 +59,7 @@ fn a_slider_dragged_round_a_circle_lags_by_its_closed_form_angle() {
 
 /// A small coupled interface: `n` contacts whose second tangents are decoupled from the rest,
 /// so that motion along the first tangents stays there.
-fn coupled_plane(n: usize) -> Vec<f64> {
+pub(super) fn coupled_plane(n: usize) -> Vec<f64> {
     // D = Bᵀ B + diag, B pseudo-random
     let m = 2 * n;
     let mut seed = 7u64;
@@ -234,7 +234,7 @@ fn general_orbits_match_the_projection_scheme_of_the_play_operator() {
 }
 
 /// A general `3n × 3n` Delassus matrix: `I + 0.2 BᵀB`, `B` pseudo-random.
-fn coupled_space(n: usize, seed: u64) -> Vec<f64> {
+pub(super) fn coupled_space(n: usize, seed: u64) -> Vec<f64> {
     let m = 3 * n;
     let mut seed = seed;
     let mut rnd = || {
