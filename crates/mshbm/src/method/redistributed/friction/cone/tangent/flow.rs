@@ -1,14 +1,11 @@
-//! The derivative of the cone law along directions of the free gap (docs/theory.md (T191),
-//! (T214)–(T218)): the tangent-linear march through the recorded phases of a periodic state.
-//! Every direction is a column of one linear system; the unit anchors of the contacts that
-//! do not stick all period are further columns, from which the periodic state's own
-//! sensitivity (T218) is solved.
+//! The tangent of the slip flow and of the forces within a phase (docs/theory.md (T214),
+//! (T215)).
 
 // the small dense matrices of the law are indexed as the equations write them
 #![allow(clippy::needless_range_loop)]
 
-use super::march::{Closed, March, Watch};
-use super::*;
+use super::super::march::{Closed, March};
+use super::super::*;
 
 /// The regularisation of `1/|λ_T|` in the slip direction's variation (T215), as a fraction
 /// of the forces' scale: `|λ_T|/(|λ_T|² + ε²)`. It moves the tangent by about this much,
@@ -17,22 +14,27 @@ use super::*;
 const APEX: f64 = 1e-8;
 
 /// The law's rates at one instant of a phase and their variations along the columns.
-struct Rates {
+pub(super) struct Rates {
     /// `λ` and `λ̇` (`3n`).
-    lambda: Vec<f64>,
-    lambda_rate: Vec<f64>,
+    pub(super) lambda: Vec<f64>,
+    pub(super) lambda_rate: Vec<f64>,
     /// `ȧ` (`2n`, zero but for the slipping contacts).
-    rate: Vec<f64>,
+    pub(super) rate: Vec<f64>,
     /// Per column: `δλ` (`3n`), `δȧ` (`2n`), `δκ` (`n`, zero but for the slipping contacts).
-    d_lambda: Vec<Vec<f64>>,
-    d_rate: Vec<Vec<f64>>,
-    d_speed: Vec<Vec<f64>>,
+    pub(super) d_lambda: Vec<Vec<f64>>,
+    pub(super) d_rate: Vec<Vec<f64>>,
+    pub(super) d_speed: Vec<Vec<f64>>,
     /// The slip speeds `κ` (`n`).
-    speed: Vec<f64>,
+    pub(super) speed: Vec<f64>,
 }
 
 /// `Σ_q b_q(τ) x̂_q` and its rate, `m` rows, coefficients harmonic-major.
-fn series_at(harmonics: usize, coefficients: &[f64], m: usize, tau: f64) -> (Vec<f64>, Vec<f64>) {
+pub(super) fn series_at(
+    harmonics: usize,
+    coefficients: &[f64],
+    m: usize,
+    tau: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let ncoef = n_coefficients(harmonics);
     let mut b = vec![0.0; ncoef];
     basis_into(harmonics, tau, &mut b);
@@ -64,7 +66,7 @@ impl March<'_> {
 
     /// (T214), (T215) at `τ` for `modes` with displacements `anchors`, along the columns
     /// `(δγ̂_j, δa_j)`.
-    fn rates(
+    pub(super) fn rates(
         &self,
         tau: f64,
         modes: &[ConeMode],
@@ -194,7 +196,7 @@ impl March<'_> {
     /// The slipping contacts' `δa` moved along their directions so that their cone margins'
     /// variations `μ δλ_N + eᵀ δλ_T` vanish (the tangent of `project`).
     #[allow(clippy::too_many_arguments)]
-    fn project_tangent(
+    pub(super) fn project_tangent(
         &self,
         tau: f64,
         modes: &[ConeMode],
@@ -245,7 +247,7 @@ impl March<'_> {
     /// Integrate the slip phase `phase` with its tangents from its start to its end: the
     /// displacements at the end, and per column `δa` at the end (in `d_anchors`) and the
     /// integrals `∫ δa b_q` in the layout of `accumulate` (`2s` unused, then `2s (2H+1)`).
-    fn tangent_phase(
+    pub(super) fn tangent_phase(
         &mut self,
         phase: &ConePhase,
         d_gamma: &[Vec<f64>],
@@ -372,321 +374,5 @@ impl March<'_> {
         }
         d_anchors.clone_from_slice(&da);
         Ok((anchors, integrals))
-    }
-}
-
-impl ConeContacts {
-    /// `δλ̂` of the periodic state `periodic` along each of `directions` (`δγ̂`, harmonic-major,
-    /// `3n` per coefficient like the free gap) (T191), (T214)–(T218); `cells` bounds the
-    /// integration steps as in [`ConeContacts::periodic`].
-    pub fn tangent(
-        &self,
-        periodic: &ConePeriodic,
-        directions: &[Vec<f64>],
-        cells: usize,
-    ) -> Result<Vec<Vec<f64>>> {
-        let n = self.n;
-        let m = 3 * n;
-        let harmonics = periodic.harmonics;
-        let ncoef = n_coefficients(harmonics);
-        if let Some(d) = directions.iter().find(|d| d.len() != m * ncoef) {
-            return Err(Error::Numerical(format!(
-                "friction cone: a direction of {} coefficients, {} expected",
-                d.len(),
-                m * ncoef
-            )));
-        }
-        let phases = &periodic.phases;
-        let Some(first) = phases.first() else {
-            return Err(Error::Numerical("friction cone: no phases".into()));
-        };
-        let mut march = March::new(self, harmonics, &periodic.gamma, cells.max(1));
-        let scale = march.gamma_scale.max(f64::MIN_POSITIVE);
-        // the anchors at τ = 0: stuck all period (Z) and the rest (R) (T218)
-        let with_friction: Vec<usize> = (0..n)
-            .filter(|&c| first.modes[c] != ConeMode::Open && self.mu[c] > 0.0)
-            .collect();
-        let (z, r): (Vec<usize>, Vec<usize>) = with_friction
-            .iter()
-            .partition(|&&c| phases.iter().all(|p| p.modes[c] == ConeMode::Stick));
-        let r_rows: Vec<usize> = r.iter().flat_map(|&c| [c, n + c]).collect();
-        // the columns, scaled to the free gap's size (the flow's tolerance is absolute)
-        let ndir = directions.len();
-        let mut d_gamma: Vec<Vec<f64>> = Vec::with_capacity(ndir + r_rows.len());
-        let mut d_anchors: Vec<Vec<f64>> = Vec::with_capacity(ndir + r_rows.len());
-        let mut factors = Vec::with_capacity(ndir + r_rows.len());
-        let z_tangent =
-            self.initial_tangent(harmonics, &first.modes, &periodic.gamma, &z, directions)?;
-        for (j, d) in directions.iter().enumerate() {
-            let size = (0..ncoef)
-                .map(|q| {
-                    d[q * m..(q + 1) * m]
-                        .iter()
-                        .fold(0.0f64, |s, v| s.max(v.abs()))
-                })
-                .sum::<f64>();
-            let factor = if size > 0.0 { scale / size } else { 1.0 };
-            d_gamma.push(d.iter().map(|v| v * factor).collect());
-            d_anchors.push(z_tangent[j].iter().map(|v| v * factor).collect());
-            factors.push(factor);
-        }
-        for &row in &r_rows {
-            d_gamma.push(vec![0.0; m * ncoef]);
-            let mut a = vec![0.0; 2 * n];
-            a[row] = scale;
-            d_anchors.push(a);
-            factors.push(scale);
-        }
-        let ncol = d_gamma.len();
-        let mut d_forces = vec![vec![0.0; m * ncoef]; ncol];
-        for (p, phase) in phases.iter().enumerate() {
-            let closed = march.closed(&phase.modes)?;
-            let slipping = march.slipping(&phase.modes);
-            let start_tangent = d_anchors.clone();
-            let (end_anchors, integrals) = if slipping.is_empty() {
-                (
-                    phase.anchors.clone(),
-                    vec![vec![0.0; 2 * slipping.len() * (1 + ncoef)]; ncol],
-                )
-            } else {
-                march.tangent_phase(phase, &d_gamma, &mut d_anchors)?
-            };
-            for j in 0..ncol {
-                let column = March::new(self, harmonics, &d_gamma[j], march.cells);
-                column.accumulate(
-                    phase.start,
-                    phase.end,
-                    &phase.modes,
-                    &start_tangent[j],
-                    &slipping,
-                    &integrals[j],
-                    &closed,
-                    &mut d_forces[j],
-                );
-            }
-            let Some(next) = phases.get(p + 1) else {
-                break;
-            };
-            march.switch_tangent(
-                phase,
-                next,
-                &end_anchors,
-                &closed,
-                &d_gamma,
-                &mut d_anchors,
-                &mut d_forces,
-            )?;
-        }
-        // the periodic state's anchors (T218)
-        let nr = r_rows.len();
-        let mut result: Vec<Vec<f64>> = Vec::with_capacity(ndir);
-        if nr > 0 {
-            let mut lhs = vec![0.0; nr * nr];
-            for (i, &row) in r_rows.iter().enumerate() {
-                for (q, _) in r_rows.iter().enumerate() {
-                    lhs[i * nr + q] = -d_anchors[ndir + q][row] / scale;
-                }
-                lhs[i * nr + i] += 1.0;
-            }
-            let mut rhs = Mat::<f64>::zeros(nr, ndir);
-            for j in 0..ndir {
-                for (i, &row) in r_rows.iter().enumerate() {
-                    rhs[(i, j)] = d_anchors[j][row];
-                }
-            }
-            let x = solve_small_lu_columns(&lhs, rhs.as_ref(), 1e-13).map_err(|_| {
-                Error::Numerical(
-                    "friction cone: the periodic state's anchors are not determined by the \
-                     free gap (T218)"
-                        .into(),
-                )
-            })?;
-            for j in 0..ndir {
-                let mut out = d_forces[j].clone();
-                for q in 0..nr {
-                    let weight = x[(q, j)] / scale;
-                    for (o, v) in out.iter_mut().zip(&d_forces[ndir + q]) {
-                        *o += weight * v;
-                    }
-                }
-                result.push(out);
-            }
-        } else {
-            result = d_forces[..ndir].to_vec();
-        }
-        for (j, out) in result.iter_mut().enumerate() {
-            for v in out.iter_mut() {
-                *v /= factors[j];
-            }
-        }
-        Ok(result)
-    }
-
-    /// `δa₀` of the contacts `z` (stuck all period) along `directions`: the tangential
-    /// displacements of the frictionless state at `τ = 0` (T218), zero for the others.
-    fn initial_tangent(
-        &self,
-        harmonics: usize,
-        modes0: &[ConeMode],
-        gamma: &[f64],
-        z: &[usize],
-        directions: &[Vec<f64>],
-    ) -> Result<Vec<Vec<f64>>> {
-        let n = self.n;
-        let m = 3 * n;
-        if z.is_empty() {
-            return Ok(vec![vec![0.0; 2 * n]; directions.len()]);
-        }
-        let (g0, _) = series_at(harmonics, gamma, m, 0.0);
-        let dnn: Vec<f64> = (0..n * n).map(|k| self.d(k / n, k % n)).collect();
-        let solution = LcpSolver::new(LcpMatrix::new(n, dnn))
-            .solve(&g0[..n])
-            .map_err(|e| Error::Numerical(format!("friction cone: initial state: {e}")))?;
-        let _ = modes0;
-        let active: Vec<usize> = (0..n).filter(|&c| solution.active[c]).collect();
-        let na = active.len();
-        let daa: Vec<f64> = (0..na * na)
-            .map(|e| self.d(active[e / na], active[e % na]))
-            .collect();
-        let mut rhs = Mat::<f64>::zeros(na, directions.len());
-        let mut dg0 = Vec::with_capacity(directions.len());
-        for (j, d) in directions.iter().enumerate() {
-            let (g, _) = series_at(harmonics, d, m, 0.0);
-            for (i, &c) in active.iter().enumerate() {
-                rhs[(i, j)] = -g[c];
-            }
-            dg0.push(g);
-        }
-        let dl = solve_small_lu_columns(&daa, rhs.as_ref(), 1e-13).map_err(|_| {
-            Error::Numerical(
-                "friction cone: the closed contacts' Delassus block is singular".into(),
-            )
-        })?;
-        Ok((0..directions.len())
-            .map(|j| {
-                let mut a = vec![0.0; 2 * n];
-                for &c in z {
-                    for t in 0..2 {
-                        let row = (1 + t) * n + c;
-                        a[t * n + c] = dg0[j][row]
-                            + (0..na)
-                                .map(|i| self.d(row, active[i]) * dl[(i, j)])
-                                .sum::<f64>();
-                    }
-                }
-                a
-            })
-            .collect())
-    }
-}
-
-impl March<'_> {
-    /// Across the switch that ends `phase` and starts `next` (T216), (T217): `δa` continued
-    /// with the saltation of the rates, the coefficients' boundary term added.
-    #[allow(clippy::too_many_arguments)]
-    fn switch_tangent(
-        &mut self,
-        phase: &ConePhase,
-        next: &ConePhase,
-        end_anchors: &[f64],
-        closed: &Closed,
-        d_gamma: &[Vec<f64>],
-        d_anchors: &mut [Vec<f64>],
-        d_forces: &mut [Vec<f64>],
-    ) -> Result<()> {
-        let n = self.law.n;
-        let m = 3 * n;
-        let ncoef = n_coefficients(self.harmonics);
-        let tau = phase.end;
-        let before = self.rates(tau, &phase.modes, end_anchors, closed, d_gamma, d_anchors)?;
-        let closed_next = self.closed(&next.modes)?;
-        let after = self.rates(tau, &next.modes, &next.anchors, &closed_next, &[], &[])?;
-        let (gamma, gamma_rate) = series_at(self.harmonics, self.gamma, m, tau);
-        let _ = gamma;
-        // the indicator that ended the phase and its rate
-        let Some((c, watch)) = phase.event else {
-            return Ok(());
-        };
-        let coupling = |row: usize, v: &[f64]| -> f64 {
-            closed.rows.iter().map(|&r| self.law.d(row, r) * v[r]).sum()
-        };
-        let unit = {
-            let (t1, t2) = (before.lambda[n + c], before.lambda[2 * n + c]);
-            let norm = t1.hypot(t2);
-            if norm > 0.0 {
-                [t1 / norm, t2 / norm]
-            } else {
-                [0.0, 0.0]
-            }
-        };
-        let mu = self.law.mu[c];
-        let rate_of_h = match watch {
-            Watch::Gap => gamma_rate[c] + coupling(c, &before.lambda_rate),
-            Watch::Normal => before.lambda_rate[c],
-            Watch::Cone => {
-                mu * before.lambda_rate[c]
-                    - unit[0] * before.lambda_rate[n + c]
-                    - unit[1] * before.lambda_rate[2 * n + c]
-            }
-            Watch::Speed => {
-                // along the flow by a central difference in time
-                let eps = 1e-6;
-                let speed_at = |t: f64, sign: f64| -> Result<f64> {
-                    let a: Vec<f64> = end_anchors
-                        .iter()
-                        .zip(&before.rate)
-                        .map(|(a, r)| a + sign * eps * r)
-                        .collect();
-                    let r = self.rates(t, &phase.modes, &a, closed, &[], &[])?;
-                    Ok(r.speed[c])
-                };
-                (speed_at(tau + eps, 1.0)? - speed_at(tau - eps, -1.0)?) / (2.0 * eps)
-            }
-        };
-        let mut b = vec![0.0; ncoef];
-        basis_into(self.harmonics, tau, &mut b);
-        let weight = |q: usize| if q == 0 { 1.0 / (2.0 * PI) } else { 1.0 / PI };
-        for j in 0..d_gamma.len() {
-            let (dg, _) = series_at(self.harmonics, &d_gamma[j], m, tau);
-            let dl = &before.d_lambda[j];
-            let dh = match watch {
-                Watch::Gap => dg[c] + coupling(c, dl),
-                Watch::Normal => dl[c],
-                Watch::Cone => mu * dl[c] - unit[0] * dl[n + c] - unit[1] * dl[2 * n + c],
-                Watch::Speed => before.d_speed[j][c],
-            };
-            let d_tau = if rate_of_h != 0.0 {
-                -dh / rate_of_h
-            } else {
-                0.0
-            };
-            // the coefficients' boundary term
-            for q in 0..ncoef {
-                for r in 0..m {
-                    d_forces[j][q * m + r] +=
-                        weight(q) * (before.lambda[r] - after.lambda[r]) * b[q] * d_tau;
-                }
-            }
-            // the displacements (T217)
-            let mut da = vec![0.0; 2 * n];
-            for d in 0..n {
-                if closed_next.tangent_row[d].is_none() {
-                    continue;
-                }
-                for t in 0..2 {
-                    let i = t * n + d;
-                    da[i] = if closed.tangent_row[d].is_some() {
-                        d_anchors[j][i] + (before.rate[i] - after.rate[i]) * d_tau
-                    } else {
-                        let row = (1 + t) * n + d;
-                        let dy = dg[row] + coupling(row, dl);
-                        let y_rate = gamma_rate[row] + coupling(row, &before.lambda_rate);
-                        dy + (y_rate - after.rate[i]) * d_tau
-                    };
-                }
-            }
-            d_anchors[j] = da;
-        }
-        Ok(())
     }
 }
