@@ -38,12 +38,37 @@ fn run(label: &str, n: usize, gamma: &[f64], seed: u64) {
                 .filter(|&c| p.phases.iter().any(|ph| ph.modes[c] == ConeMode::Slip))
                 .count();
             println!(
-                "{label} n = {n}: {:.2} s, {} phases, {} passes, {} steps, {slipping} contacts slip",
+                "{label} n = {n}: {:.2} s, {} phases, {} passes, {} steps (+{} trial steps locating \
+                 switches), {slipping} contacts slip",
                 start.elapsed().as_secs_f64(),
                 p.phases.len(),
                 p.passes,
-                p.steps
+                p.steps,
+                p.trial_steps
             );
+            // the derivative (T191) along one direction and along ten (not at 48 contacts
+            // and more: 266 s for one direction there, BENCHMARKS.md §14d)
+            let m = 3 * n;
+            for columns in [1usize, 10]
+                .into_iter()
+                .filter(|_| n < 48 || label == "microslip" && n <= 50)
+            {
+                let directions: Vec<Vec<f64>> = (0..columns)
+                    .map(|j| {
+                        (0..gamma.len())
+                            .map(|i| if i % m == (j * 7) % m { 1.0 } else { 0.0 })
+                            .collect()
+                    })
+                    .collect();
+                let start = Instant::now();
+                match law.tangent(&p, &directions, 8 * (2 * h + 1)) {
+                    Ok(_) => println!(
+                        "  tangent along {columns} direction(s): {:.2} s",
+                        start.elapsed().as_secs_f64()
+                    ),
+                    Err(e) => println!("  tangent along {columns} direction(s) failed: {e}"),
+                }
+            }
         }
         Err(e) => println!(
             "{label} n = {n}: failed after {:.2} s: {e}",
@@ -55,7 +80,7 @@ fn run(label: &str, n: usize, gamma: &[f64], seed: u64) {
 fn main() {
     let h = 5;
     let nc = 2 * h + 1;
-    for n in [10usize, 30, 48, 60] {
+    for n in [10usize, 30, 48] {
         let m = 3 * n;
         let mut gamma = vec![0.0; m * nc];
         for c in 0..n {

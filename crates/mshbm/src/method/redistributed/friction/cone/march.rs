@@ -61,6 +61,7 @@ pub(super) struct March<'a> {
     pub(super) rate_scale: f64,
     pub(super) force_scale: f64,
     pub(super) steps: usize,
+    pub(super) trial_steps: usize,
 }
 
 /// One march of the period.
@@ -102,6 +103,7 @@ impl<'a> March<'a> {
             rate_scale,
             force_scale: gamma_scale / stiffest,
             steps: 0,
+            trial_steps: 0,
         }
     }
 
@@ -365,42 +367,77 @@ impl March<'_> {
                     x.copy_from_slice(&next);
                     continue;
                 }
-                // the earliest sign change among the crossing indicators, by bisection on
-                // the step's length
-                let mut earliest = (length, crossing[0]);
-                for &i in &crossing {
-                    let mut trial = vec![0.0; dim];
-                    let mut trial_held = anchors.clone();
-                    let mut g = |hh: f64| -> f64 {
-                        if self
-                            .step(&mut ode, tau, &x, hh, &mut trial, &modes, &anchors, &closed)
-                            .is_err()
-                        {
-                            return f64::NAN;
-                        }
-                        for (q, &c) in slipping.iter().enumerate() {
-                            trial_held[c] = trial[2 * q];
-                            trial_held[n + c] = trial[2 * q + 1];
-                        }
-                        if self
-                            .project(tau + hh, &modes, &mut trial_held, &closed)
-                            .is_err()
-                        {
-                            return f64::NAN;
-                        }
-                        match self.indicators(tau + hh, &modes, &trial_held, &closed) {
-                            Ok(v) => v[i].0,
-                            Err(_) => f64::NAN,
-                        }
-                    };
-                    let g_hi = g(earliest.0);
-                    if g_hi >= 0.0 || g_hi.is_nan() {
-                        continue;
+                // the earliest sign change among the crossing indicators: the first root of
+                // their smallest, by safeguarded Newton on the step's length with the
+                // indicators' rates along the march (T188)
+                let mut trials = 0;
+                let mut argmin: Vec<(f64, usize)> = Vec::new();
+                let mut trial = vec![0.0; dim];
+                let mut trial_held = anchors.clone();
+                let mut g = |hh: f64| -> (f64, f64) {
+                    trials += 1;
+                    if self
+                        .step(&mut ode, tau, &x, hh, &mut trial, &modes, &anchors, &closed)
+                        .is_err()
+                    {
+                        return (f64::NAN, f64::NAN);
                     }
-                    let change = find_sign_change(&mut g, 0.0, earliest.0, 0.0, g_hi);
-                    earliest = (change.non_negative.max(0.0), i);
-                }
-                let (hh, i) = earliest;
+                    for (q, &c) in slipping.iter().enumerate() {
+                        trial_held[c] = trial[2 * q];
+                        trial_held[n + c] = trial[2 * q + 1];
+                    }
+                    if self
+                        .project(tau + hh, &modes, &mut trial_held, &closed)
+                        .is_err()
+                    {
+                        return (f64::NAN, f64::NAN);
+                    }
+                    let Ok(v) = self.indicators(tau + hh, &modes, &trial_held, &closed) else {
+                        return (f64::NAN, f64::NAN);
+                    };
+                    let (value, i) = crossing
+                        .iter()
+                        .map(|&i| (v[i].0, i))
+                        .min_by(|a, b| a.0.total_cmp(&b.0))
+                        .expect("a crossing indicator");
+                    argmin.push((hh, i));
+                    let slope = self
+                        .rates(tau + hh, &modes, &trial_held, &closed, &[], &[])
+                        .and_then(|r| {
+                            self.indicator_rate(
+                                tau + hh,
+                                &modes,
+                                &trial_held,
+                                &closed,
+                                &r,
+                                v[i].1,
+                                v[i].2,
+                            )
+                        })
+                        .unwrap_or(f64::NAN);
+                    (value, slope)
+                };
+                let g_hi = crossing
+                    .iter()
+                    .map(|&i| ind[i].0)
+                    .fold(f64::INFINITY, f64::min);
+                let change = find_sign_change_with_slope(&mut g, 0.0, length, 0.0, g_hi);
+                let hh = change.non_negative.max(0.0);
+                // the indicator that reaches 0 first: the smallest where all are still ≥ 0
+                let i = argmin
+                    .iter()
+                    .rev()
+                    .find(|(t, _)| *t == change.non_negative)
+                    .map(|&(_, i)| i)
+                    .unwrap_or_else(|| {
+                        crossing
+                            .iter()
+                            .copied()
+                            .min_by(|&a, &b| ind[a].0.total_cmp(&ind[b].0))
+                            .expect("a crossing indicator")
+                    });
+                self.trial_steps += trials;
+
                 if hh > 0.0 {
                     self.step(&mut ode, tau, &x, hh, &mut next, &modes, &anchors, &closed)?;
                     for (q, &c) in slipping.iter().enumerate() {

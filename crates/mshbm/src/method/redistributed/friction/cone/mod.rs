@@ -23,7 +23,7 @@ use crate::dense::solve_small_lu_columns;
 use crate::error::{Error, Result};
 use crate::harmonic::{add_interval_gram, basis_into, n_coefficients};
 use crate::ode::{Dop853, Tolerance};
-use crate::roots::find_sign_change;
+use crate::roots::find_sign_change_with_slope;
 
 /// The state of one contact of the cone law (T185).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -68,8 +68,9 @@ pub struct ConePeriodic {
     pub phases: Vec<ConePhase>,
     /// Marches of one period the fixed point needed.
     pub passes: usize,
-    /// Integration steps of the last march.
+    /// Integration steps of the last march: accepted, and tried while locating switches.
     pub steps: usize,
+    pub trial_steps: usize,
     gamma: Vec<f64>,
 }
 
@@ -177,6 +178,7 @@ impl ConeContacts {
         let scale = march.gamma_scale.max(f64::MIN_POSITIVE);
         for pass in 1..=MAX_PASSES {
             march.steps = 0;
+            march.trial_steps = 0;
             let out = march.run(&modes0, &anchors0)?;
             let (modes_end, anchors_end) = out.end;
             let converged = modes_end == modes0
@@ -193,6 +195,7 @@ impl ConeContacts {
                     phases: out.phases,
                     passes: pass,
                     steps: march.steps,
+                    trial_steps: march.trial_steps,
                     gamma: gamma.to_vec(),
                 });
             }

@@ -14,18 +14,18 @@ use super::super::*;
 const APEX: f64 = 1e-8;
 
 /// The law's rates at one instant of a phase and their variations along the columns.
-pub(super) struct Rates {
+pub(in super::super) struct Rates {
     /// `λ` and `λ̇` (`3n`).
-    pub(super) lambda: Vec<f64>,
-    pub(super) lambda_rate: Vec<f64>,
+    pub(in super::super) lambda: Vec<f64>,
+    pub(in super::super) lambda_rate: Vec<f64>,
     /// `ȧ` (`2n`, zero but for the slipping contacts).
-    pub(super) rate: Vec<f64>,
+    pub(in super::super) rate: Vec<f64>,
     /// Per column: `δλ` (`3n`), `δȧ` (`2n`), `δκ` (`n`, zero but for the slipping contacts).
-    pub(super) d_lambda: Vec<Vec<f64>>,
-    pub(super) d_rate: Vec<Vec<f64>>,
-    pub(super) d_speed: Vec<Vec<f64>>,
+    pub(in super::super) d_lambda: Vec<Vec<f64>>,
+    pub(in super::super) d_rate: Vec<Vec<f64>>,
+    pub(in super::super) d_speed: Vec<Vec<f64>>,
     /// The slip speeds `κ` (`n`).
-    pub(super) speed: Vec<f64>,
+    pub(in super::super) speed: Vec<f64>,
 }
 
 /// `Σ_q b_q(τ) x̂_q` and its rate, `m` rows, coefficients harmonic-major.
@@ -66,7 +66,7 @@ impl March<'_> {
 
     /// (T214), (T215) at `τ` for `modes` with displacements `anchors`, along the columns
     /// `(δγ̂_j, δa_j)`.
-    pub(super) fn rates(
+    pub(in super::super) fn rates(
         &self,
         tau: f64,
         modes: &[ConeMode],

@@ -6,7 +6,7 @@
 
 use super::super::march::{Closed, March, Watch};
 use super::super::*;
-use super::flow::series_at;
+use super::flow::{series_at, Rates};
 
 impl March<'_> {
     /// Across the switch that ends `phase` and starts `next` (T216), (T217): `δa` continued
@@ -29,8 +29,7 @@ impl March<'_> {
         let before = self.rates(tau, &phase.modes, end_anchors, closed, d_gamma, d_anchors)?;
         let closed_next = self.closed(&next.modes)?;
         let after = self.rates(tau, &next.modes, &next.anchors, &closed_next, &[], &[])?;
-        let (gamma, gamma_rate) = series_at(self.harmonics, self.gamma, m, tau);
-        let _ = gamma;
+        let (_, gamma_rate) = series_at(self.harmonics, self.gamma, m, tau);
         // the indicator that ended the phase and its rate
         let Some((c, watch)) = phase.event else {
             return Ok(());
@@ -48,29 +47,8 @@ impl March<'_> {
             }
         };
         let mu = self.law.mu[c];
-        let rate_of_h = match watch {
-            Watch::Gap => gamma_rate[c] + coupling(c, &before.lambda_rate),
-            Watch::Normal => before.lambda_rate[c],
-            Watch::Cone => {
-                mu * before.lambda_rate[c]
-                    - unit[0] * before.lambda_rate[n + c]
-                    - unit[1] * before.lambda_rate[2 * n + c]
-            }
-            Watch::Speed => {
-                // along the flow by a central difference in time
-                let eps = 1e-6;
-                let speed_at = |t: f64, sign: f64| -> Result<f64> {
-                    let a: Vec<f64> = end_anchors
-                        .iter()
-                        .zip(&before.rate)
-                        .map(|(a, r)| a + sign * eps * r)
-                        .collect();
-                    let r = self.rates(t, &phase.modes, &a, closed, &[], &[])?;
-                    Ok(r.speed[c])
-                };
-                (speed_at(tau + eps, 1.0)? - speed_at(tau - eps, -1.0)?) / (2.0 * eps)
-            }
-        };
+        let rate_of_h =
+            self.indicator_rate(tau, &phase.modes, end_anchors, closed, &before, c, watch)?;
         let mut b = vec![0.0; ncoef];
         basis_into(self.harmonics, tau, &mut b);
         let weight = |q: usize| if q == 0 { 1.0 / (2.0 * PI) } else { 1.0 / PI };
@@ -116,5 +94,62 @@ impl March<'_> {
             d_anchors[j] = da;
         }
         Ok(())
+    }
+}
+
+impl March<'_> {
+    /// The rate `ḣ` of contact `c`'s indicator `watch` (T188) along the march at `τ`, with
+    /// `rates` the law's rates there (T216): for the gap, the normal force and the cone margin
+    /// from `λ̇`, for the slip speed by a central difference in time along the flow.
+    #[allow(clippy::too_many_arguments)]
+    pub(in super::super) fn indicator_rate(
+        &self,
+        tau: f64,
+        modes: &[ConeMode],
+        anchors: &[f64],
+        closed: &Closed,
+        rates: &Rates,
+        c: usize,
+        watch: Watch,
+    ) -> Result<f64> {
+        let n = self.law.n;
+        let mu = self.law.mu[c];
+        let lambda_rate = &rates.lambda_rate;
+        Ok(match watch {
+            Watch::Gap => {
+                let (_, gamma_rate) = series_at(self.harmonics, self.gamma, 3 * n, tau);
+                gamma_rate[c]
+                    + closed
+                        .rows
+                        .iter()
+                        .map(|&r| self.law.d(c, r) * lambda_rate[r])
+                        .sum::<f64>()
+            }
+            Watch::Normal => lambda_rate[c],
+            Watch::Cone => {
+                let (t1, t2) = (rates.lambda[n + c], rates.lambda[2 * n + c]);
+                let norm = t1.hypot(t2);
+                let unit = if norm > 0.0 {
+                    [t1 / norm, t2 / norm]
+                } else {
+                    [0.0, 0.0]
+                };
+                mu * lambda_rate[c]
+                    - unit[0] * lambda_rate[n + c]
+                    - unit[1] * lambda_rate[2 * n + c]
+            }
+            Watch::Speed => {
+                let eps = 1e-6;
+                let speed_at = |t: f64, sign: f64| -> Result<f64> {
+                    let a: Vec<f64> = anchors
+                        .iter()
+                        .zip(&rates.rate)
+                        .map(|(a, r)| a + sign * eps * r)
+                        .collect();
+                    Ok(self.rates(t, modes, &a, closed, &[], &[])?.speed[c])
+                };
+                (speed_at(tau + eps, 1.0)? - speed_at(tau - eps, -1.0)?) / (2.0 * eps)
+            }
+        })
     }
 }
