@@ -195,7 +195,16 @@ fn every_command_exits_with_the_documented_status() {
                 case(
                     "frf usage",
                     1,
-                    &["frf", bar, "--from", "29000", "--to", "31000", "--threads", "0"],
+                    &[
+                        "frf",
+                        bar,
+                        "--from",
+                        "29000",
+                        "--to",
+                        "31000",
+                        "--threads",
+                        "0",
+                    ],
                 ),
                 case(
                     "frf missing file",
@@ -322,7 +331,11 @@ fn every_command_exits_with_the_documented_status() {
                     1,
                     &["export", malformed, "--output", "exported3"],
                 ),
-                case("export refused output", 1, &["export", bar, "--output", "taken"]),
+                case(
+                    "export refused output",
+                    1,
+                    &["export", bar, "--output", "taken"],
+                ),
                 interrupted(
                     "export SIGTERM",
                     &[
