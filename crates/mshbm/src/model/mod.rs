@@ -170,7 +170,8 @@ pub struct Model {
     /// Coulomb friction elements (used by the time integration and the general MS-HBM;
     /// the redistributed MS-HBM refuses them).
     pub frictions: Vec<Friction>,
-    /// Amplitude of the harmonic load `f(t) = harmonic_load · cos(ωt)`, one entry per DOF.
+    /// Amplitude `f_h` of the harmonic load `f(t) = harmonic_load · cos(ωt)`, one entry per
+    /// DOF; with [`Model::constant_load`] the load `f(t) = f_0 + f_h cos ωt` (docs/theory.md (T2)).
     pub harmonic_load: Vec<f64>,
     /// Constant load, one entry per DOF.
     pub constant_load: Vec<f64>,

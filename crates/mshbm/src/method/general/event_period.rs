@@ -537,7 +537,8 @@ impl Integration<'_> {
         }
     }
 
-    /// Newton's impact law on contact `c` at the state `(q, v⁻)` of the interval of set
+    /// Newton's impact law and the impact equation (paper eqs. 19–20) on contact `c` at the
+    /// state `(q, v⁻)` of the interval of set
     /// `current` (closed contacts `closed`; phases at the event): with `e_N = 0` the
     /// plastic impact (T144) on `closed ∪ {c}` followed by the release of contacts whose
     /// force would pull ([`Integration::settle`]; released contacts disarmed), with

@@ -25,8 +25,8 @@
 //! side, so
 //!
 //! ```text
-//! R(x, ω) = (H̃(ω) x − F̃(ω) − F̂_c(x)) / k_ref,
-//! F̂_c = E_dft [W λ(τ_j)]_j,   λ_c(τ_j) = k_p,c · max(0, −g_c(τ_j)),   g = Wᵀ q_N + g0,
+//! R(x, ω) = (H̃(ω) x − F̃(ω) − F̂_c(x)) / k_ref,                                   (T51)
+//! F̂_c = E_dft [W λ(τ_j)]_j,   λ_c(τ_j) = k_p,c · max(0, −g_c(τ_j)),   g = Wᵀ q_N + g0, (T49)
 //! q_N(τ_j) = E_idft x                      (the AFT: [`Sampling`] in both directions).
 //! ```
 //!
@@ -41,14 +41,14 @@
 //! where `H̃` acts per harmonic as the real block `[[Re H̃_k, Im H̃_k], [−Im H̃_k, Re H̃_k]]`,
 //! the samples are grouped by their set `A` of penetrating contacts, `Γ_A` is the DFT Gram
 //! block of the group (`E_dft diag(1_A) E_idft`, [`Sampling::add_sample_gram`]) and
-//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ`. A sample with `g = 0` counts as open (derivative 0).
+//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ` (T52). A sample with `g = 0` counts as open (derivative 0).
 //! **Frequency derivative**: `∂R_k/∂ω = (∂A_NN z + ∂A_NL q̂_L + A_NL ∂q̂_L) / k_ref` with
 //! `∂q̂_L = −A_LL⁻¹ (∂A_LL q̂_L + ∂A_LN z)` and `∂A/∂ω = −2k²ω M + i k C` (one sparse
 //! solve per harmonic) — equal to `∂H̃/∂ω z − ∂F̃/∂ω` of docs/theory.md (T24), (T54)
 //! without forming `∂H̃/∂ω`. The contact force does not depend on ω (sampled in `τ = ωt`).
 //!
 //! **Penalty.** `k_p` is either given (force per length, every contact) or a multiple of
-//! the contact's own stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` (so that `k_p w_c w_cᵀ`
+//! the contact's own stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` (T50) (so that `k_p w_c w_cᵀ`
 //! adds `factor × ` the structure's stiffness along the contact normal); the default is
 //! [`DEFAULT_PENALTY_FACTOR`]` = 100 × k_c` (`1.05e8 N/mm` for the paper's bar, whose
 //! `K_NN = EA/h = 1.05e6 N/mm`). The solution depends on `k_p`: the contact is only
@@ -64,7 +64,7 @@
 //! intervals where the series `g_c(τ)` is negative (roots located on the sample grid, Gram
 //! blocks of [`crate::harmonic::add_interval_gram`]); the force vanishes at the interval
 //! ends, so the residual is continuously differentiable and `∂R/∂x` keeps the form above
-//! with interval Gram blocks. It is the limit of the sampled AFT as `N_s → ∞`.
+//! with interval Gram blocks. It is the limit of the sampled AFT as `N_s → ∞` (T48).
 //!
 //! **Friction** (docs/theory.md §20, "HBM-AFT with Jenkins elements", (T161)–(T169)). A
 //! contact with friction gets a Jenkins element along its tangent: a tangential penalty

@@ -8,10 +8,11 @@
 //!   each interval. No aliasing; the residual is continuously differentiable.
 //!
 //! Both give, per distinct active set `A`, a Gram block `Γ_A` (see [`crate::harmonic`]) such
-//! that `λ̂ = Σ_A F_A U Γ_Aᵀ`, where `U` holds the Fourier coefficients of the free gap
+//! that `λ̂ = Σ_A F_A U Γ_Aᵀ` (the Gram form (T40), with exact interval blocks (T45)), where
+//! `U` holds the Fourier coefficients of the free gap
 //! `γ(τ)` (docs/theory.md (T123)) and `F_A = ∂λ/∂γ` is the force map of the set. The
 //! semi-analytical Jacobian follows the same sum (eqs. 36–38: the interval end points drop
-//! out because `λ` is continuous in time for the static contact problem).
+//! out because `λ` is continuous in time for the static contact problem, (T46)).
 //!
 //! Switching times are located cell by cell on a grid of `N_s` points: a gap or force that is
 //! negative at the end of a cell, or dips below zero at an interior minimum (grazing, or a

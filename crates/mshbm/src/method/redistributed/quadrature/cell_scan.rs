@@ -125,7 +125,7 @@ impl CellScan {
     }
 
     /// The first time in `(a, end]` at which an indicator (rows of `coefs`) becomes
-    /// negative, and which. Sub-interval by sub-interval: only the indicators whose first
+    /// negative, and which: the switching time (T47). Sub-interval by sub-interval: only the indicators whose first
     /// candidate lies in the earliest sub-interval are located to round-off (when many
     /// contacts switch within one cell, locating each of them at every switch would cost
     /// their number squared).
