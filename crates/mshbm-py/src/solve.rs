@@ -12,7 +12,7 @@ use crate::convert::to_python;
 use crate::errors::{argument, IntoPy, Spelled};
 use crate::methods::{chosen, MethodKeywords};
 use crate::model::NativeModel;
-use crate::threads::with_threads;
+use crate::threads::interruptible;
 
 /// One periodic solution (module docs). Returns a dict: `solution` (the fields of
 /// `mshbm solve --json`), `label`, `path`, `others`, `stability_error`, and
@@ -86,10 +86,12 @@ pub fn solve(
         });
     }
     let m = &model.model;
-    let settings = request.settings(m, model.limits).spelled()?;
-    let solved = py
-        .detach(|| with_threads(threads, || solve_periodic(m, &method, frequency, &settings)))?
-        .py_err()?;
+    let mut settings = request.settings(m, model.limits).spelled()?;
+    let solved = interruptible(py, threads, |cancel| {
+        settings.limits.cancel = cancel;
+        solve_periodic(m, &method, frequency, &settings)
+    })?
+    .py_err()?;
     let d = PyDict::new(py);
     d.set_item("solution", to_python(py, &solved.solution)?)?;
     d.set_item("label", &solved.label)?;
