@@ -1113,10 +1113,7 @@ fn a_cancel_request_stops_the_run_at_the_next_step() {
             STOP.store(true, Ordering::SeqCst);
         }
     });
-    assert!(
-        matches!(result, Err(mshbm::Error::Cancelled)),
-        "{result:?}"
-    );
+    assert!(matches!(result, Err(mshbm::Error::Cancelled)), "{result:?}");
     assert_eq!(steps, 10);
     STOP.store(false, Ordering::SeqCst);
     it.run(5, |_| steps += 1).unwrap();
