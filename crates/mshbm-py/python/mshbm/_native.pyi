@@ -109,6 +109,7 @@ def solve(
     start_solution: str | None = None,
     sweep_from: float | None = None,
     sweep_to: float | None = None,
+    field: bool = False,
     threads: int | None = None,
 ) -> dict[str, Any]: ...
 def frf(
