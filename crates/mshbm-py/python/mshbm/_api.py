@@ -18,6 +18,21 @@ if TYPE_CHECKING:  # for annotations only: _model imports this module (Model.sol
 __all__ = ["solve", "frf", "modes", "simulate", "stability"]
 
 
+def _stopping_on_numpy_false(
+    callback: Callable[[dict[str, Any]], Any] | None,
+) -> Callable[[dict[str, Any]], Any] | None:
+    """``callback`` with a numpy ``False`` (a comparison of arrays' values) returned as
+    ``False``, which stops the diagram like Python's."""
+    if callback is None:
+        return None
+
+    def call(point: dict[str, Any]) -> Any:
+        answer = callback(point)
+        return False if isinstance(answer, np.bool_) and not answer else answer
+
+    return call
+
+
 def _field_dofs(dofs: str | Iterable[int], n_dofs: int) -> list[int]:
     """The model DOFs of ``dofs=``: ``"all"`` or DOF numbers (integers, in range)."""
     if isinstance(dofs, str):
@@ -219,7 +234,7 @@ def frf(
 
     ``callback(point)`` is called at every point with a dict (``label``, ``harmonics``,
     ``frequency_hz``, ``max_qn``, ``min_qn``, ``amplitude_h1``, ``fold``, ``stable``,
-    ``points``, ``step``, …): returning ``False`` stops the diagram, and what was found
+    ``points``, ``step``, …): returning ``False`` (or ``numpy.False_``) stops the diagram, and what was found
     is returned with ``completed=False``, ``stopped_by_callback=True`` and the
     ``stop_reason``; an exception in the callback stops it and propagates.
 
@@ -251,7 +266,7 @@ def frf(
         stability=stability,
         overlay_mshbm=overlay_mshbm,
         max_points=max_points,
-        callback=callback,
+        callback=_stopping_on_numpy_false(callback),
         threads=threads,
     )
     return FrequencyResponse(data)
