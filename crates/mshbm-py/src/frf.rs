@@ -16,7 +16,7 @@ use crate::convert::{array, to_python};
 use crate::errors::{to_py, Spelled};
 use crate::methods::MethodKeywords;
 use crate::model::NativeModel;
-use crate::threads::with_threads;
+use crate::threads::interruptible;
 
 /// One branch as found so far.
 struct Found {
@@ -277,7 +277,7 @@ pub fn frf(
     };
     let methods = request.methods().spelled()?;
     let m = &model.model;
-    let settings = request.settings(m, model.limits).spelled()?;
+    let mut settings = request.settings(m, model.limits).spelled()?;
     let harmonics = request.harmonics;
     let mut collector = Collector {
         callback,
@@ -287,10 +287,9 @@ pub fn frf(
         stopped: None,
         error: None,
     };
-    let traced = py.detach(|| {
-        with_threads(threads, || {
-            trace_diagram(m, &methods, &harmonics, &settings, &mut collector)
-        })
+    let traced = interruptible(py, threads, |cancel| {
+        settings.limits.cancel = cancel;
+        trace_diagram(m, &methods, &harmonics, &settings, &mut collector)
     })?;
     if let Some(e) = collector.error.take() {
         return Err(e);

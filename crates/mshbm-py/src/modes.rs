@@ -6,7 +6,7 @@ use pyo3::prelude::*;
 use crate::convert::to_python;
 use crate::errors::to_py;
 use crate::model::NativeModel;
-use crate::threads::with_threads;
+use crate::threads::interruptible;
 
 /// The first `count` eigenfrequencies [Hz] of both masses and their relative difference:
 /// a dict with `original_hz`, `redistributed_hz`, `relative_error`, `norm`.
@@ -19,17 +19,22 @@ pub fn modes(
     threads: Option<usize>,
 ) -> PyResult<Py<PyAny>> {
     let m = &model.model;
-    let report = py
-        .detach(|| with_threads(threads, || m.compare_masses_within(count, &model.limits)))?
-        .map_err(|e| {
-            // the CLI's context: "MODEL: eigenfrequencies: …"
-            let err = to_py(e);
-            let message = format!(
-                "{}: eigenfrequencies: {}",
-                m.source.display(),
-                err.value(py)
-            );
-            PyErr::from_type(err.get_type(py), message)
-        })?;
+    let report = interruptible(py, threads, |cancel| {
+        let limits = mshbm::limits::Limits {
+            cancel,
+            ..model.limits
+        };
+        m.compare_masses_within(count, &limits)
+    })?
+    .map_err(|e| {
+        // the CLI's context: "MODEL: eigenfrequencies: …"
+        let err = to_py(e);
+        let message = format!(
+            "{}: eigenfrequencies: {}",
+            m.source.display(),
+            err.value(py)
+        );
+        PyErr::from_type(err.get_type(py), message)
+    })?;
     to_python(py, &report)
 }

@@ -16,7 +16,7 @@ use crate::convert::{array, to_python};
 use crate::errors::{argument, IntoPy, MshbmError, PythonSpelling, Spelled};
 use crate::methods::chosen;
 use crate::model::{NativeModel, Source};
-use crate::threads::with_threads;
+use crate::threads::interruptible;
 
 /// What a run records at every step.
 #[derive(Default)]
@@ -113,8 +113,12 @@ pub fn simulate(
     let plan = request.plan(m).spelled()?;
     let scheme = plan.scheme;
 
-    let run = || -> PyResult<(Record, f64, Option<mshbm::integrate::steady_state::SteadyState>)> {
-        let system = m.system(scheme.mass_kind()).py_err()?;
+    let run = |cancel| -> PyResult<(
+        Record,
+        f64,
+        Option<mshbm::integrate::steady_state::SteadyState>,
+    )> {
+        let system = m.system_cancellable(scheme.mass_kind(), cancel).py_err()?;
         // --- time grid ---
         let period = reference_period(&system, plan.frequency, dropped.as_ref());
         let grid = request.grid(&plan, period).spelled()?;
@@ -131,6 +135,7 @@ pub fn simulate(
             },
         )
         .py_err()?;
+        integrator.cancel_on(cancel);
         if let (Some(start), Some(w)) = (&request.start_solution, plan.omega()) {
             let (q, v) = state_from_solution(
                 &system,
@@ -167,7 +172,7 @@ pub fn simulate(
         };
         Ok((rec, grid.dt, steady))
     };
-    let (rec, dt, steady) = py.detach(|| with_threads(threads, run))??;
+    let (rec, dt, steady) = interruptible(py, threads, run)??;
 
     let d = PyDict::new(py);
     let nc = m.contacts.len();

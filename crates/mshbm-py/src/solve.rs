@@ -3,8 +3,10 @@
 //! default and check.
 
 use mshbm::request::{SolveRequest, StartSolution};
+use mshbm::simulation::field_harmonics;
 use mshbm::solution::PeriodicSolution;
 use mshbm::solve::{solve_periodic, SolvePath};
+use numpy::PyArray2;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -12,20 +14,22 @@ use crate::convert::to_python;
 use crate::errors::{argument, IntoPy, Spelled};
 use crate::methods::{chosen, MethodKeywords};
 use crate::model::NativeModel;
-use crate::threads::with_threads;
+use crate::threads::interruptible;
 
 /// One periodic solution (module docs). Returns a dict: `solution` (the fields of
 /// `mshbm solve --json`), `label`, `path`, `others`, `stability_error`, and
 /// `not_converged` (the CLI's message, or None). `None` keywords take the library's
 /// defaults. A start solution (the JSON of `Solution.to_json()`, as `--from-solution`
 /// reads it) is refused, as by the CLI, when it belongs to another method or model.
+/// `field=True` adds `field_harmonics`: the Fourier coefficients `[a0, a1, b1, …]` of every
+/// model DOF (rows; Dirichlet DOFs zero), the field `mshbm solve --vtk` writes.
 #[pyfunction]
 #[allow(clippy::too_many_arguments)]
 #[pyo3(signature = (model, frequency, harmonics=None, *, method=None, samples=None,
     quadrature=None, mass=None, penalty=Vec::new(), tangential_penalty=None, tolerance=None,
     max_iterations=None, dof=None, stability_modes=None, receptance=None,
     receptance_modes=None, jacobian=None, stability=None, start=None,
-    start_solution=None, sweep_from=None, sweep_to=None, threads=None))]
+    start_solution=None, sweep_from=None, sweep_to=None, field=false, threads=None))]
 pub fn solve(
     py: Python<'_>,
     model: &NativeModel,
@@ -49,6 +53,7 @@ pub fn solve(
     start_solution: Option<String>,
     sweep_from: Option<f64>,
     sweep_to: Option<f64>,
+    field: bool,
     threads: Option<usize>,
 ) -> PyResult<Py<PyAny>> {
     let defaults = SolveRequest::new(frequency);
@@ -86,11 +91,35 @@ pub fn solve(
         });
     }
     let m = &model.model;
-    let settings = request.settings(m, model.limits).spelled()?;
-    let solved = py
-        .detach(|| with_threads(threads, || solve_periodic(m, &method, frequency, &settings)))?
-        .py_err()?;
+    let mut settings = request.settings(m, model.limits).spelled()?;
+    let (solved, field) = interruptible(py, threads, |cancel| -> mshbm::Result<_> {
+        settings.limits.cancel = cancel;
+        let solved = solve_periodic(m, &method, frequency, &settings)?;
+        // every model DOF's harmonics, as `mshbm solve --vtk` evaluates them
+        let field = match field {
+            true => {
+                let system = m.system_cancellable(method.mass_kind(), cancel)?;
+                let omega = 2.0 * std::f64::consts::PI * solved.solution.frequency_hz;
+                let source = std::path::Path::new("the solution");
+                Some(field_harmonics(
+                    &system,
+                    m,
+                    &solved.solution,
+                    omega,
+                    source,
+                )?)
+            }
+            false => None,
+        };
+        Ok((solved, field))
+    })?
+    .py_err()?;
     let d = PyDict::new(py);
+    if let Some(field) = field {
+        let array = PyArray2::from_vec2(py, &field)
+            .map_err(|e| crate::errors::MshbmError::new_err(e.to_string()))?;
+        d.set_item("field_harmonics", array)?;
+    }
     d.set_item("solution", to_python(py, &solved.solution)?)?;
     d.set_item("label", &solved.label)?;
     d.set_item(

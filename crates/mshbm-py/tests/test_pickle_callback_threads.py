@@ -140,3 +140,16 @@ def test_the_callback_runs_in_a_thread_pool_too(bar):
     seen = []
     d = mshbm.frf(bar, 20000, 40000, 1, threads=1, callback=lambda p: seen.append(p) or len(seen) < 5)
     assert d.stopped_by_callback and len(seen) == 5 == len(d.branches[0])
+
+
+def test_a_numpy_false_from_the_callback_stops_the_diagram(bar):
+    """A comparison of numpy values returns `numpy.False_`, which stops like `False`;
+    `numpy.True_` goes on."""
+    seen = []
+
+    def callback(p):
+        seen.append(p)
+        return np.float64(p["min_qn"]) < np.float64(np.inf) if len(seen) < 3 else np.bool_(False)
+
+    d = mshbm.frf(bar, 20000, 40000, 1, threads=1, callback=callback)
+    assert d.stopped_by_callback and len(seen) == 3 == len(d.branches[0])

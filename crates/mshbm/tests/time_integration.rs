@@ -1095,3 +1095,27 @@ fn survey_steady_state_against_the_ms_hbm() {
         }
     }
 }
+
+/// A cancel request (the front ends' Ctrl-C) stops a run at the next step with
+/// `Error::Cancelled`, whatever drives the integrator; without one the run goes on.
+#[test]
+fn a_cancel_request_stops_the_run_at_the_next_step() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static STOP: AtomicBool = AtomicBool::new(false);
+    let (model, _) = dropped_bar();
+    let system = model.system(MassKind::Redistributed).unwrap();
+    let mut it = integrator(&system, 1e-4, Scheme::PositionNewmark, None);
+    it.cancel_on(mshbm::limits::Cancel::on(&STOP));
+    let mut steps = 0;
+    let result = it.run(100, |_| {
+        steps += 1;
+        if steps == 10 {
+            STOP.store(true, Ordering::SeqCst);
+        }
+    });
+    assert!(matches!(result, Err(mshbm::Error::Cancelled)), "{result:?}");
+    assert_eq!(steps, 10);
+    STOP.store(false, Ordering::SeqCst);
+    it.run(5, |_| steps += 1).unwrap();
+    assert_eq!(steps, 15);
+}

@@ -394,12 +394,7 @@ fn write_vtk(
     files: &[PathBuf],
     pvd: &std::path::Path,
 ) -> Result<()> {
-    let mass = match method {
-        MethodSettings::Redistributed { .. } => MassKind::Redistributed,
-        MethodSettings::HbmAft(o) => o.mass,
-        MethodSettings::General(_) => MassKind::Consistent,
-    };
-    let system = model.system(mass)?;
+    let system = model.system(method.mass_kind())?;
     let omega = 2.0 * std::f64::consts::PI * solution.frequency_hz;
     let field = mshbm::simulation::field_harmonics(
         &system,

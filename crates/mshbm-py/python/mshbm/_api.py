@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
+import numpy as np
+
 from . import _native
 from ._native import ArgumentError, NotConvergedError
 from ._results import Floquet, FrequencyResponse, Modes, Simulation, Solution
@@ -14,6 +16,39 @@ if TYPE_CHECKING:  # for annotations only: _model imports this module (Model.sol
     from ._model import Model
 
 __all__ = ["solve", "frf", "modes", "simulate", "stability"]
+
+
+def _stopping_on_numpy_false(
+    callback: Callable[[dict[str, Any]], Any] | None,
+) -> Callable[[dict[str, Any]], Any] | None:
+    """``callback`` with a numpy ``False`` (a comparison of arrays' values) returned as
+    ``False``, which stops the diagram like Python's."""
+    if callback is None:
+        return None
+
+    def call(point: dict[str, Any]) -> Any:
+        answer = callback(point)
+        return False if isinstance(answer, np.bool_) and not answer else answer
+
+    return call
+
+
+def _field_dofs(dofs: str | Iterable[int], n_dofs: int) -> list[int]:
+    """The model DOFs of ``dofs=``: ``"all"`` or DOF numbers (integers, in range)."""
+    if isinstance(dofs, str):
+        if dofs != "all":
+            raise ArgumentError(f"dofs={dofs!r}: expected 'all' or a list of DOF numbers")
+        return list(range(n_dofs))
+    try:
+        chosen = list(dofs)
+    except TypeError:
+        raise ArgumentError(f"dofs={dofs!r}: expected 'all' or a list of DOF numbers") from None
+    for d in chosen:
+        if isinstance(d, bool) or not isinstance(d, (int, np.integer)):
+            raise ArgumentError(f"dofs: {d!r} is not a DOF number (an integer)")
+        if not 0 <= d < n_dofs:
+            raise ArgumentError(f"dofs: DOF {d} is out of range (the model has {n_dofs} DOFs)")
+    return [int(d) for d in chosen]
 
 
 def _model(model: Any) -> Model:
@@ -69,6 +104,7 @@ def solve(
     start: str | Solution | None = None,
     sweep_from: float | None = None,
     sweep_to: float | None = None,
+    dofs: str | Iterable[int] | None = None,
     threads: int | None = None,
 ) -> Solution:
     """One periodic solution at ``frequency`` [Hz] (``mshbm solve``), with its Floquet
@@ -92,7 +128,10 @@ def solve(
     (linear response, then continuation from a lower frequency if Newton fails),
     ``"linear"``, or a :class:`Solution` to start from (``--from-solution``);
     ``sweep_from``/``sweep_to`` [Hz]: trace the branch and list every solution at the
-    frequency (``others``). ``threads``: threads this call may use (default all cores).
+    frequency (``others``). ``dofs``: ``"all"`` or a list of model DOFs whose harmonics
+    the solution keeps (``field_dofs``, ``field_harmonics``, ``field_complex``: the
+    displacement field of the whole structure, as ``mshbm solve --vtk`` writes it).
+    ``threads``: threads this call may use (default all cores).
 
     Raises :class:`NotConvergedError` (its ``result`` holds the unconverged solution)
     with the CLI's message when Newton does not converge.
@@ -125,8 +164,13 @@ def solve(
         start_solution=start_solution,
         sweep_from=sweep_from,
         sweep_to=sweep_to,
+        field=dofs is not None,
         threads=threads,
     )
+    if dofs is not None:
+        field = data.pop("field_harmonics")
+        data["field_dofs"] = _field_dofs(dofs, field.shape[0])
+        data["field_harmonics"] = field[data["field_dofs"]]
     why = data.pop("not_converged")
     solution = Solution(data)
     if why is not None:
@@ -190,7 +234,7 @@ def frf(
 
     ``callback(point)`` is called at every point with a dict (``label``, ``harmonics``,
     ``frequency_hz``, ``max_qn``, ``min_qn``, ``amplitude_h1``, ``fold``, ``stable``,
-    ``points``, ``step``, …): returning ``False`` stops the diagram, and what was found
+    ``points``, ``step``, …): returning ``False`` (or ``numpy.False_``) stops the diagram, and what was found
     is returned with ``completed=False``, ``stopped_by_callback=True`` and the
     ``stop_reason``; an exception in the callback stops it and propagates.
 
@@ -222,7 +266,7 @@ def frf(
         stability=stability,
         overlay_mshbm=overlay_mshbm,
         max_points=max_points,
-        callback=callback,
+        callback=_stopping_on_numpy_false(callback),
         threads=threads,
     )
     return FrequencyResponse(data)

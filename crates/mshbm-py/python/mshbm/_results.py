@@ -97,6 +97,31 @@ class Solution(_Result):
         return self._data.get("label", "")
 
     @property
+    def field_dofs(self) -> np.ndarray | None:
+        """The model DOFs of ``field_harmonics`` (``solve(dofs=…)``), or None."""
+        d = self._data.get("field_dofs")
+        return None if d is None else np.asarray(d, dtype=np.int64)
+
+    @property
+    def field_harmonics(self) -> np.ndarray | None:
+        """Fourier coefficients ``[a0, a1, b1, …, aH, bH]`` of the displacement of each of
+        ``field_dofs`` (rows), ``q(t) = a0 + Σ a_k cos kωt + b_k sin kωt``; None unless
+        ``solve(dofs=…)``."""
+        return self._data.get("field_harmonics")
+
+    @property
+    def field_complex(self) -> np.ndarray | None:
+        """``field_harmonics`` as complex amplitudes ``c_0 = a0``, ``c_k = a_k − i b_k``
+        (``q(t) = Re Σ_k c_k e^{ikωt}``), shape (DOFs, H + 1); None unless ``solve(dofs=…)``."""
+        f = self.field_harmonics
+        if f is None:
+            return None
+        c = np.empty((f.shape[0], (f.shape[1] + 1) // 2), dtype=complex)
+        c[:, 0] = f[:, 0]
+        c[:, 1:] = f[:, 1::2] - 1j * f[:, 2::2]
+        return c
+
+    @property
     def path(self) -> dict:
         return self._data.get("path", {"kind": "direct"})
 

@@ -1,10 +1,11 @@
 //! The massless contact subsystem as a static problem per time sample (paper eqs. 26–29):
-//! `K_NN q_N = b + W λ`, `0 ≤ g = Wᵀ q_N + g0 ⊥ λ ≥ 0`, with `b = −K_NL q_L + f_N`.
+//! `K_NN q_N = b + W λ`, `0 ≤ g = Wᵀ q_N + g0 ⊥ λ ≥ 0` (docs/theory.md (T34); the gap and
+//! the law of paper eq. 18), with `b = −K_NL q_L + f_N` (T18).
 //!
-//! Eliminating `q_N` gives the LCP `0 ≤ D λ + γ ⊥ λ ≥ 0` in the contact coordinates, with
+//! Eliminating `q_N` gives the LCP `0 ≤ D λ + γ ⊥ λ ≥ 0` (T35) in the contact coordinates, with
 //! the Delassus matrix `D = Wᵀ K_NN⁻¹ W` (constant, built once) and the **free gap**
 //! `γ = Wᵀ K_NN⁻¹ b + g0` (the gap the contacts would have with no contact force at this
-//! instant; docs/theory.md (T123)). The prox equation (29) is the definition; the LCP solver
+//! instant; docs/theory.md (T123)). The prox equation (29), (T36), is the definition; the LCP solver
 //! is exact. For a known active set `A` the contact forces and gaps are linear in `γ`
 //! (docs/theory.md (T37), (T124)):
 //!

@@ -17,7 +17,8 @@
 //! system. Sparsity and symmetry are kept by construction.
 //!
 //! Nothing here depends on the element: on simplex meshes (Tet4, Tet10, Tri3, Tri6) every
-//! node of a contact face, mid-side nodes included, is made massless the same way, and the
+//! node of a contact face, mid-side nodes included, is made massless the same way (as on
+//! Hex20 faces, (T213)), and the
 //! moments kept are the continuum's inertia (docs/theory.md §21, (T208)); the quadratic
 //! elements' mass has negative entries, which the mass-weighted correction scales with
 //! their sign kept ((T209)).

@@ -6,6 +6,7 @@ use super::data::{Contacts, Data, Frictions, State};
 use super::{check_moreau_jean, moreau, newmark, Scheme, Settings};
 use crate::contact::static_contact::StaticContact;
 use crate::error::{Error, Result};
+use crate::limits::Cancel;
 use crate::model::System;
 use crate::modes::massless_dofs;
 use crate::sparse::{SparseCholesky, SparseMatrix};
@@ -32,6 +33,8 @@ pub struct Integrator {
     n_model_dofs: usize,
     /// [`System::nonlinear_dofs`], whose harmonics are the redistributed MS-HBM's unknowns.
     nonlinear_dofs: Vec<usize>,
+    /// The caller's request to stop, checked before every step ([`Integrator::cancel_on`]).
+    cancel: Cancel,
 }
 
 impl Integrator {
@@ -190,6 +193,7 @@ impl Integrator {
             },
             data,
             kernel,
+            cancel: Cancel::NEVER,
             scheme: settings.scheme,
             model_dof: system.model_dof.clone(),
             n_model_dofs: system.n_model_dofs,
@@ -358,8 +362,16 @@ impl Integrator {
         Ok(())
     }
 
-    /// Advance one step.
+    /// Stop at the next step with [`crate::error::Error::Cancelled`] once `cancel` is
+    /// requested (every later [`Integrator::step`], so [`Integrator::run`] and the steady-state
+    /// search too). The default never stops.
+    pub fn cancel_on(&mut self, cancel: Cancel) {
+        self.cancel = cancel;
+    }
+
+    /// Advance one step ([`crate::error::Error::Cancelled`] once the caller asked to stop).
     pub fn step(&mut self) -> Result<()> {
+        self.cancel.check()?;
         match &mut self.kernel {
             Kernel::Moreau(k) => k.step(&self.data, &mut self.state)?,
             Kernel::Newmark(k) => k.step(&self.data, &mut self.state)?,

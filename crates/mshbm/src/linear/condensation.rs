@@ -132,7 +132,7 @@ pub trait CondensedFrequency: Send + Sync {
     }
 
     /// The Fourier coefficients (harmonic-major) of the load on `N`,
-    /// `B_k(x) = f_N,k − u0_k + G_k z_k` (docs/theory.md (T19)–(T20)), for the `N` coefficients
+    /// `B_k(x) = f_N,k − u0_k + G_k z_k` (docs/theory.md (T18)–(T20)), for the `N` coefficients
     /// `x` (its first `n_N (2H + 1)` entries).
     fn interface_load_coefficients(&self, x: &[f64]) -> Vec<f64> {
         let load_n = &self.system().load_n;

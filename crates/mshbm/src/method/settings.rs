@@ -10,7 +10,7 @@ use super::redistributed::{RedistributedMsHbm, RedistributedOptions};
 use super::SetupObserver;
 use crate::error::{Error, Result};
 use crate::limits::Limits;
-use crate::model::Model;
+use crate::model::{MassKind, Model};
 use crate::problem::PeriodicProblem;
 use crate::solution::MethodKind;
 use crate::stability::StabilityOptions;
@@ -39,6 +39,17 @@ pub struct BuiltMethod {
 }
 
 impl MethodSettings {
+    /// The mass the method solves with: the redistributed MS-HBM's redistributed mass, the
+    /// general MS-HBM's consistent one, HBM-AFT's choice. The whole structure's response
+    /// to a solution ([`crate::simulation::field_harmonics`]) is that of this mass.
+    pub fn mass_kind(&self) -> MassKind {
+        match self {
+            MethodSettings::Redistributed { .. } => MassKind::Redistributed,
+            MethodSettings::HbmAft(o) => o.mass,
+            MethodSettings::General(_) => MassKind::Consistent,
+        }
+    }
+
     /// The redistributed MS-HBM with `harmonics`, default samples, exact quadrature and
     /// the default stability basis.
     pub fn redistributed(harmonics: usize) -> Self {

@@ -103,7 +103,8 @@ impl StabilityOptions {
 }
 
 /// The linearised L-system of the redistributed MS-HBM (docs/theory.md (T80)),
-/// `M̄ q̈ + C q̇ + (K_LL − K_LN P_A(t) K_NL) q = 0`, in the coordinates of the Floquet
+/// `M̄ q̈ + C q̇ + (K_LL − K_LN P_A(t) K_NL) q = 0` (the sensitivity `∂q_N/∂q_L = −P_A K_NL`
+/// of (T39)), in the coordinates of the Floquet
 /// analysis: the full L-space, or a reduced basis ([`ReducedSystem::reduced`]).
 ///
 /// **Reduced basis** (modal truncation with static correction, the "mode-acceleration"

@@ -89,7 +89,7 @@ pub(super) fn locate_fold<P: PeriodicProblem + ?Sized>(
             side = 1;
         }
     }
-    // t_ω through zero: a smooth fold; t_ω jumping over zero: ω is still extremal along
+    // t_ω through zero: a smooth fold (where ∂R/∂x is singular, (T78)); t_ω jumping over zero: ω is still extremal along
     // the arc, at a kink of the branch (nonsmooth residual). A jump is a change of t_ω
     // across the final bracket that is not small, and far steeper there than across the
     // whole step: at a smooth fold t_ω changes at a rate of the order of the curvature on

@@ -183,7 +183,8 @@ fn fill_bordered(
     m[(n, n)] = border[n];
 }
 
-/// The bordered matrix `[ℓ J, b; cᵀ, d]` of an operator Jacobian `J` (docs/theory.md §18):
+/// The bordered matrix `[ℓ J, b; cᵀ, d]` of an operator Jacobian `J` (docs/theory.md §18,
+/// (T135)):
 /// applied blockwise, and preconditioned by block elimination with `J`'s own
 /// preconditioner `P ≈ J⁻¹`: with `y_b = P b / ℓ` and `σ = d − cᵀ y_b`, the right-hand side
 /// `(r, ρ)` gives `s = (ρ − cᵀ P r / ℓ) / σ` and `x = P r / ℓ − y_b s`; exact when `P` is.

@@ -294,7 +294,7 @@ impl GeneralMsHbm {
         })
     }
 
-    /// `∂φ/∂q̂_N` of the load (T20): `G_k` as real `2 × 2` blocks per harmonic.
+    /// `∂φ/∂q̂_N` of the load (T20): `G_k` as real `2 × 2` blocks per harmonic (T21).
     fn load_map(&self, fd: &dyn CondensedFrequency) -> Mat<f64> {
         let n = self.n();
         let h = self.harmonics;

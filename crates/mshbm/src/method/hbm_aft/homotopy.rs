@@ -14,7 +14,8 @@ impl HbmAft {
     /// Starting point at `ω` for a stiff penalty. From the linear response directly, Newton
     /// on the kinked residual of a stiff penalty (`k_p ≳ 10 k_c` on the paper's bar) cycles
     /// between contact states of the samples, so this is a homotopy in the penalty, as a
-    /// user would do by hand: Newton solutions for penalties growing tenfold from `0.1 k_c`,
+    /// user would do by hand (docs/theory.md (T55)): Newton solutions for penalties growing
+    /// tenfold from `0.1 k_c`,
     /// each started from the previous one (a stage that fails is retried with a smaller
     /// increase). It returns the solution of the stage *before* `k_p`, once the step from
     /// it to `k_p` has been seen to converge: the caller's Newton then repeats that last

@@ -25,8 +25,8 @@
 //! side, so
 //!
 //! ```text
-//! R(x, ω) = (H̃(ω) x − F̃(ω) − F̂_c(x)) / k_ref,
-//! F̂_c = E_dft [W λ(τ_j)]_j,   λ_c(τ_j) = k_p,c · max(0, −g_c(τ_j)),   g = Wᵀ q_N + g0,
+//! R(x, ω) = (H̃(ω) x − F̃(ω) − F̂_c(x)) / k_ref,                                   (T51)
+//! F̂_c = E_dft [W λ(τ_j)]_j,   λ_c(τ_j) = k_p,c · max(0, −g_c(τ_j)),   g = Wᵀ q_N + g0, (T49)
 //! q_N(τ_j) = E_idft x                      (the AFT: [`Sampling`] in both directions).
 //! ```
 //!
@@ -41,14 +41,14 @@
 //! where `H̃` acts per harmonic as the real block `[[Re H̃_k, Im H̃_k], [−Im H̃_k, Re H̃_k]]`,
 //! the samples are grouped by their set `A` of penetrating contacts, `Γ_A` is the DFT Gram
 //! block of the group (`E_dft diag(1_A) E_idft`, [`Sampling::add_sample_gram`]) and
-//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ`. A sample with `g = 0` counts as open (derivative 0).
+//! `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ` (T52). A sample with `g = 0` counts as open (derivative 0).
 //! **Frequency derivative**: `∂R_k/∂ω = (∂A_NN z + ∂A_NL q̂_L + A_NL ∂q̂_L) / k_ref` with
 //! `∂q̂_L = −A_LL⁻¹ (∂A_LL q̂_L + ∂A_LN z)` and `∂A/∂ω = −2k²ω M + i k C` (one sparse
 //! solve per harmonic) — equal to `∂H̃/∂ω z − ∂F̃/∂ω` of docs/theory.md (T24), (T54)
 //! without forming `∂H̃/∂ω`. The contact force does not depend on ω (sampled in `τ = ωt`).
 //!
 //! **Penalty.** `k_p` is either given (force per length, every contact) or a multiple of
-//! the contact's own stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` (so that `k_p w_c w_cᵀ`
+//! the contact's own stiffness `k_c = w_cᵀ K_NN w_c / (w_cᵀ w_c)²` (T50) (so that `k_p w_c w_cᵀ`
 //! adds `factor × ` the structure's stiffness along the contact normal); the default is
 //! [`DEFAULT_PENALTY_FACTOR`]` = 100 × k_c` (`1.05e8 N/mm` for the paper's bar, whose
 //! `K_NN = EA/h = 1.05e6 N/mm`). The solution depends on `k_p`: the contact is only
@@ -64,7 +64,7 @@
 //! intervals where the series `g_c(τ)` is negative (roots located on the sample grid, Gram
 //! blocks of [`crate::harmonic::add_interval_gram`]); the force vanishes at the interval
 //! ends, so the residual is continuously differentiable and `∂R/∂x` keeps the form above
-//! with interval Gram blocks. It is the limit of the sampled AFT as `N_s → ∞`.
+//! with interval Gram blocks. It is the limit of the sampled AFT as `N_s → ∞` (T48).
 //!
 //! **Friction** (docs/theory.md §20, "HBM-AFT with Jenkins elements", (T161)–(T169)). A
 //! contact with friction gets a Jenkins element along its tangent: a tangential penalty
@@ -99,24 +99,23 @@ mod floquet;
 mod homotopy;
 pub mod jenkins;
 mod penalty;
+mod periodic_problem;
 
 use penalty::{ContactState, PenaltyGroup};
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};
 
-use super::partition::{contact_directions, DofLocation, Partition, SingularStiffness};
-use super::{check_dimension, complex_harmonic, n_dof_coefficients, periodic_solution};
-use super::{store_harmonic, zero, SolutionParts};
+use super::partition::{contact_directions, Partition, SingularStiffness};
+use super::{check_dimension, complex_harmonic, store_harmonic, zero};
 use crate::error::{Error, Result};
-use crate::harmonic::{n_coefficients, polynomial_extremum, Quadrature, Sampling};
+use crate::harmonic::{n_coefficients, Quadrature, Sampling};
 use crate::limits::Limits;
 use crate::linear::PartitionedSystem;
 use crate::linear::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 use crate::method::default_samples;
 use crate::model::{MassKind, Model, System};
-use crate::problem::{Jacobian, Linearization, PeriodicProblem};
-use crate::solution::{ContactSeries, DofResponse, PeriodicSolution};
+use crate::problem::PeriodicProblem;
 
 /// Default penalty stiffness as a multiple of the contact's own stiffness
 /// (`k_p = 100 k_c`; see the module docs).
@@ -540,119 +539,5 @@ impl HbmAft {
             store_harmonic(&z, n, k, &mut x);
         }
         Ok(x)
-    }
-}
-
-impl PeriodicProblem for HbmAft {
-    /// Stiff penalties (and, with sampled quadrature, a kinked residual): Newton does not
-    /// contract quadratically; the branch has isolated corners at grazing contacts.
-    fn continuation_policy(&self) -> crate::problem::ContinuationPolicy {
-        crate::problem::ContinuationPolicy {
-            newton_contraction: crate::problem::NewtonContraction::Unchecked,
-            where_arclength_fails: crate::problem::ArclengthFallback::EscapeCorner,
-            signals: self.n(),
-        }
-    }
-
-    fn dimension(&self) -> usize {
-        self.n() * n_coefficients(self.harmonics)
-    }
-
-    fn length_scale(&self) -> f64 {
-        self.partition.length_scale()
-    }
-
-    fn initial_guess(&mut self, omega: f64) -> Result<Vec<f64>> {
-        self.penalty_homotopy(omega)
-    }
-
-    fn residual(&mut self, x: &[f64], omega: f64) -> Result<Vec<f64>> {
-        Ok(self.evaluate(x, omega)?.0)
-    }
-
-    fn linearize(&mut self, x: &[f64], omega: f64) -> Result<Linearization> {
-        let (residual, _, groups) = self.evaluate(x, omega)?;
-        let jacobian = self.jacobian_matrix(&groups);
-        let d_omega = self.frequency_derivative(x)?;
-        Ok(Linearization {
-            residual,
-            jacobian: Jacobian::Dense(jacobian),
-            d_omega,
-        })
-    }
-
-    /// The monodromy of the penalty system along the orbit (docs/theory.md (T142)); none
-    /// with friction (the slider positions would be part of the state; not implemented).
-    fn floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<crate::stability::Floquet>> {
-        check_dimension(x, self.dimension())?;
-        if self.jenkins.is_some() {
-            return Ok(None);
-        }
-        self.penalty_floquet(x, omega).map(Some)
-    }
-
-    fn solution(&mut self, x: &[f64], omega: f64, response_dof: usize) -> Result<PeriodicSolution> {
-        let location = self.partition.locate_response(&self.system, response_dof)?;
-        let (residual, state, _) = self.evaluate(x, omega)?;
-        let (n, ncon, ns) = (self.n(), self.n_contacts(), self.sampling.len());
-        let h = self.harmonics;
-        let nc = n_coefficients(h);
-        let extremes = |coef: &[f64]| -> (f64, f64) {
-            (
-                polynomial_extremum(coef, ns, 1.0),
-                polynomial_extremum(coef, ns, -1.0),
-            )
-        };
-        let mut contacts = Vec::with_capacity(ncon);
-        for (c, sc) in self.system.contacts.iter().enumerate() {
-            let i = self.partition.contact_n_index(&self.system, c);
-            let coefficients = n_dof_coefficients(x, n, h, i);
-            let (max, min) = extremes(&coefficients);
-            contacts.push(ContactSeries {
-                dof: self.system.model_dof[sc.w[0].0],
-                coefficients,
-                displacement: (0..ns).map(|j| state.displacement[j * n + i]).collect(),
-                gap: (0..ns).map(|j| state.gap[j * ncon + c]).collect(),
-                force: (0..ns).map(|j| state.force[j * ncon + c]).collect(),
-                max,
-                min,
-            });
-        }
-        let coefficients = match location {
-            // a Dirichlet DOF does not move
-            DofLocation::Fixed => vec![0.0; nc],
-            DofLocation::Nonlinear(i) => n_dof_coefficients(x, n, h, i),
-            DofLocation::Linear(l) => self
-                .frequency
-                .as_ref()
-                .expect("prepared")
-                .condensed
-                .linear_dof_coefficients(x, l)?,
-        };
-        let (max, min) = if coefficients.iter().all(|&v| v == 0.0) {
-            (0.0, 0.0)
-        } else {
-            extremes(&coefficients)
-        };
-        Ok(periodic_solution(
-            &self.system,
-            &self.partition,
-            omega,
-            SolutionParts {
-                method: crate::solution::MethodKind::HbmAft,
-                quadrature: self.quadrature,
-                harmonics: h,
-                taus: &self.sampling.taus,
-                residual: &residual,
-                contacts,
-                frictions: self.friction_series(&state),
-                response: DofResponse {
-                    dof: response_dof,
-                    coefficients,
-                    max,
-                    min,
-                },
-            },
-        ))
     }
 }

@@ -189,7 +189,8 @@ impl RedistributedMsHbm {
     }
 
     /// The structure's force `φ = R⁻¹ (v − Wᵀ A⁻¹ f)` into `phi` and the free gap
-    /// `u = g0 δ_k0 + v − D φ` of the unknowns `v` (T128) into the scratch's.
+    /// `u = g0 δ_k0 + v − D φ` of the unknowns `v` (T128) into the scratch's (the free gap
+    /// (T126) with `v = Wᵀ q̂`).
     fn force_and_free_gap_into(&self, v: &[f64], phi: &mut Vec<f64>, s: &mut EvaluationScratch) {
         let n = self.n();
         self.displacement_by_forces_into(v, &mut s.by_forces);
