@@ -64,6 +64,23 @@ impl March<'_> {
         out
     }
 
+    /// `δλ = Y (δr − δγ_K)` (T214) for the free gap's variation `dg` (`3n`, at the instant)
+    /// and the displacements' `da` (`2n`).
+    fn force_variation(&self, closed: &Closed, dg: &[f64], da: &[f64]) -> Vec<f64> {
+        let n = self.law.n;
+        let mut v = vec![0.0; 3 * n];
+        for &r in &closed.rows {
+            v[r] = -dg[r];
+        }
+        for c in 0..n {
+            if closed.tangent_row[c].is_some() {
+                v[n + c] += da[c];
+                v[2 * n + c] += da[n + c];
+            }
+        }
+        self.apply_y(closed, &v)
+    }
+
     /// (T214), (T215) at `τ` for `modes` with displacements `anchors`, along the columns
     /// `(δγ̂_j, δa_j)`.
     pub(in super::super) fn rates(
@@ -112,18 +129,7 @@ impl March<'_> {
         let mut rhs = Mat::<f64>::zeros(s, ncol);
         for j in 0..ncol {
             let (dg, dg_rate) = series_at(self.harmonics, &d_gamma[j], m, tau);
-            // δλ = Y (δr − δγ_K) (T214)
-            let mut v = vec![0.0; m];
-            for &r in &closed.rows {
-                v[r] = -dg[r];
-            }
-            for c in 0..n {
-                if closed.tangent_row[c].is_some() {
-                    v[n + c] += d_anchors[j][c];
-                    v[2 * n + c] += d_anchors[j][n + c];
-                }
-            }
-            let dl = self.apply_y(closed, &v);
+            let dl = self.force_variation(closed, &dg, &d_anchors[j]);
             // δe and u of (T215)
             let mut de = vec![[0.0; 2]; s];
             let mut u = vec![0.0; m];
@@ -219,17 +225,7 @@ impl March<'_> {
         let direction = self.directions(&slipping, &lambda);
         for j in 0..d_gamma.len() {
             let (dg, _) = series_at(self.harmonics, &d_gamma[j], m, tau);
-            let mut v = vec![0.0; m];
-            for &r in &closed.rows {
-                v[r] = -dg[r];
-            }
-            for c in 0..n {
-                if closed.tangent_row[c].is_some() {
-                    v[n + c] += d_anchors[j][c];
-                    v[2 * n + c] += d_anchors[j][n + c];
-                }
-            }
-            let dl = self.apply_y(closed, &v);
+            let dl = self.force_variation(closed, &dg, &d_anchors[j]);
             let margin: Vec<f64> = slipping
                 .iter()
                 .zip(&direction)
