@@ -30,9 +30,10 @@ from ._results import (
     Solution,
     SteadyState,
 )
-from ._api import frf, modes, simulate, solve, stability
+from ._api import ArgumentTypeError, frf, modes, simulate, solve, stability
 
 __all__ = [
+    "ArgumentTypeError",
     "Model",
     "solve",
     "frf",

@@ -1,9 +1,12 @@
 """The computations: thin wrappers over the extension. Every default and check is the
 library's request layer (``mshbm::request``, shared with the CLI): an option left at
-``None`` takes the library's default, named in each docstring."""
+``None`` takes the library's default, named in each docstring. What is checked here is only
+the translation of Python values: a number of the wrong type or a negative count is refused
+naming the argument (:class:`ArgumentTypeError`, :class:`ArgumentError`)."""
 
 from __future__ import annotations
 
+import numbers
 from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
@@ -58,6 +61,48 @@ def _model(model: Any) -> Model:
     return model
 
 
+class ArgumentTypeError(ArgumentError, TypeError):
+    """An argument of the wrong type: an :class:`ArgumentError` (a ``ValueError``) and a
+    ``TypeError``, naming the argument. Numbers are never coerced: ``harmonics=3.7`` or
+    ``frequency="30000"`` are refused, not truncated or parsed."""
+
+
+def _integer(name: str, value: Any) -> int | None:
+    """``value`` as a non-negative integer (``None`` passes), or an error naming ``name``:
+    bools, floats and strings are refused, negative counts are refused before they reach
+    the library's unsigned integers."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise _naming(
+            ArgumentTypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}"),
+            name,
+        )
+    if value < 0:
+        raise _naming(ArgumentError(f"{name} must be an integer ≥ 0, got {int(value)}"), name)
+    return int(value)
+
+
+def _real(name: str, value: Any) -> float | None:
+    """``value`` as a float (``None`` passes), or an error naming ``name`` (bools, strings
+    and complex numbers are refused; the library checks the range)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise _naming(
+            ArgumentTypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}"),
+            name,
+        )
+    return float(value)
+
+
+def _naming(err: ArgumentError, name: str) -> ArgumentError:
+    """``err`` with its ``argument`` attribute, the keyword at fault (as the library's
+    argument errors carry it)."""
+    err.argument = name  # type: ignore[attr-defined]
+    return err
+
+
 def _penalties(penalty: Any) -> list[str]:
     """``1e8``, ``"100x"`` or a list of them, as the CLI's ``--penalty`` strings."""
     if penalty is None:
@@ -77,9 +122,9 @@ def _tangential(penalty: Any) -> str | None:
 def _harmonics(harmonics: Any) -> list[int] | None:
     if harmonics is None:
         return None
-    if isinstance(harmonics, int):
-        return [harmonics]
-    return list(harmonics)
+    if isinstance(harmonics, (numbers.Integral, bool, float, str)):
+        return [_integer("harmonics", harmonics)]  # type: ignore[list-item]
+    return [_integer("harmonics", h) for h in harmonics]  # type: ignore[misc]
 
 
 def solve(
@@ -144,28 +189,28 @@ def solve(
         start_kind, start_solution = start, None
     data = _native.solve(
         _model(model)._native,
-        frequency,
-        harmonics,
+        _real("frequency", frequency),
+        _integer("harmonics", harmonics),
         method=method,
-        samples=samples,
+        samples=_integer("samples", samples),
         quadrature=quadrature,
         mass=mass,
         penalty=_penalties(penalty),
         tangential_penalty=_tangential(tangential_penalty),
-        tolerance=tolerance,
-        max_iterations=max_iterations,
-        dof=dof,
-        stability_modes=stability_modes,
+        tolerance=_real("tolerance", tolerance),
+        max_iterations=_integer("max_iterations", max_iterations),
+        dof=_integer("dof", dof),
+        stability_modes=_integer("stability_modes", stability_modes),
         receptance=receptance,
-        receptance_modes=receptance_modes,
+        receptance_modes=_integer("receptance_modes", receptance_modes),
         jacobian=jacobian,
         stability=stability,
         start=start_kind,
         start_solution=start_solution,
-        sweep_from=sweep_from,
-        sweep_to=sweep_to,
+        sweep_from=_real("sweep_from", sweep_from),
+        sweep_to=_real("sweep_to", sweep_to),
         field=dofs is not None,
-        threads=threads,
+        threads=_integer("threads", threads),
     )
     if dofs is not None:
         field = data.pop("field_harmonics")
@@ -243,31 +288,31 @@ def frf(
     """
     data = _native.frf(
         _model(model)._native,
-        from_hz,
-        to_hz,
+        _real("from_hz", from_hz),
+        _real("to_hz", to_hz),
         _harmonics(harmonics),
         method=method,
-        samples=samples,
+        samples=_integer("samples", samples),
         quadrature=quadrature,
         mass=mass,
         penalty=_penalties(penalty),
         tangential_penalty=_tangential(tangential_penalty),
-        tolerance=tolerance,
-        max_iterations=max_iterations,
-        dof=dof,
-        stability_modes=stability_modes,
+        tolerance=_real("tolerance", tolerance),
+        max_iterations=_integer("max_iterations", max_iterations),
+        dof=_integer("dof", dof),
+        stability_modes=_integer("stability_modes", stability_modes),
         receptance=receptance,
-        receptance_modes=receptance_modes,
+        receptance_modes=_integer("receptance_modes", receptance_modes),
         jacobian=jacobian,
-        step=step,
-        max_step=max_step,
-        min_step=min_step,
-        max_turn=max_turn,
+        step=_real("step", step),
+        max_step=_real("max_step", max_step),
+        min_step=_real("min_step", min_step),
+        max_turn=_real("max_turn", max_turn),
         stability=stability,
         overlay_mshbm=overlay_mshbm,
-        max_points=max_points,
+        max_points=_integer("max_points", max_points),
         callback=_stopping_on_numpy_false(callback),
-        threads=threads,
+        threads=_integer("threads", threads),
     )
     return FrequencyResponse(data)
 
@@ -275,7 +320,11 @@ def frf(
 def modes(model: Model, count: int = 30, *, threads: int | None = None) -> Modes:
     """The first ``count`` eigenfrequencies [Hz] of the consistent and the redistributed
     model and their relative difference (``mshbm modes``)."""
-    return Modes(_native.modes(_model(model)._native, int(count), threads=threads))
+    return Modes(
+        _native.modes(
+            _model(model)._native, _integer("count", count), threads=_integer("threads", threads)
+        )
+    )
 
 
 def simulate(
@@ -311,22 +360,22 @@ def simulate(
     """
     data = _native.simulate(
         _model(model)._native,
-        frequency,
-        periods=periods,
-        duration=duration,
-        steps_per_period=steps_per_period,
-        dt=dt,
+        _real("frequency", frequency),
+        periods=_real("periods", periods),
+        duration=_real("duration", duration),
+        steps_per_period=_integer("steps_per_period", steps_per_period),
+        dt=_real("dt", dt),
         scheme=scheme,
-        restitution=restitution,
-        theta=theta,
+        restitution=_real("restitution", restitution),
+        theta=_real("theta", theta),
         steady_state=bool(steady_state),
         periodicity=periodicity,
-        tolerance=tolerance,
-        harmonics=harmonics,
-        dof=dof,
+        tolerance=_real("tolerance", tolerance),
+        harmonics=_integer("harmonics", harmonics),
+        dof=_integer("dof", dof),
         start_solution=None if start is None else start.to_json(),
         record=bool(record),
-        threads=threads,
+        threads=_integer("threads", threads),
     )
     why = data.pop("not_periodic")
     result = Simulation(data)
