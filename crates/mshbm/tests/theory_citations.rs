@@ -210,3 +210,71 @@ fn every_tag_and_paper_equation_of_the_theory_is_cited_in_the_library_or_marked(
          `{NO_CODE}` on their line in docs/theory.md"
     );
 }
+
+/// The numbered sections (`## `) of `theory` that name no source file that exists (a path
+/// ending in `.rs` or a folder `…/`, relative to the repository or to the library's `src`;
+/// tests do not count: a section names the code that implements it).
+fn sections_without_files(theory: &str, exists: impl Fn(&str) -> bool) -> Vec<String> {
+    let mut missing = Vec::new();
+    let mut title: Option<&str> = None;
+    let mut named = false;
+    let mut close = |title: Option<&str>, named: bool, missing: &mut Vec<String>| {
+        if let Some(t) = title {
+            if !named {
+                missing.push(t.to_string());
+            }
+        }
+    };
+    for line in theory.lines() {
+        if let Some(t) = line.strip_prefix("## ") {
+            close(title, named, &mut missing);
+            title = Some(t);
+            named = false;
+            continue;
+        }
+        if title.is_some() && !named {
+            named = line.split('`').skip(1).step_by(2).any(|span| {
+                (span.ends_with(".rs") || span.ends_with('/'))
+                    && !span.starts_with("tests/")
+                    && !span.contains("/tests/")
+                    && exists(span)
+            });
+        }
+    }
+    close(title, named, &mut missing);
+    missing
+}
+
+#[test]
+fn the_section_check_finds_a_section_without_a_file() {
+    let theory =
+        "## 1. A\nIn `src/a.rs`.\n## 2. B\nNothing.\n## 3. C\nIn `gone.rs`.\n## 4. D\nIn `dir/`.\n";
+    let exists = |p: &str| p == "src/a.rs" || p == "dir/";
+    assert_eq!(
+        sections_without_files(theory, exists),
+        vec!["2. B".to_string(), "3. C".to_string()]
+    );
+}
+
+#[test]
+fn every_section_of_the_theory_names_the_files_that_implement_it() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let exists = |p: &str| {
+        let p = p.trim_start_matches("crates/mshbm/src/");
+        [
+            root.join(p),
+            src.join(p),
+            src.join("method").join(p),
+            src.join("method/redistributed").join(p),
+        ]
+        .iter()
+        .any(|c| c.exists())
+    };
+    let missing = sections_without_files(&theory(), exists);
+    assert!(
+        missing.is_empty(),
+        "docs/theory.md: the sections {missing:?} name no existing file (a `path.rs` or a \
+         library folder `dir/` in backticks) that implements them"
+    );
+}
