@@ -1,6 +1,7 @@
 //! The derivative of the cone law (docs/theory.md (T191), (T214)–(T218)) against the
 //! derivative of a closed form and against central differences of the law.
 
+use super::tangent::Anchors;
 use super::tests::{coupled_plane, coupled_space, isotropic};
 use super::*;
 
@@ -207,5 +208,79 @@ fn the_tangent_of_the_law_is_its_central_difference() {
             *error < 1e-6,
             "case {i}: relative error {error:e} (scale {scale:e}); all {results:?}"
         );
+    }
+}
+
+/// (T218) solved by unit anchor columns and by iterating the march with the directions
+/// alone give one derivative: on two contacts in space and the slider round a circle; on
+/// three contacts (one stuck all period, one whose anchor the march forgets slowly) the
+/// cheaper choice, which abandons the iteration there, agrees with the unit columns.
+#[test]
+fn the_anchors_derivative_is_the_same_solved_either_way() {
+    let mut seed = 17u64;
+    let mut rnd = move || {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((seed >> 11) as f64 / (1u64 << 53) as f64) - 0.5
+    };
+    let h = 2;
+    let nc = 2 * h + 1;
+    let mut cases = Vec::new();
+    for (n, stuck) in [(2usize, false), (3, true)] {
+        let m = 3 * n;
+        let mut gamma = vec![0.0; m * nc];
+        gamma[0] = -0.5;
+        gamma[1] = -0.3;
+        gamma[m + 1] = 0.4;
+        gamma[m + n] = 0.8;
+        gamma[2 * m + 2 * n] = 0.5;
+        gamma[2 * m + n + 1] = -0.6;
+        gamma[3 * m + 2 * n + 1] = 0.4;
+        gamma[4 * m + 2 * n] = 0.2;
+        let mu = if stuck {
+            gamma[2] = -3.0;
+            gamma[m + n + 2] = 0.05;
+            vec![0.3, 0.5, 0.6]
+        } else {
+            vec![0.3, 0.5]
+        };
+        let d = coupled_space(n, if stuck { 5 } else { 11 });
+        cases.push((ConeContacts::new(d, mu).unwrap(), gamma, m));
+    }
+    let mut gamma = vec![0.0; 3 * nc];
+    gamma[0] = -500.0 / 1e6;
+    gamma[3 + 1] = 3e-3;
+    gamma[2 * 3 + 2] = 3e-3;
+    cases.push((
+        ConeContacts::new(isotropic(1e6, 2e5), vec![0.3]).unwrap(),
+        gamma,
+        3,
+    ));
+    for (k, (law, gamma, m)) in cases.iter().enumerate() {
+        let periodic = law.periodic(h, gamma, 8 * nc).unwrap();
+        let directions: Vec<Vec<f64>> = (0..2)
+            .map(|_| (0..m * nc).map(|_| rnd()).collect())
+            .collect();
+        let by_units = law
+            .tangent_by(&periodic, &directions, 8 * nc, Anchors::UnitColumns)
+            .unwrap();
+        let how = if k == 1 {
+            Anchors::Cheaper
+        } else {
+            Anchors::Iteration
+        };
+        let by_iteration = law.tangent_by(&periodic, &directions, 8 * nc, how).unwrap();
+        for (a, b) in by_units.iter().zip(&by_iteration) {
+            let scale = a.iter().fold(0.0f64, |s, v| s.max(v.abs()));
+            let error = a
+                .iter()
+                .zip(b)
+                .fold(0.0f64, |e, (x, y)| e.max((x - y).abs()));
+            assert!(
+                error <= 1e-8 * scale,
+                "case {k}: {error:e} of {scale:e} between the two ways"
+            );
+        }
     }
 }

@@ -15,6 +15,23 @@ mod switch;
 
 use flow::series_at;
 
+/// How the periodic anchors' system (T218) is solved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(in super::super) enum Anchors {
+    /// The cheaper of the two below by the count of columns marched.
+    Cheaper,
+    /// `2|R|` unit anchors as further columns of one march, then `(I − P_RR)` factored.
+    #[cfg_attr(not(test), allow(dead_code))] // chosen by the tests, to compare
+    UnitColumns,
+    /// `δa₀,R ← δa_end,R` repeated with the directions' columns alone, until it settles.
+    #[cfg_attr(not(test), allow(dead_code))]
+    Iteration,
+}
+
+/// Where the iteration of the periodic anchors' derivative has settled, relative to the
+/// scaled columns (the free gap's size).
+const ITERATION_TOLERANCE: f64 = 1e-11;
+
 impl ConeContacts {
     /// `δλ̂` of the periodic state `periodic` along each of `directions` (`δγ̂`, harmonic-major,
     /// `3n` per coefficient like the free gap) (T191), (T214)–(T218); `cells` bounds the
@@ -24,6 +41,18 @@ impl ConeContacts {
         periodic: &ConePeriodic,
         directions: &[Vec<f64>],
         cells: usize,
+    ) -> Result<Vec<Vec<f64>>> {
+        self.tangent_by(periodic, directions, cells, Anchors::Cheaper)
+    }
+
+    /// [`ConeContacts::tangent`] with the periodic anchors' system (T218) solved as `how`
+    /// says.
+    pub(in super::super) fn tangent_by(
+        &self,
+        periodic: &ConePeriodic,
+        directions: &[Vec<f64>],
+        cells: usize,
+        how: Anchors,
     ) -> Result<Vec<Vec<f64>>> {
         let n = self.n;
         let m = 3 * n;
@@ -70,6 +99,61 @@ impl ConeContacts {
             d_anchors.push(z_tangent[j].iter().map(|v| v * factor).collect());
             factors.push(factor);
         }
+        // the march's cost grows with its columns: `2|R|` unit anchors once, or the
+        // directions once per pass of the iteration, about as many passes as the law's
+        let iterate = match how {
+            Anchors::Cheaper => periodic.passes * ndir < r_rows.len(),
+            Anchors::UnitColumns => false,
+            Anchors::Iteration => true,
+        };
+        if iterate && !r_rows.is_empty() {
+            // the iteration contracts as the march does; where the contraction measured on
+            // its first passes predicts more columns marched than the unit anchors cost, the
+            // unit anchors are used after all
+            let mut start = d_anchors.clone();
+            let mut previous = f64::INFINITY;
+            for pass in 0..=MAX_PASSES {
+                let mut end = start.clone();
+                let forces = self.march_columns(&mut march, phases, &d_gamma, &mut end)?;
+                let change = (0..ndir)
+                    .flat_map(|j| r_rows.iter().map(move |&row| (j, row)))
+                    .fold(0.0f64, |c, (j, row)| {
+                        c.max((end[j][row] - start[j][row]).abs())
+                    });
+                let tolerance = ITERATION_TOLERANCE * scale;
+                if change <= tolerance {
+                    return Ok(forces
+                        .into_iter()
+                        .zip(&factors)
+                        .map(|(f, factor)| f.into_iter().map(|v| v / factor).collect())
+                        .collect());
+                }
+                let ratio = change / previous;
+                let remaining = if ratio < 1.0 {
+                    (tolerance / change).ln() / ratio.ln()
+                } else {
+                    f64::INFINITY
+                };
+                if how == Anchors::Cheaper
+                    && pass >= 1
+                    && remaining * ndir as f64 > (r_rows.len() + ndir) as f64
+                {
+                    break;
+                }
+                previous = change;
+                for j in 0..ndir {
+                    for &row in &r_rows {
+                        start[j][row] = end[j][row];
+                    }
+                }
+            }
+            if how == Anchors::Iteration {
+                return Err(Error::Numerical(format!(
+                    "friction cone: the periodic anchors' derivative did not settle in \
+                     {MAX_PASSES} periods (T218)"
+                )));
+            }
+        }
         for &row in &r_rows {
             d_gamma.push(vec![0.0; m * ncoef]);
             let mut a = vec![0.0; 2 * n];
@@ -77,46 +161,7 @@ impl ConeContacts {
             d_anchors.push(a);
             factors.push(scale);
         }
-        let ncol = d_gamma.len();
-        let mut d_forces = vec![vec![0.0; m * ncoef]; ncol];
-        for (p, phase) in phases.iter().enumerate() {
-            let closed = march.closed(&phase.modes)?;
-            let slipping = march.slipping(&phase.modes);
-            let start_tangent = d_anchors.clone();
-            let (end_anchors, integrals) = if slipping.is_empty() {
-                (
-                    phase.anchors.clone(),
-                    vec![vec![0.0; 2 * slipping.len() * (1 + ncoef)]; ncol],
-                )
-            } else {
-                march.tangent_phase(phase, &d_gamma, &mut d_anchors)?
-            };
-            for j in 0..ncol {
-                let column = March::new(self, harmonics, &d_gamma[j], march.cells);
-                column.accumulate(
-                    phase.start,
-                    phase.end,
-                    &phase.modes,
-                    &start_tangent[j],
-                    &slipping,
-                    &integrals[j],
-                    &closed,
-                    &mut d_forces[j],
-                );
-            }
-            let Some(next) = phases.get(p + 1) else {
-                break;
-            };
-            march.switch_tangent(
-                phase,
-                next,
-                &end_anchors,
-                &closed,
-                &d_gamma,
-                &mut d_anchors,
-                &mut d_forces,
-            )?;
-        }
+        let d_forces = self.march_columns(&mut march, phases, &d_gamma, &mut d_anchors)?;
         // the periodic state's anchors (T218)
         let nr = r_rows.len();
         let mut result: Vec<Vec<f64>> = Vec::with_capacity(ndir);
@@ -160,6 +205,60 @@ impl ConeContacts {
             }
         }
         Ok(result)
+    }
+
+    /// One tangent march of the recorded phases for the columns `(δγ̂_j, δa_j)` (`d_anchors`
+    /// at `τ = 0` on entry, at `2π` on return): `δλ̂` of each column (T214)–(T217).
+    fn march_columns(
+        &self,
+        march: &mut March,
+        phases: &[ConePhase],
+        d_gamma: &[Vec<f64>],
+        d_anchors: &mut [Vec<f64>],
+    ) -> Result<Vec<Vec<f64>>> {
+        let harmonics = march.harmonics;
+        let ncol = d_gamma.len();
+        let (m, ncoef) = (3 * self.n, n_coefficients(march.harmonics));
+        let mut d_forces = vec![vec![0.0; m * ncoef]; ncol];
+        for (p, phase) in phases.iter().enumerate() {
+            let closed = march.closed(&phase.modes)?;
+            let slipping = march.slipping(&phase.modes);
+            let start_tangent = d_anchors.to_vec();
+            let (end_anchors, integrals) = if slipping.is_empty() {
+                (
+                    phase.anchors.clone(),
+                    vec![vec![0.0; 2 * slipping.len() * (1 + ncoef)]; ncol],
+                )
+            } else {
+                march.tangent_phase(phase, d_gamma, d_anchors)?
+            };
+            for j in 0..ncol {
+                let column = March::new(self, harmonics, &d_gamma[j], march.cells);
+                column.accumulate(
+                    phase.start,
+                    phase.end,
+                    &phase.modes,
+                    &start_tangent[j],
+                    &slipping,
+                    &integrals[j],
+                    &closed,
+                    &mut d_forces[j],
+                );
+            }
+            let Some(next) = phases.get(p + 1) else {
+                break;
+            };
+            march.switch_tangent(
+                phase,
+                next,
+                &end_anchors,
+                &closed,
+                d_gamma,
+                d_anchors,
+                &mut d_forces,
+            )?;
+        }
+        Ok(d_forces)
     }
 
     /// `δa₀` of the contacts `z` (stuck all period) along `directions`: the tangential
