@@ -218,7 +218,7 @@ fn sections_without_files(theory: &str, exists: impl Fn(&str) -> bool) -> Vec<St
     let mut missing = Vec::new();
     let mut title: Option<&str> = None;
     let mut named = false;
-    let mut close = |title: Option<&str>, named: bool, missing: &mut Vec<String>| {
+    let close = |title: Option<&str>, named: bool, missing: &mut Vec<String>| {
         if let Some(t) = title {
             if !named {
                 missing.push(t.to_string());
