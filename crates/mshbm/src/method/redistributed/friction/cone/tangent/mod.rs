@@ -84,8 +84,7 @@ impl ConeContacts {
         let mut d_gamma: Vec<Vec<f64>> = Vec::with_capacity(ndir + r_rows.len());
         let mut d_anchors: Vec<Vec<f64>> = Vec::with_capacity(ndir + r_rows.len());
         let mut factors = Vec::with_capacity(ndir + r_rows.len());
-        let z_tangent =
-            self.initial_tangent(harmonics, &first.modes, &periodic.gamma, &z, directions)?;
+        let z_tangent = self.initial_tangent(harmonics, &periodic.gamma, &z, directions)?;
         for (j, d) in directions.iter().enumerate() {
             let size = (0..ncoef)
                 .map(|q| {
@@ -266,7 +265,6 @@ impl ConeContacts {
     fn initial_tangent(
         &self,
         harmonics: usize,
-        modes0: &[ConeMode],
         gamma: &[f64],
         z: &[usize],
         directions: &[Vec<f64>],
@@ -281,7 +279,6 @@ impl ConeContacts {
         let solution = LcpSolver::new(LcpMatrix::new(n, dnn))
             .solve(&g0[..n])
             .map_err(|e| Error::Numerical(format!("friction cone: initial state: {e}")))?;
-        let _ = modes0;
         let active: Vec<usize> = (0..n).filter(|&c| solution.active[c]).collect();
         let na = active.len();
         let daa: Vec<f64> = (0..na * na)
