@@ -40,12 +40,17 @@ pub fn interfaces(model: &Model) -> Vec<ContactInterface> {
 /// `interface,contact,nodes,position,time_s,gap,force`: one row per contact and time
 /// sample (nodes separated by `;` for node-to-node contacts); with friction on the
 /// contacts also `state,tangential_force,limit` (`open`, `stick` or `slip`; the friction
-/// force and its bound `μ λ_N`).
+/// force and its bound `μ λ_N`); on a 3D interface with friction (the Coulomb cone)
+/// `tangential_force` is along the first tangent and `tangential_force_2` along the second.
 pub fn contacts_csv(model: &Model, s: &PeriodicSolution) -> String {
     let friction = frictional_contacts(s);
+    let cone = friction && s.frictions.iter().all(|f| f.force2.len() == f.force.len());
     let mut out = String::from("interface,contact,nodes,position,time_s,gap,force");
     if friction {
         out.push_str(",state,tangential_force,limit");
+    }
+    if cone {
+        out.push_str(",tangential_force_2");
     }
     out.push('\n');
     for i in interfaces(model) {
@@ -71,6 +76,9 @@ pub fn contacts_csv(model: &Model, s: &PeriodicSolution) -> String {
                         f.force[j],
                         f.limit[j]
                     );
+                    if cone {
+                        let _ = write!(out, ",{:.12e}", f.force2[j]);
+                    }
                 }
                 out.push('\n');
             }
@@ -391,10 +399,29 @@ pub fn save_contact_map(model: &Model, s: &PeriodicSolution, path: &Path) -> Res
                     })
                     .collect(),
             }));
+            // in the cone (two tangents) the force's modulus
+            let cone = frictions.iter().all(|f| f.force2.len() == f.force.len());
             panels.push(AnyPanel::SpaceTime(Panel {
-                title: format!("{}: tangential (friction) force", i.name),
+                title: if cone {
+                    format!("{}: tangential (friction) force, modulus", i.name)
+                } else {
+                    format!("{}: tangential (friction) force", i.name)
+                },
                 positions: &i.positions,
-                values: frictions.iter().map(|f| f.force.clone()).collect(),
+                values: frictions
+                    .iter()
+                    .map(|f| {
+                        if cone {
+                            f.force
+                                .iter()
+                                .zip(&f.force2)
+                                .map(|(a, b)| a.hypot(*b))
+                                .collect()
+                        } else {
+                            f.force.clone()
+                        }
+                    })
+                    .collect(),
             }));
         }
     }

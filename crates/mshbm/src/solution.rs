@@ -121,6 +121,11 @@ pub struct FrictionSeries {
     /// Largest and smallest force over the period.
     pub max: f64,
     pub min: f64,
+    /// A contact in space (the Coulomb cone, docs/theory.md (T185)): the friction force
+    /// along its second tangent at each instant, `|(force, force2)| ≤ limit` (empty
+    /// otherwise; `force`, `max` and `min` are along the first tangent).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub force2: Vec<f64>,
     /// A contact with friction: its state at each of `time_s` (empty for the general
     /// MS-HBM's friction elements).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

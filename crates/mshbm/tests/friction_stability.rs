@@ -449,6 +449,7 @@ fn stop_oscillator(
     k_c: f64,
     gap: f64,
     mu: f64,
+    second: None,
     force: [f64; 2],
     alpha: f64,
 ) -> Model {
@@ -509,6 +510,7 @@ struct ExactStop {
     k_c: f64,
     gap: f64,
     mu: f64,
+    second: None,
     force: [f64; 2],
     alpha: f64,
     omega: f64,

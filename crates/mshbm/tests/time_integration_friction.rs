@@ -50,6 +50,7 @@ fn jenkins(kn: f64, kt: f64, p: f64, a: f64, mu: f64) -> System {
             friction: Some(SystemContactFriction {
                 w: vec![(1, 1.0)],
                 mu,
+                second: None,
             }),
         }],
         frictions: vec![],

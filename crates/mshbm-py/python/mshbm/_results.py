@@ -161,6 +161,13 @@ class Solution(_Result):
         return np.array([f["force"] for f in self._contact_frictions()])
 
     @property
+    def friction_force_2(self) -> np.ndarray:
+        """On a 3D interface (the Coulomb cone): the friction force along each contact's
+        second tangent, (contacts, samples); ``friction_force`` is then along the first.
+        Empty on plane interfaces."""
+        return np.array([f.get("force2", []) for f in self._contact_frictions() if f.get("force2")])
+
+    @property
     def friction_limit(self) -> np.ndarray:
         """Its bound ``μ λ_N`` at each sample, (contacts, samples)."""
         return np.array([f["limit"] for f in self._contact_frictions()])
@@ -200,7 +207,8 @@ class Solution(_Result):
     def to_dict(self) -> dict:
         """The time series over one period as columns, as ``mshbm solve --output``:
         ``time_s``, then ``q_dof{d}``, ``gap_c{k}``, ``force_c{k}`` per contact (with
-        friction also ``friction_c{k}`` and ``state_c{k}``)."""
+        friction also ``friction_c{k}`` and ``state_c{k}``, and on a 3D interface
+        ``friction2_c{k}`` along the second tangent)."""
         s = self._data["solution"]
         columns = {"time_s": s["time_s"]}
         frictions = self._contact_frictions()
@@ -210,6 +218,8 @@ class Solution(_Result):
             columns[f"force_c{k}"] = c["force"]
             if k < len(frictions):
                 columns[f"friction_c{k}"] = frictions[k]["force"]
+                if frictions[k].get("force2"):
+                    columns[f"friction2_c{k}"] = frictions[k]["force2"]
                 columns[f"state_c{k}"] = frictions[k]["state"]
         return columns
 

@@ -45,6 +45,18 @@ impl Integrator {
             return Err(Error::argument("system", "the system has no free DOFs"));
         }
         let contact_friction = system.contacts.iter().any(|c| c.friction.is_some());
+        if let Some(c) = system
+            .contacts
+            .iter()
+            .position(|c| c.friction.as_ref().is_some_and(|f| f.second.is_some()))
+        {
+            return Err(Error::argument(
+                "friction",
+                format!(
+                    "contact {c} has friction in the Coulomb cone (a 3D interface); the time integration models friction along one tangent only"
+                ),
+            ));
+        }
         if contact_friction && settings.scheme != Scheme::PositionNewmark {
             return Err(Error::argument(
                 "scheme",

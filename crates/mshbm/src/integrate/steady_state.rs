@@ -422,6 +422,7 @@ pub fn simulate_to_steady_state(
                         })
                         .collect();
                     FrictionSeries {
+                        force2: Vec::new(),
                         dof,
                         max: force.iter().copied().fold(f64::NEG_INFINITY, f64::max),
                         min: force.iter().copied().fold(f64::INFINITY, f64::min),

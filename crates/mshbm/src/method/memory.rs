@@ -212,11 +212,13 @@ pub fn redistributed(system: &System, harmonics: usize, samples: usize) -> Memor
     // tangents; the law keeps dλ̂/d[γ̂, a₀] of a march, its dλ̂/dγ̂ and the dense Jacobian
     // (three matrices of the unknowns' size squared), and each phase's anchor
     // sensitivities (taken as one phase per sample)
+    // (one anchor per tangent: two per contact in the cone, (T218))
     let frictional = system
         .contacts
         .iter()
-        .filter(|c| c.friction.is_some())
-        .count() as u64;
+        .filter_map(|c| c.friction.as_ref())
+        .map(|f| 1 + u64::from(f.second.is_some()))
+        .sum::<u64>();
     if frictional > 0 {
         let unknowns = contacts.saturating_mul(nc);
         let columns = unknowns.saturating_add(frictional);

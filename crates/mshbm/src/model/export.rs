@@ -110,6 +110,15 @@ pub fn export_files(model: &Model) -> Vec<ExportedFile> {
                 fr.dofs,
                 tw.join(", ")
             );
+            if let Some(second) = &fr.second {
+                let w: Vec<String> = second.w.iter().map(|x| format!("{x:?}")).collect();
+                let _ = writeln!(
+                    t,
+                    "tangent2_dofs = {:?}\ntangent2_w = [{}]",
+                    second.dofs,
+                    w.join(", ")
+                );
+            }
         }
     }
     for f in &model.frictions {

@@ -50,6 +50,8 @@
 //!   # mu = 0.3                  # Coulomb friction along a tangent (redistributed MS-HBM,
 //!   # tangent_dofs = [101]      # docs/theory.md §20): y_T = sum_i tangent_w_i q_(dofs_i),
 //!   # tangent_w = [1.0]         # orthogonal to w and of the same norm
+//!   # tangent2_dofs = [102]     # in space, a second tangent (orthogonal to w and the
+//!   # tangent2_w = [1.0]        # first): the friction force in the Coulomb cone (T185)
 //!   # contacts_file = "contacts.csv"   # more contacts, one per line: gap, dof, w[, dof, w …]
 //!   # [[node_sets]]             # named node sets: nodes = [..], or file = "set.csv" (node
 //!   # name = "stop"             # numbers separated by commas, blanks or line breaks)

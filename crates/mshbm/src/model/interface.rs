@@ -143,10 +143,13 @@ pub(crate) struct InterfaceSection {
     gap: Option<f64>,
     gap_gradient: Option<Vec<f64>>,
     gap_file: Option<String>,
-    /// Coulomb friction coefficient (plane interfaces; docs/theory.md §20).
+    /// Coulomb friction coefficient (docs/theory.md §20; in space the Coulomb cone, (T185)).
     mu: Option<f64>,
     /// Instead of `mu`: one coefficient per node (CSV lines `node, mu`).
     mu_file: Option<String>,
+    /// The first tangent of a 3D interface with friction (orthogonal to `normal`); by
+    /// default derived from the normal ([`interface_tangents`]).
+    tangent: Option<Vec<f64>>,
 }
 
 #[derive(Deserialize, Clone, Copy, PartialEq)]
@@ -156,14 +159,79 @@ pub(crate) enum InterfaceKind {
     Pairs,
 }
 
-/// Coulomb friction with coefficients `mus` (one per contact) on the contacts `new` of an interface, along the
-/// tangent `t = (−n_y, n_x)` of its unit normal `n` (plane interfaces, docs/theory.md
-/// (T150)): the tangential displacement `tᵀ u_p` of an obstacle contact's node, `tᵀ (u_b − u_a)`
-/// of a pair's.
+/// The unit tangents of a unit normal `n` (docs/theory.md (T150), (T219)): in the plane
+/// `t = (−n_y, n_x)`; in space the first tangent `t₁` is `given` (made a unit vector; it must
+/// be orthogonal to `n`) or, by default, the coordinate axis least aligned with `n` (the
+/// first of equals) with its `n` component removed, and the second `t₂ = n × t₁`.
+pub fn interface_tangents(
+    normal: &[f64],
+    given: Option<&[f64]>,
+    path: &Path,
+    field: &str,
+) -> Result<Vec<Vec<f64>>> {
+    match normal.len() {
+        2 => match given {
+            None => Ok(vec![vec![-normal[1], normal[0]]]),
+            Some(_) => Err(Error::field(
+                path,
+                field,
+                "a plane interface's tangent is (-n_y, n_x); give `tangent` on 3D interfaces only",
+            )),
+        },
+        3 => {
+            let n = [normal[0], normal[1], normal[2]];
+            let t1: Vec<f64> = match given {
+                Some(t) => {
+                    let t = unit_normal(t, 3, path, field)?;
+                    let dot: f64 = t.iter().zip(&n).map(|(a, b)| a * b).sum();
+                    if dot.abs() > 1e-9 {
+                        return Err(Error::field(
+                            path,
+                            field,
+                            format!(
+                                "the tangent must be orthogonal to the normal (their unit vectors' product is {dot:e})"
+                            ),
+                        ));
+                    }
+                    t
+                }
+                None => {
+                    let axis = (0..3)
+                        .min_by(|&a, &b| n[a].abs().total_cmp(&n[b].abs()))
+                        .expect("three axes");
+                    let mut t: Vec<f64> = (0..3)
+                        .map(|c| f64::from(u8::from(c == axis)) - n[axis] * n[c])
+                        .collect();
+                    let norm = t.iter().map(|v| v * v).sum::<f64>().sqrt();
+                    t.iter_mut().for_each(|v| *v /= norm);
+                    t
+                }
+            };
+            let t2 = vec![
+                n[1] * t1[2] - n[2] * t1[1],
+                n[2] * t1[0] - n[0] * t1[2],
+                n[0] * t1[1] - n[1] * t1[0],
+            ];
+            Ok(vec![t1, t2])
+        }
+        d => Err(Error::field(
+            path,
+            field,
+            format!(
+                "friction needs interfaces of 2 or 3 displacement components per node, not {d}"
+            ),
+        )),
+    }
+}
+
+/// Coulomb friction with coefficients `mus` (one per contact) on the contacts `new` of an
+/// interface, along the tangents `tangents` of its unit normal ([`interface_tangents`]):
+/// the tangential displacement `tᵀ u_p` of an obstacle contact's node, `tᵀ (u_b − u_a)` of a
+/// pair's; in space the second tangent makes the friction force's cone (T185).
 fn add_friction(
     new: &mut [crate::model::Contact],
     nodes: &[Vec<usize>],
-    normal: &[f64],
+    tangents: &[Vec<f64>],
     mus: &[f64],
     dofs_per_node: usize,
     path: &Path,
@@ -176,30 +244,33 @@ fn add_friction(
             format!("the friction coefficient must be finite and ≥ 0, got {mu}"),
         ));
     }
-    if dofs_per_node != 2 {
-        return Err(Error::field(
-            path,
-            field,
-            "friction is supported on plane (2D) interfaces only; 3D interfaces with the Coulomb cone are not implemented yet (docs/theory.md §20)",
-        ));
-    }
-    let tangent = [-normal[1], normal[0]];
     for ((contact, nodes), &mu) in new.iter_mut().zip(nodes).zip(mus) {
-        let mut dofs = Vec::new();
-        let mut w = Vec::new();
         // nodes: [p] against an obstacle, [a, b] for a pair (tᵀ (u_b − u_a))
         let signed: Vec<(usize, f64)> = match nodes.as_slice() {
             [p] => vec![(*p, 1.0)],
             [a, b] => vec![(*b, 1.0), (*a, -1.0)],
             _ => unreachable!("a contact has one node or a pair"),
         };
-        for (node, sign) in signed {
-            for (c, &t) in tangent.iter().enumerate().filter(|(_, &t)| t != 0.0) {
-                dofs.push(node * dofs_per_node + c);
-                w.push(sign * t);
+        let along = |tangent: &[f64]| {
+            let mut t = crate::model::ContactTangent {
+                dofs: Vec::new(),
+                w: Vec::new(),
+            };
+            for &(node, sign) in &signed {
+                for (c, &v) in tangent.iter().enumerate().filter(|(_, &v)| v != 0.0) {
+                    t.dofs.push(node * dofs_per_node + c);
+                    t.w.push(sign * v);
+                }
             }
-        }
-        contact.friction = Some(crate::model::ContactFriction { dofs, w, mu });
+            t
+        };
+        let first = along(&tangents[0]);
+        contact.friction = Some(crate::model::ContactFriction {
+            dofs: first.dofs,
+            w: first.w,
+            mu,
+            second: tangents.get(1).map(|t| along(t)),
+        });
     }
     Ok(())
 }
@@ -391,8 +462,17 @@ pub(crate) fn build_interfaces(
                 ))
             }
         };
+        if sec.tangent.is_some() && mus.is_none() {
+            return Err(Error::field(
+                path,
+                field("tangent"),
+                "a tangent without friction (`mu` or `mu_file`) has no use",
+            ));
+        }
         if let Some(mus) = mus {
-            add_friction(&mut new, &nodes, &normal, &mus, d, path, &field("mu"))?;
+            let tangents =
+                interface_tangents(&normal, sec.tangent.as_deref(), path, &field("tangent"))?;
+            add_friction(&mut new, &nodes, &tangents, &mus, d, path, &field("mu"))?;
         }
         // position along the interface: the coordinate that varies most over its nodes
         let lead: Vec<usize> = nodes.iter().map(|n| n[0]).collect();

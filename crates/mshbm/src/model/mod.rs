@@ -65,7 +65,9 @@ pub struct Contact {
 
 /// Coulomb friction on a contact (docs/theory.md (T150), (T151)): the tangential
 /// displacement `y_T = Σ_i w_i q_{dofs_i}` along a unit tangent orthogonal to the contact's
-/// normal, and the friction coefficient.
+/// normal, and the friction coefficient. A contact of a 3D interface has a second tangent,
+/// orthogonal to the normal and the first, and its friction force lies in the Coulomb cone
+/// (T185).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ContactFriction {
     /// DOFs of the tangential displacement (model numbering).
@@ -74,6 +76,15 @@ pub struct ContactFriction {
     pub w: Vec<f64>,
     /// Friction coefficient `μ ≥ 0`.
     pub mu: f64,
+    /// The second tangent of a contact in space (`None`: plane friction along `w` alone).
+    pub second: Option<ContactTangent>,
+}
+
+/// A tangent of a contact: `y = Σ_i w_i q_{dofs_i}` (model numbering).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ContactTangent {
+    pub dofs: Vec<usize>,
+    pub w: Vec<f64>,
 }
 
 /// What presses a friction element together.
@@ -203,6 +214,25 @@ impl Model {
             None => Ok(()),
         }
     }
+
+    /// Refuse contacts with friction in the Coulomb cone (two tangents, docs/theory.md
+    /// (T185)) in a method or integrator (`what`) that models plane friction only.
+    pub fn refuse_cone_friction(&self, what: &str) -> Result<()> {
+        let cone = self
+            .contacts
+            .iter()
+            .position(|c| c.friction.as_ref().is_some_and(|f| f.second.is_some()));
+        match cone {
+            Some(c) => Err(Error::field(
+                &self.source,
+                "mu",
+                format!(
+                    "contact {c} has friction in the Coulomb cone (a 3D interface); {what} models friction along one tangent only. The cone is solved by the redistributed MS-HBM (`--method redistributed`)"
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
 }
 
 impl Model {
@@ -274,6 +304,11 @@ impl Model {
                 c.dofs
                     .iter()
                     .chain(c.friction.iter().flat_map(|f| f.dofs.iter()))
+                    .chain(
+                        c.friction
+                            .iter()
+                            .flat_map(|f| f.second.iter().flat_map(|t| t.dofs.iter())),
+                    )
             })
             .chain(self.frictions.iter().flat_map(|f| f.dofs.iter()))
             .map(|&d| d / self.dofs_per_node)

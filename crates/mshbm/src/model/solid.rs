@@ -38,8 +38,11 @@
 //! # gap_gradient = [0.0, 0.0]   #   g0 = gap + gradient · x (a tilted or stepped plane)
 //! # gap_file = "gaps.csv"       #   instead of `gap`: lines `node, g0`, one per node
 //! #                             #   (for pairs: the node of the first set)
-//! # mu = 0.3                   # Coulomb friction along the tangent (−n_y, n_x) (plane
-//! #                             #   interfaces; redistributed MS-HBM, docs/theory.md §20)
+//! # mu = 0.3                    # Coulomb friction (redistributed MS-HBM, docs/theory.md
+//! #                             #   §20): along (−n_y, n_x) in the plane, in the Coulomb
+//! #                             #   cone in space (T185), (T219)
+//! # tangent = [0.0, 1.0, 0.0]   #   in space, the first tangent (orthogonal to the normal;
+//! #                             #   by default from the normal, (T219))
 //! # mu_file = "mu.csv"          #   instead of `mu`: lines `node, mu`, one per node
 //! # [[interfaces]] kind = "pairs", sets = ["crack_a", "crack_b"], normal = [1.0, 0.0]:
 //! # node-to-node contacts g = n·(u_b − u_a) + g0 between coinciding nodes of the two sets

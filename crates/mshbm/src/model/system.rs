@@ -39,6 +39,8 @@ pub struct SystemContactFriction {
     /// `(system DOF, ∂y_T/∂q)` pairs.
     pub w: Vec<(usize, f64)>,
     pub mu: f64,
+    /// The second tangent of a contact in space, `(system DOF, ∂y_T₂/∂q)` pairs (T185).
+    pub second: Option<Vec<(usize, f64)>>,
 }
 
 /// A friction element in system numbering.
@@ -237,14 +239,19 @@ impl Model {
                     .map(|(&d, &w)| (system_of[d], w))
                     .collect(),
                 gap: c.gap,
-                friction: c.friction.as_ref().map(|f| SystemContactFriction {
-                    w: f.dofs
-                        .iter()
-                        .zip(&f.w)
-                        .filter(|(&d, _)| !fixed[d])
-                        .map(|(&d, &w)| (system_of[d], w))
-                        .collect(),
-                    mu: f.mu,
+                friction: c.friction.as_ref().map(|f| {
+                    let free = |dofs: &[usize], w: &[f64]| -> Vec<(usize, f64)> {
+                        dofs.iter()
+                            .zip(w)
+                            .filter(|(&d, _)| !fixed[d])
+                            .map(|(&d, &w)| (system_of[d], w))
+                            .collect()
+                    };
+                    SystemContactFriction {
+                        w: free(&f.dofs, &f.w),
+                        mu: f.mu,
+                        second: f.second.as_ref().map(|t| free(&t.dofs, &t.w)),
+                    }
                 }),
             })
             .collect();

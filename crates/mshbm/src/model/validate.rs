@@ -18,9 +18,10 @@ impl Model {
     /// must not vanish after that (`dofs = [3, 3]`, `w = [-1, 1]` would be a contact that
     /// never acts). Returns the merged direction ([`merged_direction`]).
     /// Check the Coulomb friction of contact `k` (docs/theory.md (T150)): `μ` finite and
-    /// non-negative; the tangent a valid direction ([`Model::check_direction`]), orthogonal
-    /// to the contact's normal `normal` (merged) and of its norm, so that the friction force
-    /// and its bound `μ λ_N` are measured alike.
+    /// non-negative; the tangent (in space both tangents, (T185)) a valid direction
+    /// ([`Model::check_direction`]), orthogonal to the contact's normal `normal` (merged) and
+    /// to the other tangent, and of the normal's norm, so that the friction force and its
+    /// bound `μ λ_N` are measured alike.
     fn check_contact_friction(
         &self,
         dirichlet: &HashSet<usize>,
@@ -29,7 +30,6 @@ impl Model {
         normal: &[(usize, f64)],
     ) -> Result<()> {
         let file = &self.source;
-        let field = |f: &str| format!("contacts[{k}].tangent_{f}");
         if !(friction.mu.is_finite() && friction.mu >= 0.0) {
             return Err(Error::field(
                 file,
@@ -40,37 +40,61 @@ impl Model {
                 ),
             ));
         }
-        let tangent = self.check_direction(
-            dirichlet,
-            &friction.dofs,
-            &friction.w,
-            field,
-            "the tangent of a contact with friction",
-            "the tangent",
-        )?;
         let norm = |v: &[(usize, f64)]| v.iter().map(|(_, x)| x * x).sum::<f64>().sqrt();
-        let (nn, nt) = (norm(normal), norm(&tangent));
-        let dot: f64 = tangent
-            .iter()
-            .filter_map(|(d, t)| normal.iter().find(|(e, _)| e == d).map(|(_, n)| n * t))
-            .sum();
-        if dot.abs() > 1e-9 * nn * nt {
-            return Err(Error::field(
-                file,
-                format!("contacts[{k}].tangent_w"),
-                format!(
-                    "the tangent is not orthogonal to the contact's normal w (their product is {dot:e}, the norms {nn:e} and {nt:e})"
-                ),
-            ));
-        }
-        if (nt - nn).abs() > 1e-9 * nn {
-            return Err(Error::field(
-                file,
-                format!("contacts[{k}].tangent_w"),
-                format!(
-                    "the tangent's norm {nt:e} differs from the normal's {nn:e}: the friction force and its bound mu * lambda_N would be measured in different units"
-                ),
-            ));
+        let product = |a: &[(usize, f64)], b: &[(usize, f64)]| -> f64 {
+            a.iter()
+                .filter_map(|(d, t)| b.iter().find(|(e, _)| e == d).map(|(_, n)| n * t))
+                .sum()
+        };
+        let nn = norm(normal);
+        // the tangents: orthogonal to the normal and to each other, of the normal's norm
+        let mut tangents: Vec<Vec<(usize, f64)>> = Vec::new();
+        let second = friction.second.as_ref();
+        for (prefix, dofs, w) in std::iter::once(("tangent", &friction.dofs, &friction.w))
+            .chain(second.map(|t| ("tangent2", &t.dofs, &t.w)))
+        {
+            let field = |f: &str| format!("contacts[{k}].{prefix}_{f}");
+            let tangent = self.check_direction(
+                dirichlet,
+                dofs,
+                w,
+                field,
+                "the tangent of a contact with friction",
+                "the tangent",
+            )?;
+            let nt = norm(&tangent);
+            let dot = product(&tangent, normal);
+            if dot.abs() > 1e-9 * nn * nt {
+                return Err(Error::field(
+                    file,
+                    field("w"),
+                    format!(
+                        "the tangent is not orthogonal to the contact's normal w (their product is {dot:e}, the norms {nn:e} and {nt:e})"
+                    ),
+                ));
+            }
+            if (nt - nn).abs() > 1e-9 * nn {
+                return Err(Error::field(
+                    file,
+                    field("w"),
+                    format!(
+                        "the tangent's norm {nt:e} differs from the normal's {nn:e}: the friction force and its bound mu * lambda_N would be measured in different units"
+                    ),
+                ));
+            }
+            if let Some(first) = tangents.first() {
+                let dot = product(&tangent, first);
+                if dot.abs() > 1e-9 * nt * nt {
+                    return Err(Error::field(
+                        file,
+                        field("w"),
+                        format!(
+                            "the second tangent is not orthogonal to the first (their product is {dot:e})"
+                        ),
+                    ));
+                }
+            }
+            tangents.push(tangent);
         }
         Ok(())
     }

@@ -200,6 +200,7 @@ impl PeriodicProblem for GeneralMsHbm {
                 let force: Vec<f64> = tr.friction_force_series(f);
                 let (max, min) = extremes(&force);
                 FrictionSeries {
+                    force2: Vec::new(),
                     dof: self.subsystem.model_dof[fr.w[0].0],
                     limit: (0..ns).map(|j| self.friction_limit(&tr, f, j)).collect(),
                     force,

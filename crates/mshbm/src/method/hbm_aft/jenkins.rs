@@ -200,6 +200,7 @@ impl HbmAft {
                 let first = contact.friction.as_ref()?.w.first()?.0;
                 let force: Vec<f64> = (0..ns).map(|j| slider.force[j * nc + c]).collect();
                 Some(FrictionSeries {
+                    force2: Vec::new(),
                     dof: self.system.model_dof[first],
                     max: force.iter().copied().fold(f64::NEG_INFINITY, f64::max),
                     min: force.iter().copied().fold(f64::INFINITY, f64::min),

@@ -255,6 +255,7 @@ impl HbmAft {
                 "the HBM-AFT baseline models friction on contacts (`mu` of an interface, as Jenkins elements) but not friction elements (`[[frictions]]`); use the general MS-HBM",
             ));
         }
+        model.refuse_cone_friction("the HBM-AFT baseline (Jenkins elements)")?;
         let frictional = model.contacts.iter().any(|c| c.friction.is_some());
         if frictional && options.quadrature == Quadrature::Exact {
             return Err(Error::argument(

@@ -8,7 +8,7 @@ use std::rc::Rc;
 use faer::{c64, Mat};
 
 use super::frequency_maps::Map;
-use super::friction::PeriodicContact;
+use super::frictional::PeriodicFriction;
 use super::jacobian::{assemble_forces_into, times_each_coefficient_into};
 use super::quadrature::{integrate, integrate_into, Integration, QuadratureWorkspace};
 use super::RedistributedMsHbm;
@@ -28,7 +28,7 @@ pub(super) struct Evaluation {
     /// `λ̂`.
     pub forces: Vec<f64>,
     /// The periodic frictional contact (docs/theory.md §20), when the contacts have friction.
-    pub friction: Option<Rc<PeriodicContact>>,
+    pub friction: Option<Rc<PeriodicFriction>>,
     /// `∂R/∂ω`, once a linearization asked for it.
     pub d_omega: Option<Vec<f64>>,
     /// The dense Jacobian, once a linearization formed it.
@@ -133,7 +133,7 @@ impl RedistributedMsHbm {
             // (T155)–(T158): the periodic frictional contact of the free gap
             let periodic = law.periodic(self.harmonics, &s.free_gap, self.sampling.len())?;
             e.forces.clear();
-            e.forces.extend_from_slice(&periodic.forces);
+            e.forces.extend_from_slice(periodic.forces());
             e.friction = Some(Rc::new(periodic));
             difference_into(&e.phi, &e.forces, &mut s.mismatch);
             e.residual.resize(v.len(), 0.0);
@@ -215,7 +215,7 @@ impl RedistributedMsHbm {
         &self,
         phi: &[f64],
         integration: &Integration,
-        friction: Option<&PeriodicContact>,
+        friction: Option<&PeriodicFriction>,
         out: &mut Vec<f64>,
         s: &mut EvaluationScratch,
     ) -> Result<()> {
@@ -246,8 +246,9 @@ impl RedistributedMsHbm {
         match friction {
             // S = dλ̂/dγ̂ of the frictional law (T158)
             Some(law) => {
+                let jacobian = law.jacobian()?;
                 for (row, o) in s.s_d_psi.iter_mut().enumerate() {
-                    *o = law.jacobian[row * len..(row + 1) * len]
+                    *o = jacobian[row * len..(row + 1) * len]
                         .iter()
                         .zip(&s.d_psi)
                         .map(|(a, b)| a * b)

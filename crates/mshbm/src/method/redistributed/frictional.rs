@@ -9,23 +9,37 @@ use std::path::Path;
 
 use faer::Mat;
 
+use std::cell::OnceCell;
+use std::rc::Rc;
+
 use super::frequency_maps::{FrequencyMatrices, Map};
-use super::friction::PeriodicContact;
+use super::friction::cone::{ConeContacts, ConePeriodic};
+use super::friction::{FrictionalContacts, PeriodicContact};
 use super::outputs::{dof_response, NodeHarmonics};
 use super::{n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS};
 use crate::error::{Error, Result};
 use crate::harmonic::{basis_into, n_coefficients};
 use crate::method::partition::DofLocation;
 use crate::model::{System, SystemContact};
-use crate::solution::{ContactSeries, FrictionSeries, PeriodicSolution};
+use crate::solution::{
+    ContactSeries, ContactState, FrictionSeries, PeriodicSolution, StateFractions,
+};
 
-/// `system` with its contacts' tangents appended as contact coordinates (T150), and the
-/// friction coefficients, when its contacts have friction; `system` unchanged otherwise.
-/// Either every contact has friction or none (`mu = 0` for a frictionless one).
+/// The friction coefficients and which law the tangents make: one tangent per contact (the
+/// plane law, (T150)) or two (the Coulomb cone, (T185)).
+pub(super) struct FrictionCoordinates {
+    pub mu: Vec<f64>,
+    pub cone: bool,
+}
+
+/// `system` with its contacts' tangents appended as contact coordinates (T150), (T185) —
+/// every first tangent, then in space every second one — and the friction coefficients,
+/// when its contacts have friction; `system` unchanged otherwise. Either every contact has
+/// friction or none (`mu = 0` for a frictionless one), and all have one tangent or all two.
 pub(super) fn with_tangent_coordinates(
     mut system: System,
     source: &Path,
-) -> Result<(System, Option<Vec<f64>>)> {
+) -> Result<(System, Option<FrictionCoordinates>)> {
     let with = system
         .contacts
         .iter()
@@ -48,26 +62,194 @@ pub(super) fn with_tangent_coordinates(
             ),
         ));
     }
+    let cone = system
+        .contacts
+        .iter()
+        .any(|c| c.friction.as_ref().is_some_and(|f| f.second.is_some()));
     let mut mu = Vec::with_capacity(with);
     let mut tangents = Vec::with_capacity(with);
+    let mut seconds = Vec::with_capacity(if cone { with } else { 0 });
+    let coordinate = |w: &[(usize, f64)]| SystemContact {
+        w: w.to_vec(),
+        gap: 0.0,
+        friction: None,
+    };
     for (c, contact) in system.contacts.iter().enumerate() {
         let friction = contact.friction.as_ref().expect("counted above");
-        if friction.w.is_empty() {
+        let second = friction.second.as_deref();
+        if friction.w.is_empty() || second.is_some_and(<[_]>::is_empty) {
             return Err(Error::field(
                 source,
                 "mu",
-                format!("the tangent of contact {c} has no free DOF"),
+                format!("a tangent of contact {c} has no free DOF"),
             ));
         }
+        match (cone, second) {
+            (true, Some(t)) => seconds.push(coordinate(t)),
+            (true, None) => {
+                return Err(Error::field(
+                    source,
+                    "mu",
+                    format!(
+                        "contact {c} has friction along one tangent while others have the Coulomb cone (two tangents); one model mixes plane and 3D friction"
+                    ),
+                ))
+            }
+            _ => {}
+        }
         mu.push(friction.mu);
-        tangents.push(SystemContact {
-            w: friction.w.clone(),
-            gap: 0.0,
-            friction: None,
-        });
+        tangents.push(coordinate(&friction.w));
     }
     system.contacts.extend(tangents);
-    Ok((system, Some(mu)))
+    system.contacts.extend(seconds);
+    Ok((system, Some(FrictionCoordinates { mu, cone })))
+}
+
+/// The frictional law of the contacts: the plane law (§20) or the Coulomb cone (T185).
+pub(super) enum Law {
+    Plane(FrictionalContacts),
+    Cone(Rc<ConeContacts>),
+}
+
+/// The periodic frictional state of one free gap, with the law's derivative `S = dλ̂/dγ̂`.
+#[derive(Debug)]
+pub(super) enum PeriodicFriction {
+    Plane(PeriodicContact),
+    Cone {
+        law: Rc<ConeContacts>,
+        periodic: ConePeriodic,
+        /// `S`, row-major (T220), computed when first asked (a residual alone needs none).
+        jacobian: OnceCell<Vec<f64>>,
+        cells: usize,
+    },
+}
+
+impl Law {
+    pub(super) fn new(delassus: Vec<f64>, coordinates: FrictionCoordinates) -> Result<Self> {
+        Ok(if coordinates.cone {
+            Law::Cone(Rc::new(ConeContacts::new(delassus, coordinates.mu)?))
+        } else {
+            Law::Plane(FrictionalContacts::new(delassus, coordinates.mu)?)
+        })
+    }
+
+    pub(super) fn mu(&self) -> Vec<f64> {
+        match self {
+            Law::Plane(law) => law.mu().to_vec(),
+            Law::Cone(law) => law.mu().to_vec(),
+        }
+    }
+
+    /// The periodic state of the free gap `gamma` and its derivative (T155)–(T158), (T190),
+    /// (T220); `cells` as the laws' `periodic`.
+    pub(super) fn periodic(
+        &self,
+        harmonics: usize,
+        gamma: &[f64],
+        cells: usize,
+    ) -> Result<PeriodicFriction> {
+        Ok(match self {
+            Law::Plane(law) => PeriodicFriction::Plane(law.periodic(harmonics, gamma, cells)?),
+            Law::Cone(law) => {
+                PeriodicFriction::Cone {
+                    law: Rc::clone(law),
+                    periodic: {
+                        let clock = std::time::Instant::now();
+                        let p = law.periodic(harmonics, gamma, cells)?;
+                        eprintln!("PROBE periodic {:?} passes {} steps {} trials {} phases {} cells {cells}", clock.elapsed(), p.passes, p.steps, p.trial_steps, p.phases.len());
+                        p
+                    },
+                    jacobian: OnceCell::new(),
+                    cells,
+                }
+            }
+        })
+    }
+}
+
+/// The periodic state's values at one instant: the forces `λ`, the contact coordinates `y`
+/// and the contacts' states.
+pub(super) type StateAt = (Vec<f64>, Vec<f64>, Vec<ContactState>);
+
+impl PeriodicFriction {
+    /// `λ̂`, harmonic-major.
+    pub(super) fn forces(&self) -> &[f64] {
+        match self {
+            PeriodicFriction::Plane(p) => &p.forces,
+            PeriodicFriction::Cone { periodic, .. } => &periodic.forces,
+        }
+    }
+
+    /// `S = dλ̂/dγ̂`, row-major (T158), (T220).
+    pub(super) fn jacobian(&self) -> Result<&[f64]> {
+        match self {
+            PeriodicFriction::Plane(p) => Ok(&p.jacobian),
+            PeriodicFriction::Cone {
+                law,
+                periodic,
+                jacobian,
+                cells,
+            } => {
+                if jacobian.get().is_none() {
+                    let clock = std::time::Instant::now();
+                    let s = law.jacobian(periodic, *cells)?;
+                    eprintln!("PROBE jacobian {:?}", clock.elapsed());
+                    let _ = jacobian.set(s);
+                }
+                Ok(jacobian.get().expect("set above"))
+            }
+        }
+    }
+
+    /// The forces at `τ`.
+    pub(super) fn force_at(&self, tau: f64) -> Result<Vec<f64>> {
+        match self {
+            PeriodicFriction::Plane(p) => Ok(p.force_at(tau)),
+            PeriodicFriction::Cone { law, periodic, .. } => law.force_at(periodic, tau),
+        }
+    }
+
+    /// The state at each of `taus`.
+    pub(super) fn states_at(&self, taus: &[f64]) -> Result<Vec<StateAt>> {
+        match self {
+            PeriodicFriction::Plane(p) => Ok(taus
+                .iter()
+                .map(|&t| {
+                    let (lambda, y) = p.state_at(t);
+                    let modes = p.modes_at(t).iter().map(|&m| m.into()).collect();
+                    (lambda, y, modes)
+                })
+                .collect()),
+            PeriodicFriction::Cone { law, periodic, .. } => Ok(law
+                .states_at(periodic, taus)?
+                .into_iter()
+                .map(|s| (s.lambda, s.y, s.modes.into_iter().map(Into::into).collect()))
+                .collect()),
+        }
+    }
+
+    /// The energy the friction dissipates per period (T180), (T221).
+    pub(super) fn dissipated_energy(&self) -> Result<f64> {
+        match self {
+            PeriodicFriction::Plane(p) => Ok(p.dissipated_energy()),
+            PeriodicFriction::Cone { law, periodic, .. } => law.dissipated_energy(periodic),
+        }
+    }
+
+    pub(super) fn state_fractions(&self) -> Vec<StateFractions> {
+        match self {
+            PeriodicFriction::Plane(p) => p.state_fractions(),
+            PeriodicFriction::Cone { periodic, .. } => periodic.state_fractions(),
+        }
+    }
+
+    /// The plane law's state (its Floquet analysis, (T182)–(T184), exists for it alone).
+    pub(super) fn plane(&self) -> Option<&PeriodicContact> {
+        match self {
+            PeriodicFriction::Plane(p) => Some(p),
+            PeriodicFriction::Cone { .. } => None,
+        }
+    }
 }
 
 /// The dense Jacobian (T129) with the frictional law's `S = dλ̂/du` (T158):
@@ -80,13 +262,13 @@ pub(super) fn dense_jacobian(
     harmonics: usize,
     matrices: &FrequencyMatrices,
     residual_scale: &[f64],
-    law: &PeriodicContact,
+    law_jacobian: &[f64],
 ) -> Mat<f64> {
     use faer::linalg::matmul::matmul;
     use faer::{Accum, MatRef, Par};
     let ncoef = n_coefficients(harmonics);
     let size = n * ncoef;
-    let s = MatRef::from_row_major_slice(&law.jacobian, size, size);
+    let s = MatRef::from_row_major_slice(law_jacobian, size, size);
     let real_form = |k: usize, map: Map| -> (Mat<f64>, Mat<f64>) {
         let m = matrices.matrix(map, k);
         (
@@ -196,7 +378,8 @@ impl RedistributedMsHbm {
             (e.residual.clone(), e.forces.clone(), law)
         };
         let n = self.n();
-        let n_c = n / 2;
+        let cone = matches!(self.friction, Some(Law::Cone(_)));
+        let n_c = if cone { n / 3 } else { n / 2 };
         let h = self.harmonics;
         let ncoef = n_coefficients(h);
         let NodeHarmonics {
@@ -219,24 +402,32 @@ impl RedistributedMsHbm {
         let mut basis_buf = vec![0.0; ncoef];
         let contact = &self.contact;
         let mut cache: HashMap<u64, Vec<f64>> = HashMap::new();
+        // the law's first failure at an instant (the cone re-integrates its slip flow)
+        let failure: std::cell::RefCell<Option<Error>> = Default::default();
         let mut q_at = |i: usize, tau: f64| -> f64 {
             let key = tau.to_bits();
             if cache.len() >= MAX_CACHED_INSTANTS {
                 cache.clear();
             }
-            let lambda = cache.entry(key).or_insert_with(|| law.force_at(tau));
+            let lambda = cache.entry(key).or_insert_with(|| match law.force_at(tau) {
+                Ok(lambda) => lambda,
+                Err(e) => {
+                    failure.borrow_mut().get_or_insert(e);
+                    vec![f64::NAN; n]
+                }
+            });
             basis_into(h, tau, &mut basis_buf);
             let u: f64 = (0..ncoef)
                 .map(|m| basis_buf[m] * load_displacement[m * n_n + i])
                 .sum();
             u + contact.force_displacement_of(i, lambda)
         };
-        let states: Vec<(Vec<f64>, Vec<f64>)> =
-            if every_contact || matches!(location, DofLocation::Nonlinear(_)) {
-                taus.iter().map(|&t| law.state_at(t)).collect()
-            } else {
-                Vec::new()
-            };
+        let states: Vec<StateAt> = if every_contact || matches!(location, DofLocation::Nonlinear(_))
+        {
+            law.states_at(&taus)?
+        } else {
+            Vec::new()
+        };
         let mut extremes = |i: usize| -> (Vec<f64>, f64, f64) {
             let samples: Vec<f64> = taus.iter().map(|&t| q_at(i, t)).collect();
             let mx = refine_extremum(&taus, &samples, 1.0, |t| q_at(i, t));
@@ -245,11 +436,13 @@ impl RedistributedMsHbm {
         };
         let mut contacts = Vec::new();
         let mut frictions = Vec::new();
-        let mu = self
-            .friction
-            .as_ref()
-            .map(|f| f.mu().to_vec())
-            .unwrap_or_default();
+        let mu = self.friction.as_ref().map(Law::mu).unwrap_or_default();
+        let extreme = |v: &[f64]| {
+            (
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+            )
+        };
         for c in (0..n_c).filter(|_| every_contact) {
             let i = self.partition.contact_n_index(&self.system, c);
             let (displacement, max, min) = extremes(i);
@@ -257,19 +450,25 @@ impl RedistributedMsHbm {
                 dof: self.system.model_dof[self.system.contacts[c].w[0].0],
                 coefficients: n_dof_coefficients(&q_n, n_n, h, i),
                 displacement,
-                gap: states.iter().map(|(_, y)| y[c]).collect(),
-                force: states.iter().map(|(l, _)| l[c]).collect(),
+                gap: states.iter().map(|(_, y, _)| y[c]).collect(),
+                force: states.iter().map(|(l, _, _)| l[c]).collect(),
                 max,
                 min,
             });
-            let force: Vec<f64> = states.iter().map(|(l, _)| l[n_c + c]).collect();
+            let force: Vec<f64> = states.iter().map(|(l, _, _)| l[n_c + c]).collect();
+            let (max, min) = extreme(&force);
             frictions.push(FrictionSeries {
                 dof: self.system.model_dof[self.system.contacts[n_c + c].w[0].0],
-                max: force.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                min: force.iter().copied().fold(f64::INFINITY, f64::min),
-                limit: states.iter().map(|(l, _)| mu[c] * l[c]).collect(),
+                max,
+                min,
+                limit: states.iter().map(|(l, _, _)| mu[c] * l[c]).collect(),
                 force,
-                state: taus.iter().map(|&t| law.modes_at(t)[c].into()).collect(),
+                force2: if cone {
+                    states.iter().map(|(l, _, _)| l[2 * n_c + c]).collect()
+                } else {
+                    Vec::new()
+                },
+                state: states.iter().map(|(_, _, s)| s[c]).collect(),
             });
         }
         let response = dof_response(
@@ -283,10 +482,13 @@ impl RedistributedMsHbm {
                 (max, min)
             },
         );
+        if let Some(e) = failure.into_inner() {
+            return Err(e);
+        }
         let mut solution = self.solution_of(omega, &taus, &residual, contacts, frictions, response);
         solution.contact_node_harmonics = Some(q_n);
         solution.contact_dofs.truncate(n_c);
-        solution.dissipated_energy = Some(law.dissipated_energy());
+        solution.dissipated_energy = Some(law.dissipated_energy()?);
         solution.state_fractions = Some(law.state_fractions());
         Ok(solution)
     }

@@ -83,11 +83,17 @@ impl RedistributedMsHbm {
     /// period adds the neutral multiplier 1 of the family of its anchors, left out (T184).
     pub(super) fn frictional_floquet(&mut self, x: &[f64], omega: f64) -> Result<Option<Floquet>> {
         let reduced = self.stability_system()?;
-        let law: Rc<PeriodicContact> = self
+        let periodic = self
             .evaluation(x, omega)?
             .friction
             .clone()
             .expect("a frictional evaluation holds its law");
+        let Some(law) = periodic.plane() else {
+            return Err(Error::argument(
+                "stability",
+                "the Floquet multipliers of friction in the Coulomb cone (3D interfaces) are not implemented yet; compute the response without stability",
+            ));
+        };
         let r2 = 2 * reduced.dimension();
         let n_c = law.phases.first().map_or(0, |p| p.modes.len());
         let m = 2 * n_c;

@@ -15,7 +15,7 @@ use std::rc::Rc;
 use faer::{c64, Mat};
 
 use super::frequency_maps::{FrequencyMatrices, Map};
-use super::friction::PeriodicContact;
+use super::frictional::PeriodicFriction;
 use super::quadrature::Integration;
 use crate::harmonic::n_coefficients;
 use crate::problem::JacobianOperator;
@@ -391,7 +391,7 @@ pub(super) struct ContactJacobian {
     integration: Rc<Integration>,
     /// The frictional law whose `S = dλ̂/du` (T158) replaces the quadrature's force maps,
     /// when the contacts have friction.
-    law: Option<Rc<PeriodicContact>>,
+    law: Option<Rc<PeriodicFriction>>,
     /// The method's factors, shared with later linearizations.
     slot: PreconditionerSlot,
     /// The factors this operator preconditions with, and whether they are its own.
@@ -406,7 +406,7 @@ impl ContactJacobian {
         matrices: Rc<FrequencyMatrices>,
         residual_scale: Rc<Vec<f64>>,
         integration: Rc<Integration>,
-        law: Option<Rc<PeriodicContact>>,
+        law: Option<Rc<PeriodicFriction>>,
         slot: PreconditionerSlot,
     ) -> Self {
         let current = RefCell::new(slot.borrow().clone());
@@ -467,7 +467,8 @@ impl JacobianOperator for ContactJacobian {
         let forces = match &self.law {
             // (T133) with the frictional law: S u = dλ̂/du · u (T158), a dense product
             Some(law) => law
-                .jacobian
+                .jacobian()
+                .expect("the linearisation computed S for ∂R/∂ω first")
                 .chunks_exact(complement.len())
                 .map(|row| crate::dense::dot(row, &complement))
                 .collect(),
@@ -492,7 +493,8 @@ impl JacobianOperator for ContactJacobian {
                 self.harmonics,
                 &self.matrices,
                 &self.residual_scale,
-                law,
+                law.jacobian()
+                    .expect("the linearisation computed S for ∂R/∂ω first"),
             );
         }
         dense_jacobian(

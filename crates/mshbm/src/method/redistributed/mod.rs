@@ -295,7 +295,7 @@ pub struct RedistributedMsHbm {
     contact: StaticContact,
     /// Coulomb friction on the contacts (docs/theory.md §20): the law that replaces the
     /// static contact problem, on the coordinates `[normals; tangents]`.
-    friction: Option<friction::FrictionalContacts>,
+    friction: Option<frictional::Law>,
     /// `Λ` of the residual (T128): `‖Λ f‖ = ‖K_NN⁻¹ W f‖` (`n_c × n_c`, row-major).
     residual_scale: Rc<Vec<f64>>,
     /// The factors preconditioning the operator Jacobian (docs/theory.md §18).
@@ -414,9 +414,9 @@ impl RedistributedMsHbm {
             })?;
         let residual_scale = contact.displacement_scale()?;
         let friction = match friction {
-            Some(mu) => Some(friction::FrictionalContacts::new(
+            Some(coordinates) => Some(frictional::Law::new(
                 contact.delassus().to_vec(),
-                mu,
+                coordinates,
             )?),
             None => None,
         };
@@ -637,7 +637,20 @@ impl RedistributedMsHbm {
         }
         if e.dense_jacobian.is_none() {
             let jacobian = if let Some(law) = &e.friction {
-                frictional::dense_jacobian(n, self.harmonics, &matrices, &self.residual_scale, law)
+                let law_jacobian = match law.jacobian() {
+                    Ok(s) => s,
+                    Err(error) => {
+                        self.scratch = scratch;
+                        return Err(error);
+                    }
+                };
+                frictional::dense_jacobian(
+                    n,
+                    self.harmonics,
+                    &matrices,
+                    &self.residual_scale,
+                    law_jacobian,
+                )
             } else if n <= SMALL_INTERFACE_CONTACTS {
                 let mut jacobian = scratch
                     .spare_jacobian

@@ -76,6 +76,10 @@ struct ContactSection {
     mu: Option<f64>,
     tangent_dofs: Option<Vec<usize>>,
     tangent_w: Option<Vec<f64>>,
+    /// The second tangent of a contact in space: the friction force in the Coulomb cone
+    /// (docs/theory.md (T185)).
+    tangent2_dofs: Option<Vec<usize>>,
+    tangent2_w: Option<Vec<f64>>,
 }
 
 #[derive(Deserialize)]
@@ -337,9 +341,36 @@ pub(super) fn matrices_model(
     }
     let mut contacts = Vec::with_capacity(f.contacts.len());
     for (k, c) in f.contacts.into_iter().enumerate() {
+        if c.mu.is_none() && (c.tangent2_dofs.is_some() || c.tangent2_w.is_some()) {
+            return Err(Error::field(
+                path,
+                format!("contacts[{k}].tangent2_dofs"),
+                "a second tangent needs friction: `mu`, `tangent_dofs` and `tangent_w`",
+            ));
+        }
         let friction = match (c.mu, c.tangent_dofs, c.tangent_w) {
             (None, None, None) => None,
-            (Some(mu), Some(dofs), Some(w)) => Some(crate::model::ContactFriction { dofs, w, mu }),
+            (Some(mu), Some(dofs), Some(w)) => Some(crate::model::ContactFriction {
+                dofs,
+                w,
+                mu,
+                second: match (c.tangent2_dofs, c.tangent2_w) {
+                    (None, None) => None,
+                    (Some(dofs), Some(w)) => Some(crate::model::ContactTangent { dofs, w }),
+                    (dofs, _) => {
+                        let missing = if dofs.is_none() {
+                            "tangent2_dofs"
+                        } else {
+                            "tangent2_w"
+                        };
+                        return Err(Error::field(
+                            path,
+                            format!("contacts[{k}].{missing}"),
+                            "a second tangent needs both `tangent2_dofs` and `tangent2_w`",
+                        ));
+                    }
+                },
+            }),
             (mu, dofs, w) => {
                 let missing: Vec<&str> = [
                     (mu.is_none(), "mu"),

@@ -480,6 +480,15 @@ impl March<'_> {
             });
             if let Some((c, watch)) = event {
                 events += 1;
+                // the same contact's slip speed reaching 0 again at the same instant: the
+                // slip chosen there (T193) grazes (its speed touches 0 without turning
+                // negative); it sticks instead of choosing again, which would repeat
+                let repeated =
+                    recent
+                        .last()
+                        .is_some_and(|&(t, d, _, w): &(f64, usize, ConeMode, Watch)| {
+                            d == c && w == watch && (t - tau).abs() <= 1e-14 * 2.0 * PI
+                        });
                 recent.push((tau, c, modes[c], watch));
                 if recent.len() > 6 {
                     recent.remove(0);
@@ -497,10 +506,12 @@ impl March<'_> {
                     )));
                 }
                 self.switch(tau, c, watch, &mut modes, &mut anchors)?;
-                if matches!(watch, Watch::Cone | Watch::Speed) {
+                if matches!(watch, Watch::Cone | Watch::Speed) && !repeated {
                     self.choose_slip(tau, &mut modes, &anchors)?;
                 }
-                self.settle(tau, &mut modes, &mut anchors)?;
+                if !repeated {
+                    self.settle(tau, &mut modes, &mut anchors)?;
+                }
             }
         }
         Ok(Marched {

@@ -86,8 +86,11 @@ const MAX_EVENTS_PER_CONTACT: usize = 1000;
 mod flow;
 mod fourier;
 mod march;
+mod outputs;
 mod rates;
 mod tangent;
+
+pub use outputs::ConeState;
 
 use march::March;
 
@@ -120,6 +123,10 @@ impl ConeContacts {
 
     pub fn contacts(&self) -> usize {
         self.n
+    }
+
+    pub fn mu(&self) -> &[f64] {
+        &self.mu
     }
 
     fn d(&self, i: usize, j: usize) -> f64 {

@@ -8,10 +8,10 @@ use super::super::march::{Closed, March};
 use super::super::*;
 
 /// The regularisation of `1/|λ_T|` in the slip direction's variation (T215), as a fraction
-/// of the forces' scale: `|λ_T|/(|λ_T|² + ε²)`. It moves the tangent by about this much,
-/// relatively; much smaller values make the tangent flow too stiff for the explicit
-/// integrator near the apex (a contact closing straight into slip, or slipping into opening).
-const APEX: f64 = 1e-8;
+/// of the forces' scale: `|λ_T|/(|λ_T|² + ε²)`, which keeps the rates finite at the apex
+/// (a contact closing straight into slip, or slipping into opening); the tangent's implicit
+/// collocation (T222) integrates the stiff flow there.
+const APEX: f64 = 1e-12;
 
 /// The law's rates at one instant of a phase and their variations along the columns.
 pub(in super::super) struct Rates {
@@ -243,6 +243,12 @@ impl March<'_> {
     /// Integrate the slip phase `phase` with its tangents from its start to its end: the
     /// displacements at the end, and per column `δa` at the end (in `d_anchors`) and the
     /// integrals `∫ δa b_q` in the layout of `accumulate` (`2s` unused, then `2s (2H+1)`).
+    ///
+    /// The displacements follow DOP853 with error control; the tangent, linear in `δa`
+    /// (T215) and stiff where a slipping contact's `|λ_T|` is small, follows the 3-stage
+    /// Radau IIA collocation (L-stable, order 5) on the same steps (T222): at each stage the
+    /// rates' matrix `A(τ)` in the slipping contacts' `δa` and the part `b_j(τ)` of the
+    /// column's free gap and held displacements, then one linear system for all columns.
     pub(super) fn tangent_phase(
         &mut self,
         phase: &ConePhase,
@@ -250,125 +256,199 @@ impl March<'_> {
         d_anchors: &mut [Vec<f64>],
     ) -> Result<(Vec<f64>, Vec<Vec<f64>>)> {
         let n = self.law.n;
+        let m = 3 * n;
         let ncoef = n_coefficients(self.harmonics);
         let slipping = self.slipping(&phase.modes);
         let s = slipping.len();
         let ncol = d_gamma.len();
         let closed = self.closed(&phase.modes)?;
-        let block = 2 * s * (1 + ncoef);
-        let dim = 2 * s + ncol * block;
-        let mut anchors = phase.anchors.clone();
-        self.project_tangent(
-            phase.start,
-            &phase.modes,
-            &anchors,
-            &closed,
-            d_gamma,
-            d_anchors,
-        )?;
-        let mut x = vec![0.0; dim];
-        for (i, &c) in slipping.iter().enumerate() {
-            x[2 * i] = anchors[c];
-            x[2 * i + 1] = anchors[n + c];
-            for j in 0..ncol {
-                x[2 * s + j * block + 2 * i] = d_anchors[j][c];
-                x[2 * s + j * block + 2 * i + 1] = d_anchors[j][n + c];
-            }
-        }
         let modes = &phase.modes;
         let held = phase.anchors.clone();
-        let held_tangent: Vec<Vec<f64>> = d_anchors.to_vec();
+        self.project_tangent(phase.start, modes, &held, &closed, d_gamma, d_anchors)?;
+        // the slipping contacts' components, in the order of the state
+        let component: Vec<usize> = (0..2 * s)
+            .map(|k| {
+                if k % 2 == 0 {
+                    slipping[k / 2]
+                } else {
+                    n + slipping[k / 2]
+                }
+            })
+            .collect();
+        let mut x: Vec<f64> = component.iter().map(|&r| held[r]).collect();
         let this = &*self;
-        let unpack = |x: &[f64], a: &mut Vec<f64>, da: &mut Vec<Vec<f64>>| {
-            a.copy_from_slice(&held);
-            for j in 0..ncol {
-                da[j].copy_from_slice(&held_tangent[j]);
+        let unpack = |x: &[f64]| -> Vec<f64> {
+            let mut a = held.clone();
+            for (k, &r) in component.iter().enumerate() {
+                a[r] = x[k];
             }
-            for (i, &c) in slipping.iter().enumerate() {
-                a[c] = x[2 * i];
-                a[n + c] = x[2 * i + 1];
-                for j in 0..ncol {
-                    da[j][c] = x[2 * s + j * block + 2 * i];
-                    da[j][n + c] = x[2 * s + j * block + 2 * i + 1];
-                }
-            }
+            a
         };
-        let mut a_work = held.clone();
-        let mut da_work = held_tangent.clone();
-        let mut b = vec![0.0; ncoef];
         let mut f = |t: f64, x: &[f64], dx: &mut [f64]| -> Result<()> {
-            unpack(x, &mut a_work, &mut da_work);
-            let r = this.rates(t, modes, &a_work, &closed, d_gamma, &da_work)?;
-            basis_into(this.harmonics, t, &mut b);
-            for (i, &c) in slipping.iter().enumerate() {
-                dx[2 * i] = r.rate[c];
-                dx[2 * i + 1] = r.rate[n + c];
-            }
-            for j in 0..ncol {
-                let o = 2 * s + j * block;
-                for (i, &c) in slipping.iter().enumerate() {
-                    dx[o + 2 * i] = r.d_rate[j][c];
-                    dx[o + 2 * i + 1] = r.d_rate[j][n + c];
-                }
-                for i in 0..2 * s {
-                    let value = x[o + i];
-                    for q in 0..ncoef {
-                        dx[o + 2 * s + i * ncoef + q] = value * b[q];
-                    }
-                }
+            let r = this.rates(t, modes, &unpack(x), &closed, &[], &[])?;
+            for (k, &c) in component.iter().enumerate() {
+                dx[k] = r.rate[c];
             }
             Ok(())
         };
+        // the columns' parts that do not move: δγ̂ and the held contacts' δa
+        let held_columns: Vec<Vec<f64>> = d_anchors
+            .iter()
+            .map(|da| {
+                let mut da = da.clone();
+                component.iter().for_each(|&r| da[r] = 0.0);
+                da
+            })
+            .collect();
+        let unit_gamma = vec![vec![0.0; m * ncoef]; 2 * s];
+        let unit_anchors: Vec<Vec<f64>> = component
+            .iter()
+            .map(|&r| {
+                let mut e = vec![0.0; 2 * n];
+                e[r] = 1.0;
+                e
+            })
+            .collect();
+        let mut tangent: Vec<Vec<f64>> = d_anchors
+            .iter()
+            .map(|da| component.iter().map(|&r| da[r]).collect())
+            .collect();
+        let mut integrals = vec![vec![0.0; 2 * s * (1 + ncoef)]; ncol];
         let tolerance = Tolerance {
             relative: FLOW_TOLERANCE,
             absolute: FLOW_TOLERANCE * self.gamma_scale.max(f64::MIN_POSITIVE),
         };
-        let cell = 2.0 * PI / self.cells as f64;
-        let mut ode = Dop853::new(dim);
-        let mut next = vec![0.0; dim];
+        // a quarter of the law's cell: the collocation's error falls like the step's cube
+        // in the stiff transients (T222)
+        let cell = 2.0 * PI / self.cells as f64 / 4.0;
+        let mut ode = Dop853::new(2 * s);
+        let mut next = vec![0.0; 2 * s];
+        let mut basis = vec![0.0; ncoef];
         let (mut t, mut h) = (phase.start, cell);
         while t < phase.end {
             let length = h.min(phase.end - t).min(cell);
             let error = ode.step(&mut f, t, &x, length, &mut next, tolerance)?;
             if error <= 1.0 {
+                // the displacements at the stages, back on the cone, and the rates there
+                let mut stage_a = Vec::with_capacity(3);
+                for (i, c) in RADAU_C.iter().enumerate() {
+                    let tau = t + c * length;
+                    let mut xs = next.clone();
+                    if i < 2 {
+                        ode.step(&mut f, t, &x, c * length, &mut xs, tolerance)?;
+                    }
+                    let mut a = unpack(&xs);
+                    this.project(tau, modes, &mut a, &closed)?;
+                    stage_a.push(a);
+                }
+                let w = 2 * s;
+                let mut system = vec![0.0; 9 * w * w];
+                let mut rhs = Mat::<f64>::zeros(3 * w, ncol);
+                for (i, a) in stage_a.iter().enumerate() {
+                    let tau = t + RADAU_C[i] * length;
+                    let by_columns = this.rates(tau, modes, a, &closed, d_gamma, &held_columns)?;
+                    let by_units =
+                        this.rates(tau, modes, a, &closed, &unit_gamma, &unit_anchors)?;
+                    // row block i of (I − h a_ik A_k): column block k gets A_k's entries
+                    for k in 0..3 {
+                        for (q, units) in by_units.d_rate.iter().enumerate() {
+                            for (p, &r) in component.iter().enumerate() {
+                                let entry = -length * RADAU_A[k][i] * units[r];
+                                system[(k * w + p) * 3 * w + i * w + q] += entry;
+                            }
+                        }
+                    }
+                    for j in 0..ncol {
+                        for (p, &r) in component.iter().enumerate() {
+                            let b = by_columns.d_rate[j][r];
+                            for k in 0..3 {
+                                rhs[(k * w + p, j)] += length * RADAU_A[k][i] * b;
+                            }
+                        }
+                    }
+                }
+                for d in 0..3 * w {
+                    system[d * 3 * w + d] += 1.0;
+                }
+                for j in 0..ncol {
+                    for k in 0..3 {
+                        for p in 0..w {
+                            rhs[(k * w + p, j)] += tangent[j][p];
+                        }
+                    }
+                }
+                let stages = solve_small_lu_columns(&system, rhs.as_ref(), 1e-14).map_err(|_| {
+                    Error::Numerical(format!(
+                        "friction cone: the tangent's collocation system is singular at τ = {t} (T222)"
+                    ))
+                })?;
+                for (i, c) in RADAU_C.iter().enumerate() {
+                    basis_into(this.harmonics, t + c * length, &mut basis);
+                    let weight = length * RADAU_A[2][i];
+                    for j in 0..ncol {
+                        for p in 0..w {
+                            let value = weight * stages[(i * w + p, j)];
+                            for q in 0..ncoef {
+                                integrals[j][w + p * ncoef + q] += value * basis[q];
+                            }
+                        }
+                    }
+                }
                 t = if length == phase.end - t {
                     phase.end
                 } else {
                     t + length
                 };
-                x.copy_from_slice(&next);
                 // back on the cone as in the law's march, the tangents with it
-                let mut a = held.clone();
-                let mut da = held_tangent.clone();
-                unpack(&x, &mut a, &mut da);
+                let mut a = stage_a.pop().expect("three stages");
+                let mut da: Vec<Vec<f64>> = held_columns.clone();
+                for j in 0..ncol {
+                    for (p, &r) in component.iter().enumerate() {
+                        da[j][r] = stages[(2 * w + p, j)];
+                    }
+                }
                 this.project(t, modes, &mut a, &closed)?;
                 this.project_tangent(t, modes, &a, &closed, d_gamma, &mut da)?;
-                for (i, &c) in slipping.iter().enumerate() {
-                    x[2 * i] = a[c];
-                    x[2 * i + 1] = a[n + c];
+                for (k, &r) in component.iter().enumerate() {
+                    x[k] = a[r];
                     for j in 0..ncol {
-                        x[2 * s + j * block + 2 * i] = da[j][c];
-                        x[2 * s + j * block + 2 * i + 1] = da[j][n + c];
+                        tangent[j][k] = da[j][r];
                     }
                 }
             }
             h = Dop853::next_step(length, error);
             if h <= 1e-15 {
                 return Err(Error::Numerical(format!(
-                    "friction cone: the tangent flow's step fell below round-off at τ = {t} \
+                    "friction cone: the slip flow's step fell below round-off at τ = {t} \
                      (phase {} to {}, modes {:?})",
                     phase.start, phase.end, phase.modes
                 )));
             }
         }
-        let mut da = held_tangent.clone();
-        unpack(&x, &mut anchors, &mut da);
-        let mut integrals = vec![vec![0.0; 2 * s * (1 + ncoef)]; ncol];
+        let anchors = unpack(&x);
         for j in 0..ncol {
-            integrals[j][2 * s..]
-                .copy_from_slice(&x[2 * s + j * block + 2 * s..2 * s + (j + 1) * block]);
+            for (p, &r) in component.iter().enumerate() {
+                d_anchors[j][r] = tangent[j][p];
+            }
         }
-        d_anchors.clone_from_slice(&da);
         Ok((anchors, integrals))
     }
 }
+
+/// The 3-stage Radau IIA collocation (T222): nodes `c` and coefficients `a` (its last row
+/// the quadrature weights).
+const SQRT6: f64 = 2.449_489_742_783_178;
+const RADAU_C: [f64; 3] = [(4.0 - SQRT6) / 10.0, (4.0 + SQRT6) / 10.0, 1.0];
+const RADAU_A: [[f64; 3]; 3] = [
+    [
+        (88.0 - 7.0 * SQRT6) / 360.0,
+        (296.0 - 169.0 * SQRT6) / 1800.0,
+        (-2.0 + 3.0 * SQRT6) / 225.0,
+    ],
+    [
+        (296.0 + 169.0 * SQRT6) / 1800.0,
+        (88.0 + 7.0 * SQRT6) / 360.0,
+        (-2.0 - 3.0 * SQRT6) / 225.0,
+    ],
+    [(16.0 - SQRT6) / 36.0, (16.0 + SQRT6) / 36.0, 1.0 / 9.0],
+];
