@@ -150,19 +150,12 @@ impl Law {
     ) -> Result<PeriodicFriction> {
         Ok(match self {
             Law::Plane(law) => PeriodicFriction::Plane(law.periodic(harmonics, gamma, cells)?),
-            Law::Cone(law) => {
-                PeriodicFriction::Cone {
-                    law: Rc::clone(law),
-                    periodic: {
-                        let clock = std::time::Instant::now();
-                        let p = law.periodic(harmonics, gamma, cells)?;
-                        eprintln!("PROBE periodic {:?} passes {} steps {} trials {} phases {} cells {cells}", clock.elapsed(), p.passes, p.steps, p.trial_steps, p.phases.len());
-                        p
-                    },
-                    jacobian: OnceCell::new(),
-                    cells,
-                }
-            }
+            Law::Cone(law) => PeriodicFriction::Cone {
+                law: Rc::clone(law),
+                periodic: law.periodic(harmonics, gamma, cells)?,
+                jacobian: OnceCell::new(),
+                cells,
+            },
         })
     }
 }
@@ -191,10 +184,7 @@ impl PeriodicFriction {
                 cells,
             } => {
                 if jacobian.get().is_none() {
-                    let clock = std::time::Instant::now();
-                    let s = law.jacobian(periodic, *cells)?;
-                    eprintln!("PROBE jacobian {:?}", clock.elapsed());
-                    let _ = jacobian.set(s);
+                    let _ = jacobian.set(law.jacobian(periodic, *cells)?);
                 }
                 Ok(jacobian.get().expect("set above"))
             }
