@@ -234,3 +234,93 @@ fn bad_abaqus_inputs_are_refused_naming_file_line_and_field() {
     assert!(e.contains("DOF 3 appears in none"), "{e}");
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// `examples/bar_matrices` copied to a scratch directory with the Harwell–Boeing fixtures
+/// of `tests/data/matrix_formats` (written by SciPy, `tools/matrix-formats`); returns the
+/// directory.
+fn bar_with_harwell_boeing(name: &str) -> PathBuf {
+    let dir = scratch(name);
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/matrix_formats");
+    for from in [examples().join("bar_matrices"), data] {
+        for e in std::fs::read_dir(from).unwrap() {
+            let p = e.unwrap().path();
+            std::fs::copy(&p, dir.join(p.file_name().unwrap())).unwrap();
+        }
+    }
+    let toml = std::fs::read_to_string(dir.join("model.toml")).unwrap();
+    let hb = toml
+        .replace("\"mass.mtx\"", "\"bar_mass.rsa\"")
+        .replace("\"stiffness.mtx\"", "\"bar_stiffness.rua\"");
+    assert_ne!(hb, toml);
+    std::fs::write(dir.join("hb.toml"), hb).unwrap();
+    dir
+}
+
+#[test]
+fn harwell_boeing_files_written_by_scipy_give_the_matrix_market_model() {
+    let dir = bar_with_harwell_boeing("hb-same");
+    let a = load_model(&dir.join("model.toml"), &[]).unwrap();
+    let b = load_model(&dir.join("hb.toml"), &[]).unwrap();
+    // SciPy writes 17 significant digits: the matrices are the same numbers
+    assert!(b.stiffness == a.stiffness, "the stiffness (RUA) differs");
+    assert!(b.mass == a.mass, "the mass (RSA, lower triangle) differs");
+    assert_eq!(a.mass.nrows(), 101);
+    // the format named instead of recognised
+    let named = std::fs::read_to_string(dir.join("hb.toml"))
+        .unwrap()
+        .replace("[matrices]", "[matrices]\nformat = \"harwell_boeing\"");
+    std::fs::write(dir.join("named.toml"), named).unwrap();
+    let c = load_model(&dir.join("named.toml"), &[]).unwrap();
+    assert!(c.stiffness == a.stiffness && c.mass == a.mass);
+    // a periodic solution with contact (the paper's bar at 30 kHz) is the same
+    let method = MethodSettings::redistributed(5);
+    let settings = SolveSettings {
+        stability: false,
+        ..SolveSettings::default()
+    };
+    let sa = solve_periodic(&a, &method, 30000.0, &settings).unwrap();
+    let sb = solve_periodic(&b, &method, 30000.0, &settings).unwrap();
+    assert!(sa.outcome.converged && sb.outcome.converged);
+    assert_eq!(sa.solution.unknowns, sb.solution.unknowns);
+    assert!(sa.solution.contacts[0].force.iter().any(|&p| p > 0.0));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_harwell_boeing_files_are_refused_naming_file_line_and_field() {
+    let dir = bar_with_harwell_boeing("hb-bad");
+    let rsa = std::fs::read_to_string(dir.join("bar_mass.rsa")).unwrap();
+    let err = |text: &str| {
+        std::fs::write(dir.join("bar_mass.rsa"), text).unwrap();
+        load_model(&dir.join("hb.toml"), &[])
+            .unwrap_err()
+            .to_string()
+    };
+    // a value that is not a number, on the first line of values (line 5 + 6 + 11 = 22)
+    let mut lines: Vec<String> = rsa.lines().map(String::from).collect();
+    lines[21].replace_range(3..6, "x.y");
+    let e = err(&lines.join("\n"));
+    assert!(
+        e.contains("bar_mass.rsa, line 22") && e.contains("value"),
+        "{e}"
+    );
+    // a complex matrix
+    let e = err(&rsa.replacen("RSA", "CSA", 1));
+    assert!(e.contains("line 3") && e.contains("complex"), "{e}");
+    // a mass in another format than the stiffness
+    std::fs::write(dir.join("bar_mass.rsa"), &rsa).unwrap();
+    let toml = std::fs::read_to_string(dir.join("hb.toml")).unwrap();
+    std::fs::write(
+        dir.join("mixed.toml"),
+        toml.replace("\"bar_mass.rsa\"", "\"mass.mtx\""),
+    )
+    .unwrap();
+    let e = load_model(&dir.join("mixed.toml"), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("matrices.mass") && e.contains("one format"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -30,10 +30,11 @@
 //!                         # next to a contact, as beta_linear does (docs/theory.md (T121))
 //!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
 //!   ```
-//! * `kind = "matrices"` — a general model from Matrix Market files, or from Abaqus
+//! * `kind = "matrices"` — a general model from Matrix Market files, from Abaqus
 //!   `*MATRIX OUTPUT` files ([`crate::model::abaqus_matrix`]: `node, DOF, node, DOF,
-//!   value` lines, nodes numbered by increasing label), chosen by `matrices.format`
-//!   (`"matrix_market"`, `"abaqus"`) or, without it, by each file's content (paths
+//!   value` lines, nodes numbered by increasing label) or from Harwell–Boeing files
+//!   ([`crate::model::harwell_boeing`]), chosen by `matrices.format` (`"matrix_market"`,
+//!   `"abaqus"`, `"harwell_boeing"`) or, without it, by each file's content (paths
 //!   relative to the model file and inside its directory tree unless
 //!   [`LoadOptions::allow_outside_paths`]; DOFs numbered from 0, DOF = node *
 //!   dofs_per_node + component; with Abaqus matrices component = Abaqus DOF − 1 and
@@ -44,7 +45,7 @@
 //!   mass = "M.mtx"
 //!   stiffness = "K.mtx"
 //!   # damping = "C.mtx"
-//!   # format = "abaqus"         # default: by content
+//!   # format = "abaqus"         # or "matrix_market", "harwell_boeing"; default: by content
 //!   [mesh]
 //!   dofs_per_node = 1
 //!   coordinates = "nodes.txt"   # one node per line, 1-3 numbers; or inline [[x], [x], ...]

@@ -18,6 +18,7 @@ pub mod excerpt;
 pub mod export;
 pub mod file;
 pub mod gmsh;
+pub mod harwell_boeing;
 mod input_files;
 pub mod interface;
 pub mod lattice;

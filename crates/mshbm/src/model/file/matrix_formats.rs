@@ -1,8 +1,11 @@
 //! The `[matrices]` of a `kind = "matrices"` model in their file formats: Matrix Market
 //! ([`crate::model::matrix_market`]) or Abaqus `*MATRIX OUTPUT` files
-//! ([`crate::model::abaqus_matrix`]), chosen by `format = "matrix_market" | "abaqus"`, or,
-//! without it, by each file's content: a file starting with `%%MatrixMarket` is Matrix
-//! Market, one whose first data line has five comma-separated fields is Abaqus. The
+//! ([`crate::model::abaqus_matrix`]) or Harwell–Boeing files
+//! ([`crate::model::harwell_boeing`]), chosen by `format = "matrix_market" | "abaqus" |
+//! "harwell_boeing"`, or, without it, by each file's content: a file starting with `%%` is
+//! Matrix Market, one whose first data line has five comma-separated fields is Abaqus, one
+//! whose third line starts with a type code such as `RSA` is Harwell–Boeing, any other is
+//! read as Matrix Market (whose errors say what it expected). The
 //! mass, stiffness and damping are all of one format. Abaqus matrices carry node labels:
 //! their [`DofMap`] numbers the nodes by increasing label and is returned, so that contacts
 //! and node sets can be given by label.
@@ -16,6 +19,7 @@ use crate::limits::Limits;
 use crate::model::abaqus_matrix::{
     assemble, looks_like_abaqus_matrix, parse_abaqus_matrix, DofMap, LabelledMatrix,
 };
+use crate::model::harwell_boeing::{looks_like_harwell_boeing, parse_harwell_boeing};
 use crate::model::input_files::InputFiles;
 use crate::model::matrix_market::{declared_dimensions, parse_matrix_with};
 use crate::model::MODEL_BYTES_PER_DOF;
@@ -27,6 +31,7 @@ use crate::sparse::SparseMatrix;
 pub(super) enum MatrixFormat {
     MatrixMarket,
     Abaqus,
+    HarwellBoeing,
 }
 
 #[derive(Deserialize)]
@@ -129,10 +134,14 @@ pub(super) fn read_model_matrices(
     for &(field, name) in &files {
         let (full, text) = inputs.read(field, name)?;
         let format = section.format.unwrap_or_else(|| {
-            if text.trim_start().starts_with("%%") || !looks_like_abaqus_matrix(&text) {
+            if text.trim_start().starts_with("%%") {
                 MatrixFormat::MatrixMarket
-            } else {
+            } else if looks_like_abaqus_matrix(&text) {
                 MatrixFormat::Abaqus
+            } else if looks_like_harwell_boeing(&text) {
+                MatrixFormat::HarwellBoeing
+            } else {
+                MatrixFormat::MatrixMarket
             }
         });
         texts.push((field, full, text, format));
@@ -154,6 +163,36 @@ pub(super) fn read_model_matrices(
         MatrixFormat::MatrixMarket => {
             for (field, full, text, _) in &texts {
                 let a = read_matrix_market(path, field, full, text, &limits)?;
+                check_symmetric(path, field, full, &a)?;
+                matrices.push(a);
+            }
+            None
+        }
+        MatrixFormat::HarwellBoeing => {
+            for (field, full, text, _) in &texts {
+                let a = parse_harwell_boeing(text, full, &limits)?;
+                if a.nrows() != a.ncols() {
+                    return Err(Error::field(
+                        path,
+                        *field,
+                        format!(
+                            "{} is {}×{}, not square",
+                            full.display(),
+                            a.nrows(),
+                            a.ncols()
+                        ),
+                    ));
+                }
+                limits.check_items(
+                    &format!(
+                        "{}: field `{field}`: {} is {2}×{2}; a model of that many DOFs",
+                        path.display(),
+                        full.display(),
+                        a.nrows()
+                    ),
+                    a.nrows() as u64,
+                    MODEL_BYTES_PER_DOF,
+                )?;
                 check_symmetric(path, field, full, &a)?;
                 matrices.push(a);
             }
