@@ -340,6 +340,38 @@ impl Harness {
         }
     }
 
+    /// The models of the `abaqus_matrix`, `harwell_boeing` and `binary_mesh` targets load
+    /// with a seed as it is (so that a mutated seed reaches the model's checks).
+    pub fn check_format_seeds(&self) {
+        let gmsh = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gmsh");
+        for (folder, name, seed, model) in [
+            (
+                "abaqus_matrix",
+                "stiffness.mtx",
+                corpus().join("abaqus_matrices/chain_STIF2.mtx"),
+                "model.toml",
+            ),
+            (
+                "harwell_boeing",
+                "stiffness.rua",
+                self.root.join("harwell_boeing/bar_stiffness.rua"),
+                "model.toml",
+            ),
+            (
+                "mesh",
+                "mesh_binary.msh",
+                gmsh.join("box_tet10_binary.msh"),
+                "model_binary.toml",
+            ),
+        ] {
+            let dir = self.root.join(folder);
+            std::fs::copy(&seed, dir.join(name)).unwrap();
+            if let Err(e) = load_model_with(&dir.join(model), &[], &self.options) {
+                panic!("{folder} seed {}: {e}", seed.display());
+            }
+        }
+    }
+
     /// The input of case `rng` for `target`.
     pub fn input(&self, target: &str, rng: &mut Rng) -> Input {
         match target {
