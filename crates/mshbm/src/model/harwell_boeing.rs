@@ -325,7 +325,7 @@ pub fn parse_harwell_boeing(text: &str, file: &Path, limits: &Limits) -> Result<
             .checked_mul(f.count)
             .is_some_and(|capacity| count <= capacity)
     };
-    let np = ncol.checked_add(1).unwrap_or(usize::MAX);
+    let np = ncol.saturating_add(1);
     if !fits(np, ptrcrd, ptr_format)
         || !fits(nnz, indcrd, ind_format)
         || val_format.is_some_and(|f| !fits(nnz, valcrd, f))
