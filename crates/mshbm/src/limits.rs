@@ -356,6 +356,32 @@ pub fn read_bounded(
     limit_name: &str,
     bytes_per_byte: u64,
 ) -> Result<String> {
+    let bytes = read_bounded_bytes(path, limits, max_bytes, limit_name, bytes_per_byte)?;
+    String::from_utf8(bytes).map_err(|e| {
+        Error::io(
+            path,
+            format!(
+                "not UTF-8 text (invalid byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
+/// Read a file as [`read_text_file`] does, as bytes (a binary mesh), without the UTF-8
+/// check.
+pub fn read_binary_file(path: &Path, limits: &Limits) -> Result<Vec<u8>> {
+    read_bounded_bytes(path, limits, limits.file_bytes, "the input file limit", 1)
+}
+
+/// The bytes of [`read_bounded`], before its UTF-8 check.
+fn read_bounded_bytes(
+    path: &Path,
+    limits: &Limits,
+    max_bytes: u64,
+    limit_name: &str,
+    bytes_per_byte: u64,
+) -> Result<Vec<u8>> {
     let before = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
     if !before.is_file() {
         return Err(Error::io(path, not_regular(&before)));
@@ -399,15 +425,7 @@ pub fn read_bounded(
             "the file grew beyond the input file limit while it was read",
         ));
     }
-    String::from_utf8(bytes).map_err(|e| {
-        Error::io(
-            path,
-            format!(
-                "not UTF-8 text (invalid byte at offset {})",
-                e.utf8_error().valid_up_to()
-            ),
-        )
-    })
+    Ok(bytes)
 }
 
 /// Why a file that is not a regular file is refused.

@@ -1,7 +1,8 @@
 //! Smoke run of the fuzz campaign (`tests/fuzz/mod.rs`; the campaign itself,
 //! ≥ 10⁵ inputs per target, is `tools/fuzz-inputs`): the model reader, the Matrix Market
 //! reader, the contact and gap tables a model names, `--set` overrides, Gmsh meshes, Abaqus input files and
-//! `--from-solution` JSON, each fed inputs mutated from a committed seed corpus
+//! `--from-solution` JSON, and (a second test, 10⁵ inputs) Abaqus and Harwell–Boeing
+//! matrices and binary Gmsh meshes, each fed inputs mutated from a committed seed corpus
 //! (`tests/fuzz_corpus/` and the examples) by a deterministic generator. Every input must
 //! give `Ok` or `Err` — never a panic — within 2 s (a watchdog ends the run after 10 s),
 //! with a memory budget of 16 MiB.
@@ -62,7 +63,7 @@ fn campaign(harness: &Harness, watchdog: &Watchdog, target: &str, cases: u64) {
 #[test]
 fn every_reader_returns_ok_or_err_on_mutated_inputs() {
     let scale = env("MSHBM_FUZZ_CASES", 1);
-    let scratch = tempfile_dir();
+    let scratch = tempfile_dir("readers");
     let harness = Harness::new(&scratch, 16 << 20);
     harness.check_seeds();
     let watchdog = Watchdog::new(Duration::from_secs(10));
@@ -80,8 +81,29 @@ fn every_reader_returns_ok_or_err_on_mutated_inputs() {
     let _ = std::fs::remove_dir_all(&scratch);
 }
 
-fn tempfile_dir() -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("mshbm-fuzz-{}", std::process::id()));
+/// The readers of the commercial codes' matrix formats and of binary Gmsh meshes: 10⁵
+/// inputs in all, one target after the other (run in parallel, they slowed the test
+/// above beyond its time limit per input on a loaded machine), each reader's ok/err
+/// balance checked as above.
+#[test]
+fn matrix_format_and_binary_mesh_readers_return_ok_or_err_on_mutated_inputs() {
+    let scale = env("MSHBM_FUZZ_CASES", 1);
+    let scratch = tempfile_dir("formats");
+    let harness = Harness::new(&scratch, 16 << 20);
+    harness.check_format_seeds();
+    let watchdog = Watchdog::new(Duration::from_secs(10));
+    for (target, cases) in [
+        ("abaqus_matrix", 40_000),
+        ("harwell_boeing", 40_000),
+        ("binary_mesh", 20_000),
+    ] {
+        campaign(&harness, &watchdog, target, cases * scale);
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+}
+
+fn tempfile_dir(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("mshbm-fuzz-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }

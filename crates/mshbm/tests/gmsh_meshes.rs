@@ -300,3 +300,73 @@ fn the_bracket_example_redistributes_its_stop_face() {
         assert!((ours - readme).abs() < 1e-3, "{ours} vs {readme}");
     }
 }
+
+/// The binary twins of the test meshes (written by Gmsh itself from the ASCII files,
+/// tools/gmsh-meshes/make_binary_meshes.py) are read as the same mesh and give the same
+/// model, matrices and contacts included.
+#[test]
+fn binary_meshes_give_the_systems_of_their_ascii_twins() {
+    use mshbm::model::gmsh::parse_msh_bytes;
+    let scratch = std::env::temp_dir().join(format!("mshbm-binary-msh-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).unwrap();
+    for name in ["box_tet10", "plate_tri6", "box_hex20"] {
+        let ascii = std::fs::read(data(&format!("{name}.msh"))).unwrap();
+        let binary = std::fs::read(data(&format!("{name}_binary.msh"))).unwrap();
+        assert!(binary.contains(&0u8), "{name}: the twin is binary");
+        let a = parse_msh(std::str::from_utf8(&ascii).unwrap()).unwrap();
+        let b = parse_msh_bytes(&binary).unwrap();
+        assert_eq!(b.dimension, a.dimension, "{name}");
+        assert_eq!(b.node_tags, a.node_tags, "{name}");
+        assert_eq!(b.coordinates, a.coordinates, "{name}");
+        assert_eq!(b.cells, a.cells, "{name}");
+        assert_eq!(b.groups, a.groups, "{name}");
+        // the same model: the model file with the binary mesh
+        let toml = std::fs::read_to_string(data(&format!("{name}.toml"))).unwrap();
+        std::fs::write(scratch.join(format!("{name}_binary.msh")), &binary).unwrap();
+        let twin = toml.replace(&format!("{name}.msh"), &format!("{name}_binary.msh"));
+        assert_ne!(twin, toml);
+        std::fs::write(scratch.join("twin.toml"), twin).unwrap();
+        let ma = load_model(&data(&format!("{name}.toml")), &[]).unwrap();
+        let mb = load_model(&scratch.join("twin.toml"), &[]).unwrap();
+        assert!(mb.stiffness == ma.stiffness, "{name}: stiffness");
+        assert!(mb.mass == ma.mass, "{name}: mass");
+        assert_eq!(mb.harmonic_load, ma.harmonic_load, "{name}");
+        assert_eq!(mb.dirichlet, ma.dirichlet, "{name}");
+        let contacts = |m: &mshbm::Model| -> Vec<(Vec<usize>, Vec<f64>, f64)> {
+            m.contacts
+                .iter()
+                .map(|c| (c.dofs.clone(), c.w.clone(), c.gap))
+                .collect()
+        };
+        assert_eq!(contacts(&mb), contacts(&ma), "{name}");
+        // cut anywhere, the binary file is refused with the byte offset, never a panic
+        for cut in (0..binary.len()).step_by(97) {
+            let e = parse_msh_bytes(&binary[..cut]);
+            assert!(e.is_err(), "{name} cut at {cut}");
+        }
+        let mut big = binary.clone();
+        big[20] = 2; // the byte-order check
+        let e = parse_msh_bytes(&big).unwrap_err().to_string();
+        assert!(e.contains("byte 20") && e.contains("byte-order"), "{e}");
+    }
+    let _ = std::fs::remove_dir_all(&scratch);
+}
+
+/// Binary files in either byte order and with a 4- or 8-byte `size_t`, written by a
+/// Python writer of their own (tools/gmsh-meshes/make_binary_seeds.py), are the
+/// one-tetrahedron mesh of their ASCII twin.
+#[test]
+fn binary_meshes_in_either_byte_order_and_size() {
+    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz_corpus");
+    let ascii = std::fs::read_to_string(corpus.join("meshes/tiny_tet.msh")).unwrap();
+    let a = parse_msh(&ascii).unwrap();
+    for name in ["le8", "be8", "le4"] {
+        let bytes =
+            std::fs::read(corpus.join(format!("meshes_binary/tiny_tet_{name}.msh"))).unwrap();
+        let b = mshbm::model::gmsh::parse_msh_bytes(&bytes).unwrap();
+        assert_eq!(b.coordinates, a.coordinates, "{name}");
+        assert_eq!(b.node_tags, a.node_tags, "{name}");
+        assert_eq!(b.cells, a.cells, "{name}");
+        assert_eq!(b.groups, a.groups, "{name}");
+    }
+}

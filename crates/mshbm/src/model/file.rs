@@ -30,21 +30,28 @@
 //!                         # next to a contact, as beta_linear does (docs/theory.md (T121))
 //!   # first_mode_ratio = 0.01   # sets alpha = 2 zeta w1 (instead of alpha)
 //!   ```
-//! * `kind = "matrices"` — a general model from Matrix Market files (paths relative to the
-//!   model file and inside its directory tree unless [`LoadOptions::allow_outside_paths`];
-//!   DOFs numbered from 0, DOF = node * dofs_per_node + component):
+//! * `kind = "matrices"` — a general model from Matrix Market files, from Abaqus
+//!   `*MATRIX OUTPUT` files ([`crate::model::abaqus_matrix`]: `node, DOF, node, DOF,
+//!   value` lines, nodes numbered by increasing label) or from Harwell–Boeing files
+//!   ([`crate::model::harwell_boeing`]), chosen by `matrices.format` (`"matrix_market"`,
+//!   `"abaqus"`, `"harwell_boeing"`) or, without it, by each file's content (paths
+//!   relative to the model file and inside its directory tree unless
+//!   [`LoadOptions::allow_outside_paths`]; DOFs numbered from 0, DOF = node *
+//!   dofs_per_node + component; with Abaqus matrices component = Abaqus DOF − 1 and
+//!   `dofs_per_node` defaults to the largest DOF number):
 //!   ```toml
 //!   kind = "matrices"
 //!   [matrices]
 //!   mass = "M.mtx"
 //!   stiffness = "K.mtx"
 //!   # damping = "C.mtx"
+//!   # format = "abaqus"         # or "matrix_market", "harwell_boeing"; default: by content
 //!   [mesh]
 //!   dofs_per_node = 1
 //!   coordinates = "nodes.txt"   # one node per line, 1-3 numbers; or inline [[x], [x], ...]
 //!   dirichlet = [0]
 //!   [[contacts]]                # g = sum_i w_i q_{dofs_i} + gap >= 0
-//!   dofs = [100]
+//!   dofs = [100]                # or, with Abaqus matrices, node_dofs = [[label, dof]]
 //!   w = [-1.0]
 //!   gap = 0.2
 //!   # mu = 0.3                  # Coulomb friction along a tangent (redistributed MS-HBM,
@@ -54,7 +61,8 @@
 //!   # tangent2_w = [1.0]        # first): the friction force in the Coulomb cone (T185)
 //!   # contacts_file = "contacts.csv"   # more contacts, one per line: gap, dof, w[, dof, w …]
 //!   # [[node_sets]]             # named node sets: nodes = [..], or file = "set.csv" (node
-//!   # name = "stop"             # numbers separated by commas, blanks or line breaks)
+//!   # name = "stop"             # numbers separated by commas, blanks or line breaks), or
+//!   #                           # labels = [..] (node labels of Abaqus matrices)
 //!   # file = "stop_nodes.csv"
 //!   # [[interfaces]]            # contact interfaces of many nodes on node sets, as for
 //!   # name = "stop"             # kind = "solid" (crate::model::solid): obstacle or pairs
@@ -107,6 +115,7 @@ use crate::model::overrides::apply_override;
 use crate::model::Model;
 
 mod matrices;
+mod matrix_formats;
 
 use matrices::{matrices_model, MatricesFile};
 

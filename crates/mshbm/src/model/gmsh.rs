@@ -1,5 +1,6 @@
 //! Reader of Gmsh meshes, MSH 4.1 ASCII (the format `gmsh -3 -format msh41 part.geo`
-//! writes, and the default of current Gmsh versions), for `kind = "mesh"` model files
+//! writes, and the default of current Gmsh versions) and binary ([`parse_msh_bytes`],
+//! module `binary`), for `kind = "mesh"` model files
 //! ([`crate::model::mesh`]; docs/theory.md §21).
 //!
 //! What is read: `$MeshFormat` (4.1, ASCII), `$PhysicalNames`, `$Entities` (which physical
@@ -17,12 +18,13 @@
 //! a data size it does not support, and its errors carry no line numbers. Here no count
 //! read from the file sizes an allocation (vectors grow with the entries actually read,
 //! and the text is bounded by the input file limit), every error names the line, and
-//! nothing panics on any input (tests/fuzz_readers.rs). Binary
-//! MSH files are refused with a message saying how to write ASCII.
+//! nothing panics on any input (tests/fuzz_readers.rs).
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use crate::fe::mesh::{CellKind, Cells, NodeSets};
+
+mod binary;
 
 /// A Gmsh mesh as a model uses it.
 #[derive(Clone, Debug)]
@@ -166,6 +168,39 @@ struct ElementBlock {
     nodes: Vec<u64>,
 }
 
+/// Parse an MSH 4.1 file, ASCII or binary: the `$MeshFormat` header (text in both)
+/// decides.
+pub fn parse_msh_bytes(bytes: &[u8]) -> Parse<GmshMesh> {
+    if let Some((format_at, size_t)) = binary_header(bytes) {
+        return binary::parse_binary(bytes, format_at, size_t);
+    }
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse_msh(text),
+        Err(e) => fail(
+            0,
+            format!(
+                "neither an ASCII MSH file (invalid UTF-8 at byte {}) nor a binary one (a `$MeshFormat` line, then `4.1 1 8`)",
+                e.valid_up_to()
+            ),
+        ),
+    }
+}
+
+/// When `bytes` start (after blank lines) with `$MeshFormat` and the line `4.1 1 <data
+/// size>`: the offset of that line and the data size.
+fn binary_header(bytes: &[u8]) -> Option<(usize, usize)> {
+    let start = bytes.iter().position(|b| !b.is_ascii_whitespace())?;
+    let rest = bytes[start..].strip_prefix(b"$MeshFormat")?;
+    let line_at = start + b"$MeshFormat".len() + rest.iter().position(|&b| b == b'\n')? + 1;
+    let end = bytes[line_at..].iter().position(|&b| b == b'\n')?;
+    let line = std::str::from_utf8(&bytes[line_at..line_at + end]).ok()?;
+    let f: Vec<&str> = line.split_whitespace().collect();
+    match f[..] {
+        ["4.1", "1", size] => Some((line_at, size.parse().ok()?)),
+        _ => None,
+    }
+}
+
 /// Parse the text of an MSH 4.1 ASCII file.
 pub fn parse_msh(text: &str) -> Parse<GmshMesh> {
     let mut lines = Lines {
@@ -196,7 +231,7 @@ pub fn parse_msh(text: &str) -> Parse<GmshMesh> {
                 if f.get(1) != Some(&"0") {
                     return fail(
                         m,
-                        "binary MSH files are not read yet; save the mesh as ASCII (Gmsh: Mesh.Binary = 0, the default)",
+                        "a binary MSH file given as text: read its bytes (`parse_msh_bytes`)",
                     );
                 }
                 lines.end("MeshFormat")?;

@@ -7,7 +7,7 @@
 use std::path::{Component, Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::limits::{read_text_file, Limits};
+use crate::limits::{read_binary_file, read_text_file, Limits};
 use crate::model::excerpt::excerpt;
 
 /// How a model file is read.
@@ -54,6 +54,20 @@ impl<'a> InputFiles<'a> {
     /// Read the file `name` of field `field`: returns the path as the user knows it (the
     /// model file's directory joined with `name`, for messages) and the text.
     pub(crate) fn read(&mut self, field: &str, name: &str) -> Result<(PathBuf, String)> {
+        self.read_with(field, name, read_text_file)
+    }
+
+    /// [`InputFiles::read`] of a file that may be binary: its bytes.
+    pub(crate) fn read_bytes(&mut self, field: &str, name: &str) -> Result<(PathBuf, Vec<u8>)> {
+        self.read_with(field, name, read_binary_file)
+    }
+
+    fn read_with<T>(
+        &mut self,
+        field: &str,
+        name: &str,
+        read: fn(&Path, &Limits) -> Result<T>,
+    ) -> Result<(PathBuf, T)> {
         let joined = self.resolve(field, name)?;
         let canonical = joined
             .canonicalize()
@@ -68,7 +82,7 @@ impl<'a> InputFiles<'a> {
             }
         }
         // read the canonical path, so that the file checked is the file read
-        let text = read_text_file(&canonical, self.limits()).map_err(|e| match e {
+        let text = read(&canonical, self.limits()).map_err(|e| match e {
             Error::Io { message, .. } => self.unreadable(field, &joined, message),
             other => other,
         })?;

@@ -1,4 +1,4 @@
-//! `kind = "mesh"` model files: a linear-elastic solid meshed in Gmsh (an MSH 4.1 ASCII
+//! `kind = "mesh"` model files: a linear-elastic solid meshed in Gmsh (an MSH 4.1 ASCII or binary
 //! file read by [`crate::model::gmsh`]) or written as an Abaqus input file (a file ending
 //! in `.inp`, the subset read by [`crate::model::abaqus`]): triangles or quadrilaterals in
 //! 2D, linear or quadratic tetrahedra or hexahedra in 3D, docs/theory.md §21, whose
@@ -11,7 +11,7 @@
 //! kind = "mesh"
 //! name = "bracket"
 //! [mesh]
-//! file = "bracket.msh"          # relative to this file; MSH 4.1 ASCII, or Abaqus `.inp`
+//! file = "bracket.msh"          # relative to this file; MSH 4.1 ASCII or binary, or Abaqus `.inp`
 //! young = 2.1e5                 # [MPa], with the mesh's length unit in mm
 //! poisson = 0.3
 //! density = 7.85e-9             # [t/mm^3]
@@ -54,7 +54,7 @@ use crate::error::{Error, Result};
 use crate::fe::solid::{assemble_plane, assemble_solid, ElasticMaterial, PlaneKind};
 use crate::fe::structured::StructuredMesh;
 use crate::model::abaqus::parse_inp;
-use crate::model::gmsh::parse_msh;
+use crate::model::gmsh::parse_msh_bytes;
 use crate::model::input_files::InputFiles;
 use crate::model::interface::InterfaceSection;
 use crate::model::solid::{build_solid_model, Conditions, DirichletSection, LoadSection};
@@ -104,18 +104,20 @@ const ASSEMBLY_BYTES_PER_ENTRY: u64 = 48;
 /// Build the model of a `kind = "mesh"` file (module docs).
 pub(super) fn mesh_model(f: MeshFile, path: &Path, inputs: &mut InputFiles) -> Result<Model> {
     let s = &f.mesh;
-    let (shown, text) = inputs.read("mesh.file", &s.file)?;
-    // the reader by the file's extension: `.inp` Abaqus, anything else Gmsh
+    // the reader by the file's extension: `.inp` Abaqus, anything else Gmsh (ASCII or
+    // binary)
     let abaqus = Path::new(&s.file)
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("inp"));
-    let mesh = if abaqus {
-        parse_inp(&text)
+    let (shown, mesh) = if abaqus {
+        let (shown, text) = inputs.read("mesh.file", &s.file)?;
+        (shown, parse_inp(&text))
     } else {
-        parse_msh(&text)
-    }
-    .map_err(|e| Error::field(path, "mesh.file", format!("{}, {e}", shown.display())))?;
-    drop(text);
+        let (shown, bytes) = inputs.read_bytes("mesh.file", &s.file)?;
+        (shown, parse_msh_bytes(&bytes))
+    };
+    let mesh =
+        mesh.map_err(|e| Error::field(path, "mesh.file", format!("{}, {e}", shown.display())))?;
     let d = mesh.dimension;
     // the model's memory before the matrices are assembled
     let per_cell = (mesh.cells.kind.nodes_per_cell() * d) as u64;

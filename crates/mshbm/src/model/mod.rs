@@ -10,6 +10,7 @@
 //! DOFs are numbered from 0; DOF `node * dofs_per_node + component`.
 
 pub mod abaqus;
+pub mod abaqus_matrix;
 pub mod bar;
 mod damping_section;
 pub mod dropped_bar;
@@ -17,6 +18,7 @@ pub mod excerpt;
 pub mod export;
 pub mod file;
 pub mod gmsh;
+pub mod harwell_boeing;
 mod input_files;
 pub mod interface;
 pub mod lattice;

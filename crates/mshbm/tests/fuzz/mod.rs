@@ -3,7 +3,7 @@
 //! (`examples/fuzz_inputs.rs`, run by `tools/fuzz-inputs`, ≥ 10⁵ inputs per target with a
 //! per-input time limit and a per-input peak-memory check).
 //!
-//! Seven targets, each fed inputs mutated from seeds (byte flips, random insertions,
+//! Ten targets, each fed inputs mutated from seeds (byte flips, random insertions,
 //! deletions, duplicated lines, splices from another seed, numbers replaced by extreme
 //! values) by a deterministic generator: case `c` of seed `s` is always the same input, so
 //! a finding is replayed alone.
@@ -20,6 +20,15 @@
 //!   `kind = "mesh"` model (clamped, loaded and in contact on its groups) and assembled;
 //! * `inp`: an Abaqus input file (tests/data/abaqus and `tests/fuzz_corpus/abaqus/`)
 //!   parsed alone, every fourth also read as the mesh of the same model;
+//! * `abaqus_matrix`: an Abaqus `*MATRIX OUTPUT` file (`tests/fuzz_corpus/abaqus_matrices/`)
+//!   parsed and assembled by its DOF map, every sixteenth also read as the stiffness of a
+//!   `kind = "matrices"` model whose contact names a node by label;
+//! * `harwell_boeing`: a Harwell–Boeing file (`tests/fuzz_corpus/harwell_boeing/` and
+//!   `tests/data/matrix_formats/`) parsed alone, every sixteenth also read as the stiffness
+//!   of the bar;
+//! * `binary_mesh`: a binary MSH 4.1 file (`tests/fuzz_corpus/meshes_binary/` and the
+//!   binary twins in tests/data/gmsh) parsed alone, every sixteenth also read as the mesh
+//!   of the `mesh` target's model;
 //! * `solution`: a `--from-solution` JSON (a solution of the bar written by `solve --json`,
 //!   mutated mostly near the fields a start uses), parsed, checked against the bar
 //!   (`PeriodicSolution::unusable_start`), resized to H and solved from, as `mshbm solve
@@ -31,7 +40,9 @@ use std::path::{Path, PathBuf};
 
 use mshbm::limits::Limits;
 use mshbm::method::settings::MethodSettings;
+use mshbm::model::abaqus_matrix::{assemble, parse_abaqus_matrix, DofMap};
 use mshbm::model::file::{load_model_with, parse_model_with};
+use mshbm::model::harwell_boeing::parse_harwell_boeing;
 use mshbm::model::matrix_market::parse_matrix_with;
 use mshbm::model::LoadOptions;
 use mshbm::solution::{MethodKind, PeriodicSolution};
@@ -54,6 +65,9 @@ pub const TARGETS: &[&str] = &[
     "mesh",
     "inp",
     "solution",
+    "abaqus_matrix",
+    "harwell_boeing",
+    "binary_mesh",
 ];
 
 fn corpus() -> PathBuf {
@@ -109,6 +123,9 @@ enum Run {
     Solution { harmonics: usize },
     Mesh { as_model: bool },
     Inp { as_model: bool },
+    AbaqusMatrix { as_model: bool },
+    HarwellBoeing { as_model: bool },
+    BinaryMesh { as_model: bool },
 }
 
 /// The seeds, a scratch directory with the files they reference (removed on drop), and
@@ -119,6 +136,9 @@ pub struct Harness {
     matrices: Vec<Vec<u8>>,
     meshes: Vec<Vec<u8>>,
     inps: Vec<Vec<u8>>,
+    abaqus_matrices: Vec<Vec<u8>>,
+    harwell_boeing: Vec<Vec<u8>>,
+    binary_meshes: Vec<Vec<u8>>,
     tables: Vec<TableSeed>,
     solution: Vec<u8>,
     bar: Model,
@@ -223,6 +243,46 @@ impl Harness {
         )
         .unwrap();
 
+        // the new matrix formats and binary meshes, with the models they are read by
+        let seeds_in = |dir: &Path| -> Vec<Vec<u8>> {
+            files_in(dir)
+                .iter()
+                .map(|p| std::fs::read(p).unwrap())
+                .collect()
+        };
+        let abaqus_matrices = seeds_in(&corpus().join("abaqus_matrices"));
+        std::fs::create_dir_all(root.join("abaqus_matrix")).unwrap();
+        std::fs::copy(
+            corpus().join("abaqus_matrices/chain_MASS2.mtx"),
+            root.join("abaqus_matrix/mass.mtx"),
+        )
+        .unwrap();
+        std::fs::write(root.join("abaqus_matrix/model.toml"), ABAQUS_MODEL).unwrap();
+        let matrix_formats =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/matrix_formats");
+        let mut harwell_boeing = seeds_in(&corpus().join("harwell_boeing"));
+        harwell_boeing.extend(seeds_in(&matrix_formats));
+        copy_all(
+            &examples().join("bar_matrices"),
+            &root.join("harwell_boeing"),
+        );
+        copy_all(&matrix_formats, &root.join("harwell_boeing"));
+        std::fs::write(
+            root.join("harwell_boeing/model.toml"),
+            std::fs::read_to_string(examples().join("bar_matrices/model.toml"))
+                .unwrap()
+                .replace("\"mass.mtx\"", "\"bar_mass.rsa\"")
+                .replace("\"stiffness.mtx\"", "\"stiffness.rua\""),
+        )
+        .unwrap();
+        let mut binary_meshes = seeds_in(&corpus().join("meshes_binary"));
+        binary_meshes.push(std::fs::read(gmsh.join("plate_tri6_binary.msh")).unwrap());
+        std::fs::write(
+            root.join("mesh/model_binary.toml"),
+            MESH_MODEL.replace("mesh.msh", "mesh_binary.msh"),
+        )
+        .unwrap();
+
         let tables_dir = root.join("tables");
         let table = |model: &str, name: &'static str| TableSeed {
             model: tables_dir.join(model),
@@ -258,6 +318,9 @@ impl Harness {
             matrices,
             meshes,
             inps,
+            abaqus_matrices,
+            harwell_boeing,
+            binary_meshes,
             tables,
             solution,
             bar,
@@ -273,6 +336,38 @@ impl Harness {
         for t in &self.tables {
             if let Err(e) = load_model_with(&t.model, &[], &self.options) {
                 panic!("table seed {}: {e}", t.model.display());
+            }
+        }
+    }
+
+    /// The models of the `abaqus_matrix`, `harwell_boeing` and `binary_mesh` targets load
+    /// with a seed as it is (so that a mutated seed reaches the model's checks).
+    pub fn check_format_seeds(&self) {
+        let gmsh = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gmsh");
+        for (folder, name, seed, model) in [
+            (
+                "abaqus_matrix",
+                "stiffness.mtx",
+                corpus().join("abaqus_matrices/chain_STIF2.mtx"),
+                "model.toml",
+            ),
+            (
+                "harwell_boeing",
+                "stiffness.rua",
+                self.root.join("harwell_boeing/bar_stiffness.rua"),
+                "model.toml",
+            ),
+            (
+                "mesh",
+                "mesh_binary.msh",
+                gmsh.join("box_tet10_binary.msh"),
+                "model_binary.toml",
+            ),
+        ] {
+            let dir = self.root.join(folder);
+            std::fs::copy(&seed, dir.join(name)).unwrap();
+            if let Err(e) = load_model_with(&dir.join(model), &[], &self.options) {
+                panic!("{folder} seed {}: {e}", seed.display());
             }
         }
     }
@@ -372,6 +467,25 @@ impl Harness {
                     },
                 }
             }
+            "abaqus_matrix" | "harwell_boeing" | "binary_mesh" => {
+                let seeds = match target {
+                    "abaqus_matrix" => &self.abaqus_matrices,
+                    "harwell_boeing" => &self.harwell_boeing,
+                    _ => &self.binary_meshes,
+                };
+                let seed = &seeds[rng.below(seeds.len())];
+                let other = &seeds[rng.below(seeds.len())];
+                // a model load costs milliseconds, a parse microseconds
+                let as_model = rng.below(16) == 0;
+                Input {
+                    bytes: mutate(seed, other, rng),
+                    run: match target {
+                        "abaqus_matrix" => Run::AbaqusMatrix { as_model },
+                        "harwell_boeing" => Run::HarwellBoeing { as_model },
+                        _ => Run::BinaryMesh { as_model },
+                    },
+                }
+            }
             other => panic!("unknown target {other:?} (one of {TARGETS:?})"),
         }
     }
@@ -429,6 +543,41 @@ impl Harness {
                 }
                 ok
             }
+            Run::AbaqusMatrix { as_model } => {
+                let text = text();
+                let file = Path::new("fuzzed.mtx");
+                let ok = parse_abaqus_matrix(&text, file, &self.options.limits)
+                    .and_then(|m| {
+                        let map = DofMap::new(&[(file, &m)], None)?;
+                        assemble(&m, &map, file)
+                    })
+                    .is_ok();
+                if *as_model {
+                    self.load_with("abaqus_matrix", "stiffness.mtx", &input.bytes, "model.toml");
+                }
+                ok
+            }
+            Run::HarwellBoeing { as_model } => {
+                let ok =
+                    parse_harwell_boeing(&text(), Path::new("fuzzed.rua"), &self.options.limits)
+                        .is_ok();
+                if *as_model {
+                    self.load_with(
+                        "harwell_boeing",
+                        "stiffness.rua",
+                        &input.bytes,
+                        "model.toml",
+                    );
+                }
+                ok
+            }
+            Run::BinaryMesh { as_model } => {
+                let ok = mshbm::model::gmsh::parse_msh_bytes(&input.bytes).is_ok();
+                if *as_model {
+                    self.load_with("mesh", "mesh_binary.msh", &input.bytes, "model_binary.toml");
+                }
+                ok
+            }
             Run::Inp { as_model } => {
                 let ok = mshbm::model::abaqus::parse_inp(&text()).is_ok();
                 if *as_model {
@@ -439,6 +588,13 @@ impl Harness {
                 ok
             }
         }
+    }
+
+    /// Write `bytes` as `name` in the scratch folder `folder` and load the model file
+    /// `model` there (its outcome does not matter: only that it returns).
+    fn load_with(&self, folder: &str, name: &str, bytes: &[u8], model: &str) {
+        std::fs::write(self.root.join(folder).join(name), bytes).unwrap();
+        let _ = load_model_with(&self.root.join(folder).join(model), &[], &self.options);
     }
 
     /// `mshbm solve examples/clamped_bar.toml --harmonics H --from-solution FILE` in
@@ -498,6 +654,28 @@ kind = "obstacle"
 set = "tip"
 normal = [-1.0, 0.0, 0.0]
 gap = 0.001
+"#;
+
+/// The model file the `abaqus_matrix` target reads a stiffness with: the chain of
+/// `tests/fuzz_corpus/abaqus_matrices/` (labels 11 to 14, two DOFs), its last node
+/// against a stop by label.
+const ABAQUS_MODEL: &str = r#"
+kind = "matrices"
+[matrices]
+stiffness = "stiffness.mtx"
+mass = "mass.mtx"
+[mesh]
+coordinates = [[0.0], [1.0], [2.0], [3.0]]
+dirichlet = [0, 1]
+[[contacts]]
+node_dofs = [[14, 1]]
+w = [-1.0]
+gap = 0.1
+[[node_sets]]
+name = "tip"
+labels = [14]
+[load]
+harmonic = [[6, 1.0]]
 "#;
 
 /// The dotted paths of the leaves of a TOML document (array elements by index) and of its

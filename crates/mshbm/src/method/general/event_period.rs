@@ -30,6 +30,9 @@ use crate::dense::mat_vec;
 use crate::error::Result;
 
 mod march;
+mod sample;
+
+use sample::modal_exponentials;
 
 pub(super) use march::integrate;
 
@@ -185,6 +188,8 @@ struct Scratch {
     v: Vec<f64>,
     f: Vec<f64>,
     r: Vec<f64>,
+    /// `∂y(θ)/∂p` of a sample (`m × p`, column-major).
+    ds: Vec<f64>,
 }
 
 impl<'a> Integration<'a> {
@@ -295,13 +300,11 @@ impl<'a> Integration<'a> {
         let mut s = self.particular_with(e, iv.set);
         let tau = theta - iv.start;
         let v = a.flow.modes();
-        let growth: Vec<c64> = a
-            .flow
-            .eigenvalues
-            .iter()
-            .zip(&iv.coefficients)
-            .map(|(l, c)| c * (l * tau).exp())
-            .collect();
+        let mut growth = Vec::with_capacity(iv.coefficients.len());
+        modal_exponentials(&a.flow.eigenvalues, tau, &mut growth);
+        for (g, c) in growth.iter_mut().zip(&iv.coefficients) {
+            *g = c * *g;
+        }
         for (i, si) in s.iter_mut().enumerate() {
             *si += growth
                 .iter()
@@ -321,7 +324,8 @@ impl<'a> Integration<'a> {
         let tau = theta - iv.start;
         let v = a.flow.modes();
         let m2 = a.flow.reduced();
-        let growth: Vec<c64> = a.flow.eigenvalues.iter().map(|l| (l * tau).exp()).collect();
+        let mut growth = Vec::with_capacity(a.flow.eigenvalues.len());
+        modal_exponentials(&a.flow.eigenvalues, tau, &mut growth);
         for i in 0..m2 {
             for j in 0..self.n_params {
                 let mut acc = 0.0;
@@ -371,14 +375,10 @@ impl<'a> Integration<'a> {
         let p = &a.particular;
         sc.s.extend((0..m2).map(|i| p.iter().zip(e).map(|(pk, e)| (pk[i] * e).re).sum::<f64>()));
         let tau = theta - iv.start;
-        sc.growth.clear();
-        sc.growth.extend(
-            a.flow
-                .eigenvalues
-                .iter()
-                .zip(&iv.coefficients)
-                .map(|(l, c)| c * (l * tau).exp()),
-        );
+        modal_exponentials(&a.flow.eigenvalues, tau, &mut sc.growth);
+        for (g, c) in sc.growth.iter_mut().zip(&iv.coefficients) {
+            *g = c * *g;
+        }
         let v = a.flow.modes();
         for (i, si) in sc.s.iter_mut().enumerate() {
             *si += sc

@@ -5,7 +5,7 @@
 //! closed form.
 
 use faer::linalg::solvers::Solve;
-use faer::{c64, Mat};
+use faer::{c64, Mat, MatMut, MatRef};
 
 use crate::dense::mat_vec;
 use crate::error::{Error, Result};
@@ -269,6 +269,19 @@ impl SetFlow {
                 bottom[(i - n, j)]
             }
         })
+    }
+
+    /// `N X` (`m × p` → `n × p`: the position rows of [`SetFlow::expand_rows`]) into
+    /// `out`, on the calling thread and without allocating.
+    pub fn expand_positions_into(&self, x: MatRef<'_, f64>, out: MatMut<'_, f64>) {
+        faer::linalg::matmul::matmul(
+            out,
+            faer::Accum::Replace,
+            self.null.as_ref(),
+            x,
+            1.0,
+            faer::Par::Seq,
+        );
     }
 
     /// The acceleration `G r` for the unbalanced force `r = F − K q − C q̇`.

@@ -7,11 +7,13 @@ use serde::Deserialize;
 
 use super::super::damping_section::DampingSection;
 use crate::error::{Error, Result};
-use crate::limits::Limits;
+use crate::model::abaqus_matrix::DofMap;
 use crate::model::excerpt::data_excerpt;
 use crate::model::input_files::InputFiles;
 use crate::model::matrix_market::{declared_dimensions, parse_matrix_with};
 use crate::model::{Contact, Friction, FrictionNormal, Model, MODEL_BYTES_PER_DOF};
+
+use super::matrix_formats::{read_model_matrices, MatricesSection, ModelMatrices};
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -38,14 +40,6 @@ pub(super) struct MatricesFile {
 }
 
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MatricesSection {
-    mass: String,
-    stiffness: String,
-    damping: Option<String>,
-}
-
-#[derive(Deserialize)]
 #[serde(untagged)]
 enum Coordinates {
     File(String),
@@ -55,26 +49,26 @@ enum Coordinates {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MeshSection {
-    #[serde(default = "one")]
-    dofs_per_node: usize,
+    /// DOFs per node: 1 when absent, or with Abaqus matrices the largest DOF number.
+    dofs_per_node: Option<usize>,
     coordinates: Coordinates,
     #[serde(default)]
     dirichlet: Vec<usize>,
 }
 
-fn one() -> usize {
-    1
-}
-
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ContactSection {
+    /// Matrix indices; or `node_dofs`, pairs `[node label, DOF]` of Abaqus matrices.
+    #[serde(default)]
     dofs: Vec<usize>,
+    node_dofs: Option<Vec<(u64, usize)>>,
     w: Vec<f64>,
     gap: f64,
     /// Coulomb friction along the tangent `tangent_dofs`/`tangent_w` (docs/theory.md §20).
     mu: Option<f64>,
     tangent_dofs: Option<Vec<usize>>,
+    tangent_node_dofs: Option<Vec<(u64, usize)>>,
     tangent_w: Option<Vec<f64>>,
     /// The second tangent of a contact in space: the friction force in the Coulomb cone
     /// (docs/theory.md (T185)).
@@ -87,6 +81,8 @@ struct ContactSection {
 struct NodeSetSection {
     name: String,
     nodes: Option<Vec<usize>>,
+    /// Node labels of Abaqus matrices.
+    labels: Option<Vec<u64>>,
     file: Option<String>,
 }
 
@@ -111,29 +107,6 @@ struct LoadSection {
     constant_file: Option<String>,
     acceleration: Option<Vec<f64>>,
 }
-/// Check the matrix in `text` (of `file`, field `field` of the model file `path`) declares
-/// no more rows and columns than a model of that many DOFs could hold in memory
-/// ([`MODEL_BYTES_PER_DOF`]), before it is parsed.
-fn check_declared_dofs(
-    path: &Path,
-    field: &str,
-    file: &Path,
-    text: &str,
-    limits: &Limits,
-) -> Result<(usize, usize)> {
-    let (rows, cols) = declared_dimensions(text, file)?;
-    limits.check_items(
-        &format!(
-            "{}: field `{field}`: {} declares a {rows}×{cols} matrix; a model of that many DOFs",
-            path.display(),
-            file.display()
-        ),
-        rows.max(cols) as u64,
-        MODEL_BYTES_PER_DOF,
-    )?;
-    Ok((rows, cols))
-}
-
 fn read_vector(
     inputs: &mut InputFiles,
     path: &Path,
@@ -228,78 +201,20 @@ fn read_coordinates(inputs: &mut InputFiles, path: &Path, file: &str) -> Result<
     Ok(out)
 }
 
-/// Read a square symmetric matrix; errors name the model file, the field and the matrix file.
-fn read_square_symmetric(
-    inputs: &mut InputFiles,
-    path: &Path,
-    field: &str,
-    file: &str,
-) -> Result<crate::sparse::SparseMatrix> {
-    let (full, text) = inputs.read(field, file)?;
-    let (rows, cols) = check_declared_dofs(path, field, &full, &text, inputs.limits())?;
-    if rows != cols {
-        return Err(Error::field(
-            path,
-            field,
-            format!("{} is {rows}×{cols}, not square", full.display()),
-        ));
-    }
-    let a = parse_matrix_with(&text, &full, inputs.limits())?;
-    if let Some((i, j)) = a.asymmetry(1e-10) {
-        return Err(Error::field(
-            path,
-            field,
-            format!(
-                "{} is not symmetric: entry ({}, {}) = {:e} but ({}, {}) = {:e} (1-based)",
-                full.display(),
-                i + 1,
-                j + 1,
-                a.get(i, j),
-                j + 1,
-                i + 1,
-                a.get(j, i)
-            ),
-        ));
-    }
-    Ok(a)
-}
-
 pub(super) fn matrices_model(
     f: MatricesFile,
     path: &Path,
     inputs: &mut InputFiles,
 ) -> Result<Model> {
-    let stiffness =
-        read_square_symmetric(inputs, path, "matrices.stiffness", &f.matrices.stiffness)?;
-    let mass = read_square_symmetric(inputs, path, "matrices.mass", &f.matrices.mass)?;
-    let damping_matrix = f
-        .matrices
-        .damping
+    let ModelMatrices {
+        stiffness,
+        mass,
+        damping: damping_matrix,
+        dof_map,
+    } = read_model_matrices(inputs, path, &f.matrices, f.mesh.dofs_per_node)?;
+    let dofs_per_node = dof_map
         .as_ref()
-        .map(|c| read_square_symmetric(inputs, path, "matrices.damping", c))
-        .transpose()?;
-    for (field, file, a) in [("matrices.mass", &f.matrices.mass, &mass)]
-        .into_iter()
-        .chain(
-            f.matrices
-                .damping
-                .as_ref()
-                .zip(damping_matrix.as_ref())
-                .map(|(file, a)| ("matrices.damping", file, a)),
-        )
-    {
-        if a.nrows() != stiffness.nrows() {
-            return Err(Error::field(
-                path,
-                field,
-                format!(
-                    "{file} is {0}×{0}, the stiffness matrix is {1}×{1}",
-                    a.nrows(),
-                    stiffness.nrows()
-                ),
-            ));
-        }
-    }
+        .map_or(f.mesh.dofs_per_node.unwrap_or(1), |m| m.dofs_per_node);
     let n = stiffness.nrows();
     let coordinates = match &f.mesh.coordinates {
         Coordinates::File(file) => read_coordinates(inputs, path, file)?,
@@ -348,7 +263,20 @@ pub(super) fn matrices_model(
                 "a second tangent needs friction: `mu`, `tangent_dofs` and `tangent_w`",
             ));
         }
-        let friction = match (c.mu, c.tangent_dofs, c.tangent_w) {
+        let field = format!("contacts[{k}]");
+        let dofs = by_label(path, &field, "dofs", c.dofs, c.node_dofs, &dof_map)?;
+        let tangent_dofs = match (c.tangent_dofs, c.tangent_node_dofs) {
+            (None, None) => None,
+            (d, l) => Some(by_label(
+                path,
+                &field,
+                "tangent_dofs",
+                d.unwrap_or_default(),
+                l,
+                &dof_map,
+            )?),
+        };
+        let friction = match (c.mu, tangent_dofs, c.tangent_w) {
             (None, None, None) => None,
             (Some(mu), Some(dofs), Some(w)) => Some(crate::model::ContactFriction {
                 dofs,
@@ -392,7 +320,7 @@ pub(super) fn matrices_model(
             }
         };
         contacts.push(Contact {
-            dofs: c.dofs,
+            dofs,
             w: c.w,
             gap: c.gap,
             friction,
@@ -404,14 +332,17 @@ pub(super) fn matrices_model(
     let mut node_sets = crate::fe::mesh::NodeSets::new();
     for (k, sec) in f.node_sets.iter().enumerate() {
         let field = format!("node_sets[{k}]");
-        let nodes = match (&sec.nodes, &sec.file) {
-            (Some(list), None) => list.clone(),
-            (None, Some(file)) => read_node_list(inputs, path, &format!("{field}.file"), file)?,
+        let nodes = match (&sec.nodes, &sec.labels, &sec.file) {
+            (Some(list), None, None) => list.clone(),
+            (None, Some(labels), None) => nodes_of_labels(path, &field, labels, &dof_map)?,
+            (None, None, Some(file)) => {
+                read_node_list(inputs, path, &format!("{field}.file"), file)?
+            }
             _ => {
                 return Err(Error::field(
                     path,
                     field,
-                    "give exactly one of `nodes` and `file`",
+                    "give exactly one of `nodes`, `labels` and `file`",
                 ))
             }
         };
@@ -440,7 +371,7 @@ pub(super) fn matrices_model(
         &crate::model::interface::InterfaceMesh {
             x: &coordinates,
             node_sets: &node_sets,
-            dofs_per_node: f.mesh.dofs_per_node,
+            dofs_per_node,
             dirichlet: &dirichlet_sorted,
         },
         contacts.len(),
@@ -460,7 +391,7 @@ pub(super) fn matrices_model(
         stiffness,
         damping_matrix,
         coordinates,
-        dofs_per_node: f.mesh.dofs_per_node,
+        dofs_per_node,
         dirichlet: f.mesh.dirichlet,
         contacts,
         harmonic_load,
@@ -471,6 +402,82 @@ pub(super) fn matrices_model(
     };
     model.validate()?;
     Ok(model)
+}
+
+/// The matrix indices of a contact's `name` (`dofs`) or `tangent_…` field: the indices
+/// given, or the `[node label, DOF]` pairs of `node_…` mapped by the DOF map of Abaqus
+/// matrices ([`DofMap::index`]); exactly one of the two.
+fn by_label(
+    path: &Path,
+    field: &str,
+    name: &str,
+    dofs: Vec<usize>,
+    pairs: Option<Vec<(u64, usize)>>,
+    map: &Option<DofMap>,
+) -> Result<Vec<usize>> {
+    let node_name = name.replace("dofs", "node_dofs");
+    let Some(pairs) = pairs else {
+        return Ok(dofs);
+    };
+    if !dofs.is_empty() {
+        return Err(Error::field(
+            path,
+            format!("{field}.{node_name}"),
+            format!("give either `{name}` or `{node_name}`, not both"),
+        ));
+    }
+    let Some(map) = map else {
+        return Err(Error::field(
+            path,
+            format!("{field}.{node_name}"),
+            "`[node label, DOF]` pairs need matrices with node labels (Abaqus format); give matrix indices in `dofs`",
+        ));
+    };
+    pairs
+        .iter()
+        .map(|&(label, dof)| {
+            map.index(label, dof).ok_or_else(|| {
+                Error::field(
+                    path,
+                    format!("{field}.{node_name}"),
+                    format!(
+                        "node {label}, DOF {dof} is not in the matrices (nodes {}…{}, DOFs 1 to {})",
+                        map.labels.first().copied().unwrap_or(0),
+                        map.labels.last().copied().unwrap_or(0),
+                        map.dofs_per_node
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
+/// Model node numbers of node labels of Abaqus matrices.
+fn nodes_of_labels(
+    path: &Path,
+    field: &str,
+    labels: &[u64],
+    map: &Option<DofMap>,
+) -> Result<Vec<usize>> {
+    let Some(map) = map else {
+        return Err(Error::field(
+            path,
+            format!("{field}.labels"),
+            "node labels need matrices with node labels (Abaqus format); give model node numbers in `nodes`",
+        ));
+    };
+    labels
+        .iter()
+        .map(|&l| {
+            map.node(l).ok_or_else(|| {
+                Error::field(
+                    path,
+                    format!("{field}.labels"),
+                    format!("node {l} is not a node of the matrices"),
+                )
+            })
+        })
+        .collect()
 }
 
 /// Contacts from a CSV file (`contacts_file`): one contact per line, `gap, dof, w, dof, w, …`

@@ -436,12 +436,7 @@ fn record(it: &Integration, iv: &Interval, theta: f64, j: usize, out: &mut Event
     }
     out.samples.extend_from_slice(&q);
     if let Some(s) = out.sample_sensitivity.as_mut() {
-        let full = it.sensitivity(iv, theta);
-        for i in 0..it.n {
-            for k in 0..full.ncols() {
-                s[(j * it.n + i, k)] = full[(i, k)];
-            }
-        }
+        it.position_sensitivity_into(iv, theta, s, j * it.n);
     }
 }
 
