@@ -1,9 +1,6 @@
-//! One march of the period for the cone law (docs/theory.md (T186)–(T190)): the phases
-//! between switches, the slip flow integrated by DOP853, the switches located by bisection on
-//! the step's length and settled, the Fourier coefficients accumulated.
-
-// the small dense matrices of the law are indexed as the equations write them
-#![allow(clippy::needless_range_loop)]
+//! One march of the period for the cone law (docs/theory.md (T186)–(T190)): phases between
+//! switches, the slip flow by DOP853, switches located (T188) and settled, Fourier sums.
+#![allow(clippy::needless_range_loop)] // small dense matrices indexed as the equations write them
 
 use std::cell::RefCell;
 
