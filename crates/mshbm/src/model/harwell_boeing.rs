@@ -474,41 +474,15 @@ mod tests {
     #[test]
     fn fortran_formats() {
         let f = |s: &str| data_format(s, Path::new("a"), 4, "PTRFMT");
-        assert_eq!(
-            f("(20I4)").unwrap(),
-            DataFormat {
-                count: 20,
-                width: 4
-            }
-        );
-        assert_eq!(
-            f("(3E25.16)").unwrap(),
-            DataFormat {
-                count: 3,
-                width: 25
-            }
-        );
-        assert_eq!(
-            f("(1P,4E20.12)").unwrap(),
-            DataFormat {
-                count: 4,
-                width: 20
-            }
-        );
-        assert_eq!(
-            f("(1P5D16.8)").unwrap(),
-            DataFormat {
-                count: 5,
-                width: 16
-            }
-        );
-        assert_eq!(
-            f("(E26.18E3)").unwrap(),
-            DataFormat {
-                count: 1,
-                width: 26
-            }
-        );
+        for (text, count, width) in [
+            ("(20I4)", 20, 4),
+            ("(3E25.16)", 3, 25),
+            ("(1P,4E20.12)", 4, 20),
+            ("(1P5D16.8)", 5, 16),
+            ("(E26.18E3)", 1, 26),
+        ] {
+            assert_eq!(f(text).unwrap(), DataFormat { count, width }, "{text}");
+        }
         for bad in ["20I4", "(0I4)", "(20X4)", "(I)", "()"] {
             assert!(f(bad).is_err(), "{bad}");
         }
