@@ -508,10 +508,7 @@ const SIZE_REASON_WITHIN: usize = 5;
 
 /// Long files whose reason cannot be written into them now, with the reason; each must be
 /// removed when it is split or carries its own reason line (the test fails then).
-const KNOWN_LONG_FILES: &[(&str, &str)] = &[(
-    "method/redistributed/mod.rs",
-    "split pending: friction work in progress",
-)];
+const KNOWN_LONG_FILES: &[(&str, &str)] = &[];
 
 /// The reason line of a long file (`// size: <reason>` with a non-empty reason in the
 /// first lines), if any.
