@@ -38,7 +38,8 @@ pub fn interfaces(model: &Model) -> Vec<ContactInterface> {
 }
 
 /// `interface,contact,nodes,position,time_s,gap,force`: one row per contact and time
-/// sample (nodes separated by `;` for node-to-node contacts); with friction on the
+/// sample (nodes separated by `;` for node-to-node contacts, by their labels in the mesh or
+/// matrix file when the model has them, `Model::node_label`); with friction on the
 /// contacts also `state,tangential_force,limit` (`open`, `stick` or `slip`; the friction
 /// force and its bound `μ λ_N`); on a 3D interface with friction (the Coulomb cone)
 /// `tangential_force` is along the first tangent and `tangential_force_2` along the second.
@@ -56,7 +57,10 @@ pub fn contacts_csv(model: &Model, s: &PeriodicSolution) -> String {
     for i in interfaces(model) {
         for (k, c) in i.contacts.clone().enumerate() {
             let series = &s.contacts[c];
-            let nodes: Vec<String> = i.nodes[k].iter().map(|p| p.to_string()).collect();
+            let nodes: Vec<String> = i.nodes[k]
+                .iter()
+                .map(|&p| model.node_label(p).to_string())
+                .collect();
             for (j, t) in s.time_s.iter().enumerate() {
                 let _ = write!(
                     out,

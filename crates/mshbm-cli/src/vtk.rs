@@ -4,7 +4,8 @@
 //!
 //! Points carry three coordinates and three displacement components (padded with zeros in
 //! 1D and 2D). The cells are the model's (`Model::cells`); a model without them gets one
-//! vertex cell per node, so that it still opens.
+//! vertex cell per node, so that it still opens. A model read from a mesh or matrix file
+//! with node labels (`Model::node_labels`) also gets the point scalar `node_label`.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -109,6 +110,10 @@ pub fn unstructured_grid(model: &Model, fields: &[(&str, &[f64])]) -> Result<Vec
     for (name, values) in fields {
         data.point
             .push(Attribute::vectors(*name).with_data(three_components(model, values)));
+    }
+    if let Some(labels) = &model.node_labels {
+        data.point
+            .push(Attribute::scalars("node_label", 1).with_data(labels.clone()));
     }
     let vtk = Vtk {
         version: Version::new((1, 0)),

@@ -191,3 +191,85 @@ fn quadratic_tetrahedra_are_written_as_vtk_quadratic_tetrahedra() {
     assert!(connectivity.iter().all(|&p| p < 420));
     assert_eq!(shape.len(), 3 * 420);
 }
+
+/// Node tag → coordinates of the `$Nodes` section of an ASCII MSH 4.1 file, read here
+/// from the format's definition (blocks of tags followed by their coordinates).
+fn msh_nodes(path: &std::path::Path) -> std::collections::BTreeMap<u64, [f64; 3]> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text
+        .lines()
+        .skip_while(|l| l.trim() != "$Nodes")
+        .skip(1);
+    let numbers = |l: &str| -> Vec<f64> { l.split_whitespace().map(|f| f.parse().unwrap()).collect() };
+    let head = numbers(lines.next().unwrap());
+    let mut nodes = std::collections::BTreeMap::new();
+    for _ in 0..head[0] as usize {
+        let block = numbers(lines.next().unwrap());
+        let count = block[3] as usize;
+        let tags: Vec<u64> = (0..count)
+            .map(|_| lines.next().unwrap().trim().parse().unwrap())
+            .collect();
+        for t in tags {
+            let x = numbers(lines.next().unwrap());
+            nodes.insert(t, [x[0], x[1], x[2]]);
+        }
+    }
+    assert_eq!(nodes.len(), head[1] as usize);
+    nodes
+}
+
+/// A model read from a Gmsh file names its nodes by their Gmsh tags in the outputs: the
+/// `nodes` column of `--contacts-csv` holds tags whose coordinates in the `.msh` file lie
+/// on the contact face (x = 3) — every node of that face once — and the VTK point data
+/// `node_label` gives each point's tag, whose `.msh` coordinates are the point's.
+#[test]
+fn outputs_name_the_nodes_of_a_gmsh_mesh_by_their_tags() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../mshbm/tests/data/gmsh");
+    let model = data.join("box_tet10.toml").display().to_string();
+    let csv = dir.path().join("contacts.csv");
+    let out_dir = dir.path().join("vtk");
+    let out = mshbm(&[
+        "solve",
+        &model,
+        "--frequency",
+        "2000",
+        "--harmonics",
+        "1",
+        "--quadrature",
+        "sampled",
+        "--no-stability",
+        "--contacts-csv",
+        csv.to_str().unwrap(),
+        "--vtk",
+        out_dir.to_str().unwrap(),
+        "--vtk-samples",
+        "2",
+    ]);
+    assert_success(&out);
+    let msh = msh_nodes(&data.join("box_tet10.msh"));
+    let face: std::collections::BTreeSet<u64> = msh
+        .iter()
+        .filter(|(_, x)| (x[0] - 3.0).abs() < 1e-9)
+        .map(|(&t, _)| t)
+        .collect();
+    assert!(face.len() > 10);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut header = text.lines().next().unwrap().split(',');
+    assert_eq!(header.nth(2), Some("nodes"));
+    let named: std::collections::BTreeSet<u64> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(named, face, "contact nodes by tag vs the face x = 3 of the .msh file");
+
+    let (points, _, _, labels) = read_field(&out_dir.join("solution_0000.vtu"), "node_label");
+    assert_eq!(labels.len(), msh.len());
+    for (p, &t) in labels.iter().enumerate() {
+        let x = msh[&(t as u64)];
+        for a in 0..3 {
+            assert!((points[3 * p + a] - x[a]).abs() < 1e-12, "point {p}, tag {t}");
+        }
+    }
+}

@@ -264,6 +264,7 @@ impl NativeModel {
             dofs_per_node,
             cells: None,
             node_sets: Default::default(),
+            node_labels: None,
             dirichlet,
             contacts: contacts
                 .into_iter()

@@ -50,6 +50,7 @@ fn friction_chain(n: usize, friction_limit: f64) -> Model {
         input_files: vec![],
         cells: None,
         node_sets: Default::default(),
+        node_labels: None,
         interfaces: vec![],
         name: "friction chain".into(),
         mass: SparseMatrix::from_triplets(n, n, &mt),

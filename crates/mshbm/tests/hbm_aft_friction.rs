@@ -62,6 +62,7 @@ fn model(
         input_files: vec![],
         cells: None,
         node_sets: Default::default(),
+        node_labels: None,
         interfaces: vec![],
         name: name.into(),
         mass: SparseMatrix::from_triplets(4, 4, &mass),

@@ -146,6 +146,12 @@ fn abaqus_matrices_give_the_matrix_market_model() {
     assert_eq!(dofs(&b), dofs(&a));
     // the label of model node 20 (the tip's lower corner on the 21 × 3 grid)
     assert_eq!(b.node_sets["tip"], vec![20]);
+    // outputs name the nodes by the labels the files gave them
+    let labels: Vec<u64> = (0..b.n_nodes()).map(|p| label(p) as u64).collect();
+    assert_eq!(b.node_labels.as_deref(), Some(&labels[..]));
+    assert_eq!(b.node_label(20), 1060);
+    assert_eq!(a.node_labels, None, "Matrix Market matrices carry no labels");
+    assert_eq!(a.node_label(20), 20);
 
     // the frequency response through the contact resonance, point by point
     let method = MethodSettings::redistributed(5);

@@ -217,6 +217,7 @@ impl BarParameters {
             input_files: vec![],
             cells: None,
             node_sets: Default::default(),
+            node_labels: None,
             interfaces: vec![],
             name: format!("clamped bar, {ne} elements"),
             mass,

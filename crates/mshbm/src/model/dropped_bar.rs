@@ -120,6 +120,7 @@ impl DroppedBarParameters {
             input_files: vec![],
             cells: None,
             node_sets: Default::default(),
+            node_labels: None,
             interfaces: vec![],
             name: format!("bar dropped onto a rigid support, {ne} elements"),
             mass,

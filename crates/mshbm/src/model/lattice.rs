@@ -87,6 +87,7 @@ pub fn lattice_model(nx: usize, ny: usize, force: f64, damping_alpha: f64) -> Mo
         input_files: vec![],
         cells: None,
         node_sets: Default::default(),
+        node_labels: None,
         interfaces: vec![],
         name: "planar lattice with bottom contacts".into(),
         mass,

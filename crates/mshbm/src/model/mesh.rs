@@ -43,8 +43,10 @@
 //! elements) and node surfaces, named as the file first writes them; a node set shadows an
 //! element set of the same name. Physical groups without a name are
 //! `physical_<dim>_<tag>`. The model's node `p` is the `p`-th smallest Gmsh node tag
-//! (Abaqus node label) among the nodes of the solid cells. Errors name the model file and
-//! the field, and for the mesh file its path and line.
+//! (Abaqus node label) among the nodes of the solid cells; outputs that name nodes
+//! (`--contacts-csv`, the VTK point data `node_label`) give the tags (labels) again
+//! ([`Model::node_labels`]). Errors name the model file and the field, and for the mesh
+//! file its path and line.
 
 use std::path::Path;
 
@@ -194,5 +196,7 @@ pub(super) fn mesh_model(f: MeshFile, path: &Path, inputs: &mut InputFiles) -> R
         cells: mesh.cells,
         node_sets: mesh.groups,
     };
-    build_solid_model(solid, matrices, &conditions, name, f.damping, path, inputs)
+    let mut model = build_solid_model(solid, matrices, &conditions, name, f.damping, path, inputs)?;
+    model.node_labels = Some(mesh.node_tags);
+    Ok(model)
 }

@@ -171,6 +171,11 @@ pub struct Model {
     /// The mesh's cells when known (built-in solids, or a model file that gives them): for
     /// outputs such as VTK files; the methods never need them.
     pub cells: Option<Cells>,
+    /// The label of each model node in the file the mesh or the matrices were read from
+    /// (Gmsh node tag, Abaqus node label), for outputs that name nodes (`--contacts-csv`,
+    /// VTK point data `node_label`); `None` when the model numbers its nodes itself
+    /// (built-in models, Matrix Market matrices). See [`Model::node_label`].
+    pub node_labels: Option<Vec<u64>>,
     /// Named node sets (faces of a structured mesh, or read from a file).
     pub node_sets: NodeSets,
     /// DOFs fixed to zero.
@@ -197,6 +202,15 @@ pub struct Model {
 }
 
 impl Model {
+    /// The label of model node `p` in the input it was read from ([`Model::node_labels`]),
+    /// or `p` itself when the model has no labels.
+    pub fn node_label(&self, p: usize) -> u64 {
+        match &self.node_labels {
+            Some(labels) => labels[p],
+            None => p as u64,
+        }
+    }
+
     /// Some contact has Coulomb friction (`mu` of an interface, docs/theory.md §20).
     pub fn has_contact_friction(&self) -> bool {
         self.contacts.iter().any(|c| c.friction.is_some())

@@ -392,6 +392,7 @@ pub(super) fn build_solid_model(
         dofs_per_node: d,
         cells: Some(mesh.cells),
         node_sets: mesh.node_sets,
+        node_labels: None,
         dirichlet,
         contacts,
         interfaces,

@@ -261,6 +261,7 @@ pub fn bilinear_oscillator(m: f64, k: f64, k_c: f64, gap: f64, force: f64, alpha
         input_files: vec![],
         cells: None,
         node_sets: Default::default(),
+        node_labels: None,
         interfaces: vec![],
         name: "bilinear oscillator".into(),
         mass: SparseMatrix::from_triplets(2, 2, &[(0, 0, m)]),

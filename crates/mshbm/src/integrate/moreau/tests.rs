@@ -18,6 +18,7 @@ fn model(
         input_files: vec![],
         cells: None,
         node_sets: Default::default(),
+        node_labels: None,
         interfaces: vec![],
         name: "friction unit test".into(),
         mass: SparseMatrix::from_triplets(n, n, &m),

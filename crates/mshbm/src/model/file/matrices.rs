@@ -384,6 +384,7 @@ pub(super) fn matrices_model(
         source: path.to_path_buf(),
         input_files: std::mem::take(&mut inputs.read),
         cells: None,
+        node_labels: dof_map.as_ref().map(|m| m.labels.clone()),
         node_sets,
         interfaces,
         name: f.name.unwrap_or_else(|| path.display().to_string()),
