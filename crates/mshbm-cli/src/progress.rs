@@ -56,6 +56,28 @@ pub fn branch_progress() -> BranchObserver {
     })
 }
 
+/// Progress of a run to a periodic steady state after each period: on a terminal the
+/// message of its progress `bar`; otherwise (a log, a pipe) once the run has lasted more
+/// than a second, one line per second at most,
+/// `steady state: period p: period-to-period change c (t s)`.
+pub fn period_progress(bar: Option<&indicatif::ProgressBar>) -> impl FnMut(usize, f64) + '_ {
+    let start = Instant::now();
+    let mut last = Duration::ZERO;
+    move |period, change| match bar {
+        Some(bar) => bar.set_message(format!("period {period}: change {change:.2e}")),
+        None => {
+            let elapsed = start.elapsed();
+            if elapsed >= QUIET_FOR && elapsed - last >= Duration::from_secs(1) {
+                last = elapsed;
+                crate::note!(
+                    "steady state: period {period}: period-to-period change {change:.2e} ({:.1} s)",
+                    elapsed.as_secs_f64()
+                );
+            }
+        }
+    }
+}
+
 /// The set-up phase running, since when, and whether a watcher prints it.
 struct SetupState {
     phase: Option<String>,

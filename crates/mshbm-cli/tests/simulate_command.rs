@@ -483,3 +483,38 @@ fn from_solution_of_another_model_is_refused() {
     ]);
     assert_success(&out);
 }
+
+/// A run to a steady state written to a log (stderr not a terminal) shows its progress:
+/// after its first second, a line per second at most with the period and its
+/// period-to-period change (here a run of 1000 periods with an unreachable tolerance,
+/// several seconds on the shared 2-core machine).
+#[test]
+fn a_long_steady_state_run_shows_its_progress_in_a_log() {
+    let out = simulate(&[
+        &example("clamped_bar.toml"),
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--frequency",
+        "30000",
+        "--steady-state",
+        "--periods",
+        "1000",
+        "--steps-per-period",
+        "2000",
+        "--tolerance",
+        "1e-300",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "not periodic: status 2");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("steady state: period "))
+        .collect();
+    assert!(!lines.is_empty(), "no progress line in {stderr}");
+    assert!(
+        lines[0].contains("period-to-period change"),
+        "{}",
+        lines[0]
+    );
+    assert!(stderr.contains("did not become periodic"), "{stderr}");
+}

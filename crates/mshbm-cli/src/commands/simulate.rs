@@ -416,7 +416,8 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
         None => None,
     };
     let total_steps = grid.total_steps();
-    let progress = if std::io::stderr().is_terminal() {
+    let terminal = std::io::stderr().is_terminal();
+    let progress = if terminal {
         let bar = ProgressBar::new(total_steps);
         bar.set_style(
             ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps {msg}")
@@ -438,7 +439,7 @@ pub fn run(args: &SimulateArgs) -> Result<()> {
             w,
             &options,
             |it| rec.record(it),
-            |p, change| progress.set_message(format!("period {p}: change {change:.2e}")),
+            crate::progress::period_progress(terminal.then_some(&progress)),
         )?)
     } else {
         integrator.run(grid.steps as usize, |it| rec.record(it))?;
