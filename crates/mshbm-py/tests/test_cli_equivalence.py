@@ -164,6 +164,11 @@ def test_steady_state_simulation_equals_cli(cli_json):
     assert_same_numbers(sim._data["steady_state"], ref)
     assert sim.steady_state.periodic
     assert sim.gaps.shape == (len(sim.time_s), 1)
+    # its last period as a Solution (docs/python.md), with the CLI's numbers
+    sol = sim.steady_state.solution
+    assert sol.frequency_hz == ref["frequency_hz"] == 30000
+    assert_same_numbers(sol.contacts[0]["coefficients"], ref["contacts"][0]["coefficients"])
+    assert_same_numbers(sol.time_s, ref["time_s"])
 
 
 def test_starting_from_a_solution_equals_cli_from_solution(cli_json, tmp_path):

@@ -386,7 +386,9 @@ class SteadyState(_Result):
 
     @property
     def solution(self) -> Solution:
-        return Solution({"solution": self._data["solution"]})
+        """The last period as a :class:`Solution` (the steady state's fields are the
+        solution's, flattened as in ``mshbm simulate --steady-state --json``)."""
+        return Solution({"solution": self._data})
 
 
 class Simulation(_Result):
