@@ -518,3 +518,87 @@ fn a_long_steady_state_run_shows_its_progress_in_a_log() {
     );
     assert!(stderr.contains("did not become periodic"), "{stderr}");
 }
+
+/// `mshbm simulate --steady-state --json` (redistributed scheme) → `mshbm solve
+/// --from-solution`, as `solve --help` documents: the simulated steady state carries the
+/// redistributed MS-HBM's unknowns, Newton starts from them and reaches the solution that
+/// Newton from the linear response reaches (the bar at 30 kHz with contact, H = 3).
+#[test]
+fn a_simulated_steady_state_starts_newton() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = example("clamped_bar.toml");
+    let sets = [
+        "--set",
+        "damping.first_mode_ratio=0.01",
+        "--set",
+        "damping.beta_linear=1e-8",
+    ];
+    let mut args = vec![
+        model.as_str(),
+        "--frequency",
+        "30000",
+        "--steady-state",
+        "--scheme",
+        "redistributed",
+        "--harmonics",
+        "3",
+        "--periods",
+        "60",
+        "--json",
+    ];
+    args.extend_from_slice(&sets);
+    let simulated = simulate(&args);
+    assert_success(&simulated);
+    let steady = stdout_json(&simulated);
+    assert_eq!(steady["method"], "time-integration");
+    assert_eq!(steady["periodic"], true);
+    let file = tmp(&dir, "steady.json");
+    std::fs::write(&file, &simulated.stdout).unwrap();
+
+    let solve = |start: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "solve",
+            model.as_str(),
+            "--frequency",
+            "30000",
+            "--harmonics",
+            "3",
+            "--no-stability",
+            "--json",
+        ];
+        args.extend_from_slice(start);
+        args.extend_from_slice(&sets);
+        let out = mshbm(&args);
+        assert_success(&out);
+        stdout_json(&out)
+    };
+    let from_steady = solve(&["--from-solution", file.to_str().unwrap()]);
+    let direct = solve(&["--start", "linear"]);
+    assert_eq!(from_steady["converged"], true);
+    let force = |v: &serde_json::Value| -> f64 {
+        v["contacts"][0]["force"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .fold(0.0f64, |m, f| m.max(f.as_f64().unwrap()))
+    };
+    assert!(force(&direct) > 0.0 && force(&steady) > 0.0, "the bar touches the stop");
+    let (a, b) = (
+        from_steady["unknowns"].as_array().unwrap(),
+        direct["unknowns"].as_array().unwrap(),
+    );
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.as_f64().unwrap().abs()));
+    assert!(scale > 0.0);
+    for (x, y) in a.iter().zip(b) {
+        let d = (x.as_f64().unwrap() - y.as_f64().unwrap()).abs();
+        assert!(d <= 1e-8 * scale, "{x} vs {y} (scale {scale:e})");
+    }
+    // the simulation's contact displacements already satisfy the MS-HBM's equations to
+    // its time-discretization error: Newton needs few iterations from them
+    assert!(
+        from_steady["iterations"].as_u64().unwrap() <= direct["iterations"].as_u64().unwrap(),
+        "{} from the steady state, {} from the linear response",
+        from_steady["iterations"],
+        direct["iterations"]
+    );
+}

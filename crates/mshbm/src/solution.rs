@@ -232,12 +232,18 @@ pub struct PeriodicSolution {
 
 impl PeriodicSolution {
     /// Why this solution cannot start Newton for `method` on `model`
-    /// (`mshbm solve --from-solution`), or `None` when it can: its unknowns are those of
-    /// another method (the HBM-AFT's harmonics of the nonlinear DOFs are not the redistributed
+    /// (`mshbm solve --from-solution`), or `None` when it can (a solution of `method`, or a
+    /// steady state of the time integration for the redistributed MS-HBM): its unknowns are
+    /// those of another method (the HBM-AFT's harmonics of the nonlinear DOFs are not the redistributed
     /// MS-HBM's free gap), or its contacts are not the model's (another model's solution
     /// with as many unknowns would be accepted silently otherwise).
     pub fn unusable_start(&self, model: &crate::Model, method: MethodKind) -> Option<String> {
-        if self.method != method {
+        // a steady state of the time integration carries the redistributed MS-HBM's
+        // unknowns (the contacts' displacements, docs/theory.md (T128)) for this start
+        let simulated = self.method == MethodKind::TimeIntegration
+            && method == MethodKind::Redistributed
+            && self.unknowns.is_some();
+        if self.method != method && !simulated {
             return Some(format!(
                 "it is a solution of the method {}, not of {method}: its unknowns mean something else",
                 self.method
