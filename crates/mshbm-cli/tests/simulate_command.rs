@@ -511,11 +511,7 @@ fn a_long_steady_state_run_shows_its_progress_in_a_log() {
         .filter(|l| l.starts_with("steady state: period "))
         .collect();
     assert!(!lines.is_empty(), "no progress line in {stderr}");
-    assert!(
-        lines[0].contains("period-to-period change"),
-        "{}",
-        lines[0]
-    );
+    assert!(lines[0].contains("period-to-period change"), "{}", lines[0]);
     assert!(stderr.contains("did not become periodic"), "{stderr}");
 }
 
@@ -582,12 +578,17 @@ fn a_simulated_steady_state_starts_newton() {
             .iter()
             .fold(0.0f64, |m, f| m.max(f.as_f64().unwrap()))
     };
-    assert!(force(&direct) > 0.0 && force(&steady) > 0.0, "the bar touches the stop");
+    assert!(
+        force(&direct) > 0.0 && force(&steady) > 0.0,
+        "the bar touches the stop"
+    );
     let (a, b) = (
         from_steady["unknowns"].as_array().unwrap(),
         direct["unknowns"].as_array().unwrap(),
     );
-    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.as_f64().unwrap().abs()));
+    let scale = b
+        .iter()
+        .fold(0.0f64, |m, v| m.max(v.as_f64().unwrap().abs()));
     assert!(scale > 0.0);
     for (x, y) in a.iter().zip(b) {
         let d = (x.as_f64().unwrap() - y.as_f64().unwrap()).abs();

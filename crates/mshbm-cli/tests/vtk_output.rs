@@ -196,11 +196,9 @@ fn quadratic_tetrahedra_are_written_as_vtk_quadratic_tetrahedra() {
 /// from the format's definition (blocks of tags followed by their coordinates).
 fn msh_nodes(path: &std::path::Path) -> std::collections::BTreeMap<u64, [f64; 3]> {
     let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text
-        .lines()
-        .skip_while(|l| l.trim() != "$Nodes")
-        .skip(1);
-    let numbers = |l: &str| -> Vec<f64> { l.split_whitespace().map(|f| f.parse().unwrap()).collect() };
+    let mut lines = text.lines().skip_while(|l| l.trim() != "$Nodes").skip(1);
+    let numbers =
+        |l: &str| -> Vec<f64> { l.split_whitespace().map(|f| f.parse().unwrap()).collect() };
     let head = numbers(lines.next().unwrap());
     let mut nodes = std::collections::BTreeMap::new();
     for _ in 0..head[0] as usize {
@@ -262,14 +260,20 @@ fn outputs_name_the_nodes_of_a_gmsh_mesh_by_their_tags() {
         .skip(1)
         .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
         .collect();
-    assert_eq!(named, face, "contact nodes by tag vs the face x = 3 of the .msh file");
+    assert_eq!(
+        named, face,
+        "contact nodes by tag vs the face x = 3 of the .msh file"
+    );
 
     let (points, _, _, labels) = read_field(&out_dir.join("solution_0000.vtu"), "node_label");
     assert_eq!(labels.len(), msh.len());
     for (p, &t) in labels.iter().enumerate() {
         let x = msh[&(t as u64)];
         for a in 0..3 {
-            assert!((points[3 * p + a] - x[a]).abs() < 1e-12, "point {p}, tag {t}");
+            assert!(
+                (points[3 * p + a] - x[a]).abs() < 1e-12,
+                "point {p}, tag {t}"
+            );
         }
     }
 }

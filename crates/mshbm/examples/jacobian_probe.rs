@@ -80,7 +80,10 @@ fn main() {
     };
     let (r, xn) = (&lin.residual, norm(&x));
     let rn = norm(r);
-    println!("H = {harmonics}, {} unknowns, |R| = {rn:e}, |x| = {xn:e}", x.len());
+    println!(
+        "H = {harmonics}, {} unknowns, |R| = {rn:e}, |x| = {xn:e}",
+        x.len()
+    );
 
     // J v against central differences, v random with |v| = |x|
     let mut seed = 0x9e37_79b9_7f4a_7c15_u64;

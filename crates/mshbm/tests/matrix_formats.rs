@@ -150,7 +150,10 @@ fn abaqus_matrices_give_the_matrix_market_model() {
     let labels: Vec<u64> = (0..b.n_nodes()).map(|p| label(p) as u64).collect();
     assert_eq!(b.node_labels.as_deref(), Some(&labels[..]));
     assert_eq!(b.node_label(20), 1060);
-    assert_eq!(a.node_labels, None, "Matrix Market matrices carry no labels");
+    assert_eq!(
+        a.node_labels, None,
+        "Matrix Market matrices carry no labels"
+    );
     assert_eq!(a.node_label(20), 20);
 
     // the frequency response through the contact resonance, point by point
