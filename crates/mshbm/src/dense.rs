@@ -8,6 +8,9 @@ use faer::{c64, Mat, MatRef};
 
 use crate::error::{Error, Result};
 
+mod small_lu;
+use small_lu::SmallLu;
+
 /// `A x` for a dense matrix.
 pub fn mat_vec(a: &Mat<f64>, x: &[f64]) -> Vec<f64> {
     (0..a.nrows())
@@ -196,12 +199,12 @@ pub fn solve_small_lu_into(
         x.push(b[0] / a[0]);
         return Ok(());
     }
-    let lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]).partial_piv_lu();
-    let u = lu.U();
-    if let Some(column) = (0..n).find(|&k| singular(u[(k, k)])) {
+    let lu = SmallLu::new(a, n);
+    if let Some(column) = lu.singular_column(singular) {
         return Err(SingularPivot { column });
     }
-    let solution = lu.solve(Mat::<f64>::from_fn(n, 1, |i, _| b[i]));
+    let mut solution = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+    lu.solve_in_place(solution.as_mut());
     x.extend((0..n).map(|i| solution[(i, 0)]));
     Ok(())
 }
@@ -232,12 +235,13 @@ pub fn solve_small_lu_columns(
         }
         return Ok(Mat::from_fn(1, b.ncols(), |_, j| b[(0, j)] / a[0]));
     }
-    let lu = faer::MatRef::from_row_major_slice(a, n, n).partial_piv_lu();
-    let u = lu.U();
-    if let Some(column) = (0..n).find(|&k| singular(u[(k, k)])) {
+    let lu = SmallLu::new(a, n);
+    if let Some(column) = lu.singular_column(singular) {
         return Err(SingularPivot { column });
     }
-    Ok(lu.solve(b))
+    let mut x = b.to_owned();
+    lu.solve_in_place(x.as_mut());
+    Ok(x)
 }
 
 /// Solve `A x = b` for a small square `A` (row-major, `n × n`) by faer's LU with partial

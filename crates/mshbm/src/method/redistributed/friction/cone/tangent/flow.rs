@@ -20,10 +20,11 @@ pub(in super::super) struct Rates {
     pub(in super::super) lambda_rate: Vec<f64>,
     /// `ȧ` (`2n`, zero but for the slipping contacts).
     pub(in super::super) rate: Vec<f64>,
-    /// Per column: `δλ` (`3n`), `δȧ` (`2n`), `δκ` (`n`, zero but for the slipping contacts).
-    pub(in super::super) d_lambda: Vec<Vec<f64>>,
-    pub(in super::super) d_rate: Vec<Vec<f64>>,
-    pub(in super::super) d_speed: Vec<Vec<f64>>,
+    /// One column per column asked: `δλ` (`3n` rows), `δȧ` (`2n`), `δκ` (`n`, zero but for
+    /// the slipping contacts).
+    pub(in super::super) d_lambda: Mat<f64>,
+    pub(in super::super) d_rate: Mat<f64>,
+    pub(in super::super) d_speed: Mat<f64>,
     /// The slip speeds `κ` (`n`).
     pub(in super::super) speed: Vec<f64>,
 }
@@ -51,6 +52,54 @@ pub(super) fn series_at(
     (x, rate)
 }
 
+/// [`series_at`] of every column at once: `Σ_q b_q(τ) x̂_q` and its rate, `m × ncol`.
+fn series_columns(
+    harmonics: usize,
+    columns: &[Vec<f64>],
+    m: usize,
+    tau: f64,
+) -> (Mat<f64>, Mat<f64>) {
+    let ncoef = n_coefficients(harmonics);
+    let mut b = vec![0.0; ncoef];
+    basis_into(harmonics, tau, &mut b);
+    // the basis' rates: d/dτ cos kτ = −k sin kτ, d/dτ sin kτ = k cos kτ
+    let mut db = vec![0.0; ncoef];
+    for k in 1..=harmonics {
+        db[2 * k - 1] = -(k as f64) * b[2 * k];
+        db[2 * k] = k as f64 * b[2 * k - 1];
+    }
+    let ncol = columns.len();
+    let (mut x, mut rate) = (Mat::<f64>::zeros(m, ncol), Mat::<f64>::zeros(m, ncol));
+    for (j, column) in columns.iter().enumerate() {
+        for q in 0..ncoef {
+            for (r, &v) in column[q * m..(q + 1) * m].iter().enumerate() {
+                // the unit directions of the dense Jacobian are zero but for one entry
+                if v != 0.0 {
+                    x[(r, j)] += b[q] * v;
+                    rate[(r, j)] += db[q] * v;
+                }
+            }
+        }
+    }
+    (x, rate)
+}
+
+/// `Y X` for the closed set's `Y` (`k × k`) and `X` (`k × ncol`), on the calling thread.
+fn y_times(closed: &Closed, x: faer::MatRef<'_, f64>) -> Mat<f64> {
+    let k = closed.rows.len();
+    let y = faer::MatRef::from_row_major_slice(&closed.y, k, k);
+    let mut out = Mat::<f64>::zeros(k, x.ncols());
+    faer::linalg::matmul::matmul(
+        out.as_mut(),
+        faer::Accum::Replace,
+        y,
+        x,
+        1.0,
+        faer::Par::Seq,
+    );
+    out
+}
+
 impl March<'_> {
     /// `Y v_K` scattered to `3n` rows.
     fn apply_y(&self, closed: &Closed, v: &[f64]) -> Vec<f64> {
@@ -64,21 +113,27 @@ impl March<'_> {
         out
     }
 
-    /// `δλ = Y (δr − δγ_K)` (T214) for the free gap's variation `dg` (`3n`, at the instant)
-    /// and the displacements' `da` (`2n`).
-    fn force_variation(&self, closed: &Closed, dg: &[f64], da: &[f64]) -> Vec<f64> {
+    /// `δr − δγ_K` on the closed rows (`k × ncol`) for the free gap's variations `dg`
+    /// (`3n × ncol`, at the instant) and the columns' displacements `d_anchors` (T214):
+    /// `Y` times it is `δλ_K`.
+    fn closed_columns(&self, closed: &Closed, dg: &Mat<f64>, d_anchors: &[Vec<f64>]) -> Mat<f64> {
         let n = self.law.n;
-        let mut v = vec![0.0; 3 * n];
-        for &r in &closed.rows {
-            v[r] = -dg[r];
-        }
-        for c in 0..n {
-            if closed.tangent_row[c].is_some() {
-                v[n + c] += da[c];
-                v[2 * n + c] += da[n + c];
+        let ncol = dg.ncols();
+        let mut v = Mat::<f64>::zeros(closed.rows.len(), ncol);
+        for (i, &r) in closed.rows.iter().enumerate() {
+            for j in 0..ncol {
+                v[(i, j)] = -dg[(r, j)];
             }
         }
-        self.apply_y(closed, &v)
+        for c in 0..n {
+            if let Some(t) = closed.tangent_row[c] {
+                for j in 0..ncol {
+                    v[(t, j)] += d_anchors[j][c];
+                    v[(t + 1, j)] += d_anchors[j][n + c];
+                }
+            }
+        }
+        v
     }
 
     /// (T214), (T215) at `τ` for `modes` with displacements `anchors`, along the columns
@@ -124,47 +179,48 @@ impl March<'_> {
         let ncol = d_gamma.len();
         let s = active.len();
         let apex = APEX * self.force_scale;
-        let mut d_lambda = Vec::with_capacity(ncol);
-        let mut d_direction = Vec::with_capacity(ncol);
-        let mut rhs = Mat::<f64>::zeros(s, ncol);
-        for j in 0..ncol {
-            let (dg, dg_rate) = series_at(self.harmonics, &d_gamma[j], m, tau);
-            let dl = self.force_variation(closed, &dg, &d_anchors[j]);
-            // δe and u of (T215)
-            let mut de = vec![[0.0; 2]; s];
-            let mut u = vec![0.0; m];
-            for (q, &(i, c)) in active.iter().enumerate() {
-                let e = ev.direction[i];
-                let norm = ev.lambda[n + c].hypot(ev.lambda[2 * n + c]);
-                let dt = [dl[n + c], dl[2 * n + c]];
+        // the columns on the closed rows: `δr − δγ_K` (T214) and `δγ̇_K`
+        let k = closed.rows.len();
+        let (dg, dg_rate) = series_columns(self.harmonics, d_gamma, m, tau);
+        let v = self.closed_columns(closed, &dg, d_anchors);
+        let mut w = Mat::<f64>::from_fn(k, ncol, |i, j| dg_rate[(closed.rows[i], j)]);
+        let dl_k = y_times(closed, v.as_ref());
+        // δe of (T215) (`2s` rows), and `w − u` with `u_T,c = κ_c δe_c` on the slipping
+        // contacts' tangent rows
+        let mut de = Mat::<f64>::zeros(2 * s, ncol);
+        for (q, &(i, c)) in active.iter().enumerate() {
+            let e = ev.direction[i];
+            let t = closed.tangent_row[c].expect("a slipping contact is closed with friction");
+            let norm = ev.lambda[n + c].hypot(ev.lambda[2 * n + c]);
+            // 1/|λ_T| regularised at the apex, where the direction is the force's rate's
+            // (T193) and its variation relaxes at once
+            let inverse = norm / (norm * norm + apex * apex);
+            for j in 0..ncol {
+                let dt = [dl_k[(t, j)], dl_k[(t + 1, j)]];
                 let along = e[0] * dt[0] + e[1] * dt[1];
-                // 1/|λ_T| regularised at the apex, where the direction is the force's
-                // rate's (T193) and its variation relaxes at once
-                let inverse = norm / (norm * norm + apex * apex);
-                de[q] = [
+                let d = [
                     -(dt[0] - e[0] * along) * inverse,
                     -(dt[1] - e[1] * along) * inverse,
                 ];
-                u[n + c] = speed[c] * de[q][0];
-                u[2 * n + c] = speed[c] * de[q][1];
+                de[(2 * q, j)] = d[0];
+                de[(2 * q + 1, j)] = d[1];
+                w[(t, j)] -= speed[c] * d[0];
+                w[(t + 1, j)] -= speed[c] * d[1];
             }
-            let mut w = vec![0.0; m];
-            for &r in &closed.rows {
-                w[r] = dg_rate[r];
+        }
+        // `Y (δγ̇_K − u)`: the rates' part of (T215)
+        let z = y_times(closed, w.as_ref());
+        let mut rhs = Mat::<f64>::zeros(s, ncol);
+        for (q, &(i, c)) in active.iter().enumerate() {
+            let e = ev.direction[i];
+            let mu = self.law.mu[c];
+            let nr = closed.normal_row[c].expect("a slipping contact is closed");
+            let t = closed.tangent_row[c].expect("a slipping contact is closed with friction");
+            for j in 0..ncol {
+                rhs[(q, j)] = mu * z[(nr, j)] + e[0] * z[(t, j)] + e[1] * z[(t + 1, j)]
+                    - de[(2 * q, j)] * lambda_rate[n + c]
+                    - de[(2 * q + 1, j)] * lambda_rate[2 * n + c];
             }
-            let y_rate = self.apply_y(closed, &w);
-            let y_u = self.apply_y(closed, &u);
-            for (q, &(i, c)) in active.iter().enumerate() {
-                let e = ev.direction[i];
-                let mu = self.law.mu[c];
-                rhs[(q, j)] = mu * (y_rate[c] - y_u[c])
-                    + e[0] * (y_rate[n + c] - y_u[n + c])
-                    + e[1] * (y_rate[2 * n + c] - y_u[2 * n + c])
-                    - de[q][0] * lambda_rate[n + c]
-                    - de[q][1] * lambda_rate[2 * n + c];
-            }
-            d_lambda.push(dl);
-            d_direction.push(de);
         }
         let contacts: Vec<usize> = active.iter().map(|&(_, c)| c).collect();
         let directions: Vec<[f64; 2]> = active.iter().map(|&(i, _)| ev.direction[i]).collect();
@@ -178,14 +234,21 @@ impl March<'_> {
                 )
             })?
         };
-        let mut d_rate = vec![vec![0.0; 2 * n]; ncol];
-        let mut d_speed = vec![vec![0.0; n]; ncol];
-        for j in 0..ncol {
-            for (q, &c) in contacts.iter().enumerate() {
-                let (e, de) = (directions[q], d_direction[j][q]);
-                d_speed[j][c] = dk[(q, j)];
-                d_rate[j][c] = dk[(q, j)] * e[0] + speed[c] * de[0];
-                d_rate[j][n + c] = dk[(q, j)] * e[1] + speed[c] * de[1];
+        let mut d_lambda = Mat::<f64>::zeros(m, ncol);
+        for (i, &r) in closed.rows.iter().enumerate() {
+            for j in 0..ncol {
+                d_lambda[(r, j)] = dl_k[(i, j)];
+            }
+        }
+        let mut d_rate = Mat::<f64>::zeros(2 * n, ncol);
+        let mut d_speed = Mat::<f64>::zeros(n, ncol);
+        for (q, &c) in contacts.iter().enumerate() {
+            let e = directions[q];
+            for j in 0..ncol {
+                let (d0, d1) = (de[(2 * q, j)], de[(2 * q + 1, j)]);
+                d_speed[(c, j)] = dk[(q, j)];
+                d_rate[(c, j)] = dk[(q, j)] * e[0] + speed[c] * d0;
+                d_rate[(n + c, j)] = dk[(q, j)] * e[1] + speed[c] * d1;
             }
         }
         Ok(Rates {
@@ -223,18 +286,32 @@ impl March<'_> {
             return Ok(());
         }
         let direction = self.directions(&slipping, &lambda);
-        for j in 0..d_gamma.len() {
-            let (dg, _) = series_at(self.harmonics, &d_gamma[j], m, tau);
-            let dl = self.force_variation(closed, &dg, &d_anchors[j]);
-            let margin: Vec<f64> = slipping
-                .iter()
-                .zip(&direction)
-                .map(|(&c, e)| self.law.mu[c] * dl[c] + e[0] * dl[n + c] + e[1] * dl[2 * n + c])
-                .collect();
-            let delta = self.solve_slip(closed, &slipping, &direction, &margin)?;
+        // the columns' force variations on the closed rows (T214)
+        let ncol = d_gamma.len();
+        let (dg, _) = series_columns(self.harmonics, d_gamma, m, tau);
+        let v = self.closed_columns(closed, &dg, d_anchors);
+        let dl = y_times(closed, v.as_ref());
+        let mut margin = Mat::<f64>::zeros(slipping.len(), ncol);
+        for (i, (&c, e)) in slipping.iter().zip(&direction).enumerate() {
+            let nr = closed.normal_row[c].expect("a slipping contact is closed");
+            let t = closed.tangent_row[c].expect("a slipping contact is closed with friction");
+            for j in 0..ncol {
+                margin[(i, j)] =
+                    self.law.mu[c] * dl[(nr, j)] + e[0] * dl[(t, j)] + e[1] * dl[(t + 1, j)];
+            }
+        }
+        let a = self.slip_matrix(closed, &slipping, &direction);
+        let delta = solve_small_lu_columns(&a, margin.as_ref(), 1e-14).map_err(|_| {
+            Error::Numerical(
+                "friction cone: the slip speeds of the slipping contacts are not determined \
+                 (T187)"
+                    .into(),
+            )
+        })?;
+        for j in 0..ncol {
             for (i, &c) in slipping.iter().enumerate() {
-                d_anchors[j][c] -= delta[i] * direction[i][0];
-                d_anchors[j][n + c] -= delta[i] * direction[i][1];
+                d_anchors[j][c] -= delta[(i, j)] * direction[i][0];
+                d_anchors[j][n + c] -= delta[(i, j)] * direction[i][1];
             }
         }
         Ok(())
@@ -351,16 +428,16 @@ impl March<'_> {
                         this.rates(tau, modes, a, &closed, &unit_gamma, &unit_anchors)?;
                     // row block i of (I − h a_ik A_k): column block k gets A_k's entries
                     for k in 0..3 {
-                        for (q, units) in by_units.d_rate.iter().enumerate() {
+                        for q in 0..by_units.d_rate.ncols() {
                             for (p, &r) in component.iter().enumerate() {
-                                let entry = -length * RADAU_A[k][i] * units[r];
+                                let entry = -length * RADAU_A[k][i] * by_units.d_rate[(r, q)];
                                 system[(k * w + p) * 3 * w + i * w + q] += entry;
                             }
                         }
                     }
                     for j in 0..ncol {
                         for (p, &r) in component.iter().enumerate() {
-                            let b = by_columns.d_rate[j][r];
+                            let b = by_columns.d_rate[(r, j)];
                             for k in 0..3 {
                                 rhs[(k * w + p, j)] += length * RADAU_A[k][i] * b;
                             }

@@ -54,12 +54,12 @@ impl March<'_> {
         let weight = |q: usize| if q == 0 { 1.0 / (2.0 * PI) } else { 1.0 / PI };
         for j in 0..d_gamma.len() {
             let (dg, _) = series_at(self.harmonics, &d_gamma[j], m, tau);
-            let dl = &before.d_lambda[j];
+            let dl = before.d_lambda.col_as_slice(j);
             let dh = match watch {
                 Watch::Gap => dg[c] + coupling(c, dl),
                 Watch::Normal => dl[c],
                 Watch::Cone => mu * dl[c] - unit[0] * dl[n + c] - unit[1] * dl[2 * n + c],
-                Watch::Speed => before.d_speed[j][c],
+                Watch::Speed => before.d_speed[(c, j)],
             };
             let d_tau = if rate_of_h != 0.0 {
                 -dh / rate_of_h
