@@ -9,6 +9,9 @@
 //! cargo run --release -p mshbm --example jacobian_probe -- MODEL.toml SOLUTION.json
 //! ```
 //!
+//! With `COLUMNS_CHECK=1` in the environment every column of J is compared with its central
+//! difference as well (two residuals per unknown).
+//!
 //! The method is built with its defaults (`MethodSettings::redistributed(H)`); the model
 //! file must be readable without `--set` overrides.
 
@@ -72,6 +75,24 @@ fn main() {
         eprintln!("linearize: {e}");
         std::process::exit(1)
     });
+    // the contacts' states over the period, where the method models friction
+    if let Ok(solution) = problem.solution(&x, omega, 0) {
+        for (c, friction) in solution.frictions.iter().enumerate() {
+            let states: String = friction
+                .state
+                .iter()
+                .map(|s| match s {
+                    mshbm::solution::ContactState::Stick => 'k',
+                    mshbm::solution::ContactState::Slip => 's',
+                    _ => 'o',
+                })
+                .collect();
+            println!(
+                "contact {c}: {states} (max |λ_T1| {:e})",
+                friction.force.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+            );
+        }
+    }
     let mut residual = |x: &[f64]| {
         problem.residual(x, omega).unwrap_or_else(|e| {
             eprintln!("residual: {e}");
@@ -101,16 +122,59 @@ fn main() {
         let plus: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + eps * b).collect();
         let minus: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a - eps * b).collect();
         let (rp, rm) = (residual(&plus), residual(&minus));
-        let difference: Vec<f64> = rp
+        let fd: Vec<f64> = rp
             .iter()
             .zip(&rm)
-            .zip(&jv)
-            .map(|((p, m), j)| (p - m) / (2.0 * eps) - j)
+            .map(|(p, m)| (p - m) / (2.0 * eps))
             .collect();
+        let difference: Vec<f64> = fd.iter().zip(&jv).map(|(f, j)| f - j).collect();
         println!(
-            "central difference, step {eps:e} |x|: |FD - J v| / |J v| = {:e}",
-            norm(&difference) / norm(&jv)
+            "central difference, step {eps:e} |x|: |FD - J v| / |J v| = {:e} \
+             (|FD| / |J v| = {:e}, |J v| = {:e})",
+            norm(&difference) / norm(&jv),
+            norm(&fd) / norm(&jv),
+            norm(&jv)
         );
+    }
+
+    // with COLUMNS_CHECK set: every column of J against its central difference (step 1e-6 |x|),
+    // the worst columns and, in the worst column, the worst rows
+    if std::env::var_os("COLUMNS_CHECK").is_some() {
+        let dense = lin.jacobian.to_dense();
+        let eps = 1e-6 * xn;
+        let mut worst: Vec<(f64, usize, Vec<f64>)> = Vec::new();
+        for j in 0..x.len() {
+            let mut plus = x.clone();
+            plus[j] += eps;
+            let mut minus = x.clone();
+            minus[j] -= eps;
+            let (rp, rm) = (residual(&plus), residual(&minus));
+            let fd: Vec<f64> = rp
+                .iter()
+                .zip(&rm)
+                .map(|(p, m)| (p - m) / (2.0 * eps))
+                .collect();
+            let column: Vec<f64> = (0..x.len()).map(|i| dense[(i, j)]).collect();
+            let difference: Vec<f64> = fd.iter().zip(&column).map(|(a, b)| a - b).collect();
+            let error = norm(&difference) / norm(&fd).max(norm(&column));
+            worst.push((error, j, difference));
+            println!(
+                "column {j}: |FD - J e_j| / max(|FD|, |J e_j|) = {error:.3e}, |J e_j| / |FD| = {:.3e}",
+                norm(&column) / norm(&fd)
+            );
+        }
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let (error, j, difference) = &worst[0];
+        let mut rows: Vec<usize> = (0..x.len()).collect();
+        rows.sort_by(|&a, &b| difference[b].abs().total_cmp(&difference[a].abs()));
+        println!("worst column {j} ({error:.3e}); its worst rows:");
+        for &i in rows.iter().take(6) {
+            println!(
+                "  row {i}: J {:e}, FD - J {:e}",
+                dense[(i, *j)],
+                difference[i]
+            );
+        }
     }
 
     // the Newton step d = J⁻¹ R and the residual along it
