@@ -33,6 +33,33 @@ def _plain(value: Any) -> Any:
     return value
 
 
+def _axes(ax):
+    """``ax``, or the axes of a new matplotlib figure (matplotlib is optional)."""
+    if ax is not None:
+        return ax
+    try:
+        import matplotlib.pyplot as plt
+    except ImportError as e:  # matplotlib is optional
+        raise ImportError("plot() needs matplotlib: pip install matplotlib") from e
+    return plt.figure().add_subplot()
+
+
+def _stability_runs(stable: np.ndarray, fold: np.ndarray) -> list[tuple[bool, np.ndarray]]:
+    """The points of a branch that are not folds, cut into runs of equal stability as
+    ``mshbm frf --plot`` draws them: ``(unstable, indices)``, each run starting with the
+    last point of the one before so that the curve stays connected (a point of unknown
+    stability counts as stable)."""
+    runs: list[tuple[bool, list[int]]] = []
+    for i in np.flatnonzero(~np.asarray(fold, dtype=bool)):
+        unstable = bool(stable[i] == 0.0)
+        if runs and runs[-1][0] == unstable:
+            runs[-1][1].append(int(i))
+        else:
+            start = [runs[-1][1][-1]] if runs else []
+            runs.append((unstable, start + [int(i)]))
+    return [(u, np.array(ix, dtype=np.int64)) for u, ix in runs]
+
+
 class _Result:
     __slots__ = ("_data",)
 
@@ -200,6 +227,20 @@ class Solution(_Result):
         """Fourier coefficients [a0, a1, b1, …, aH, bH] of each contact displacement."""
         return np.array([c["coefficients"] for c in self._data["solution"]["contacts"]])
 
+    def plot(self, ax=None):
+        """The first contact's displacement over one period against time [µs], as
+        ``mshbm solve --plot`` draws it, on ``ax`` (a matplotlib Axes; a new figure when
+        None). Returns the Axes."""
+        ax = _axes(ax)
+        s = self._data["solution"]
+        contact = s["contacts"][0]
+        ax.plot(np.asarray(s["time_s"]) * 1e6, contact["displacement"], label=f"H = {s['harmonics']}")
+        ax.set_xlabel("time [µs]")
+        ax.set_ylabel("contact displacement q_N")
+        ax.set_title(f"Contact displacement over one period at {s['frequency_hz'] / 1e3:.4f} kHz")
+        ax.legend()
+        return ax
+
     def to_json(self) -> str:
         """The solution as ``mshbm solve --json`` writes it (a start for ``simulate``)."""
         return json.dumps(_plain(self._data["solution"]))
@@ -327,6 +368,51 @@ class FrequencyResponse(_Result):
         ).astype(np.float64)
         columns["label"] = np.repeat([b["label"] for b in branches], n).astype(object)
         return columns
+
+    def plot(self, ax=None):
+        """The diagram as ``mshbm frf --plot`` draws it, on ``ax`` (a matplotlib Axes; a
+        new figure when None): per branch the response DOF's maximum and minimum against
+        the frequency (in kHz when it reaches 1 kHz), unstable parts dashed, the folds
+        marked. Returns the Axes."""
+        ax = _axes(ax)
+        branches = self._data["branches"]
+        highest = max((float(np.max(b["frequency_hz"])) for b in branches if len(b["frequency_hz"])), default=0.0)
+        per_unit, unit = (1e3, "kHz") if highest >= 1e3 else (1.0, "Hz")
+        for k, b in enumerate(branches):
+            color = f"C{k}"
+            f = np.asarray(b["frequency_hz"]) / per_unit
+            labelled = False
+            for unstable, ix in _stability_runs(np.asarray(b["stable"], dtype=float), np.asarray(b["fold"])):
+                style = "--" if unstable else "-"
+                for values in (b["max_qn"], b["min_qn"]):
+                    label = None if labelled else f"{b['label']} (max, min)"
+                    labelled = True
+                    ax.plot(f[ix], np.asarray(values)[ix], style, color=color, label=label)
+        if self.folds:
+            ax.plot(
+                [fo["frequency_hz"] / per_unit for fo in self.folds],
+                [fo["min_qn"] for fo in self.folds],
+                "o",
+                color="C7",
+                label="folds",
+            )
+        # the bifurcations that are not folds, where the stability changes
+        for kind, name, color in (("period-doubling", "period doubling", "C3"), ("neimark-sacker", "Neimark-Sacker", "C4")):
+            at = [bi for bi in self.bifurcations if bi["kind"] == kind]
+            if at:
+                ax.plot(
+                    [bi["frequency_hz"] / per_unit for bi in at for _ in (0, 1)],
+                    [v for bi in at for v in (bi["max_qn"], bi["min_qn"])],
+                    "o",
+                    mfc="none",
+                    color=color,
+                    label=name,
+                )
+        ax.set_xlabel(f"frequency [{unit}]")
+        ax.set_ylabel("displacement of the response DOF (max, min)")
+        ax.set_title("Frequency response")
+        ax.legend()
+        return ax
 
     def to_dataframe(self, table: str = "points"):
         """:meth:`to_dict` as a pandas DataFrame; ``table="folds"`` or
