@@ -90,6 +90,21 @@ def _contact(k: int, c: Any) -> tuple[list[int], list[float], float]:
 _DAMPING_KEYS = ("alpha", "beta", "beta_linear", "beta_condensed", "first_mode_ratio")
 
 
+def _same(a: Any, b: Any) -> bool:
+    """Equality of the recipes' values: numpy arrays and scipy sparse matrices by shape and
+    entries, containers element by element."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if hasattr(a, "tocoo") and hasattr(b, "tocoo"):  # scipy sparse
+        return a.shape == b.shape and (a != b).nnz == 0
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and bool(np.array_equal(a, b))
+    return bool(a == b)
+
+
 class Model:
     """A validated model (the library's ``Model``).
 
@@ -99,7 +114,7 @@ class Model:
 
     Models pickle (for Dask workers): a model from a file by its text, path and overrides
     (files it refers to, e.g. Matrix Market matrices, are read again from that path), a
-    model from arrays by its arrays.
+    model from arrays by its arrays. Two models are equal when built the same way.
     """
 
     __slots__ = ("_native", "_recipe")
@@ -236,6 +251,20 @@ class Model:
 
     def __reduce__(self):
         return (Model._rebuild, (self._recipe,))
+
+    def __eq__(self, other: object) -> bool:
+        """Models are equal when built the same way: the same model file text, path,
+        overrides (in order) and settings, or equal arrays (sparse matrices by their
+        entries). A pickled model equals its original."""
+        if not isinstance(other, Model):
+            return NotImplemented
+        return _same(self._recipe, other._recipe)
+
+    def __hash__(self) -> int:
+        if self._recipe[0] == "toml":
+            _, text, path, sets, max_memory_gib, allow_outside_paths = self._recipe
+            return hash(("toml", text, path, tuple(sets), max_memory_gib, allow_outside_paths))
+        return hash(("arrays", self.name, self.n_dofs))
 
     # --- what it is ---------------------------------------------------------------------
     @property
