@@ -62,6 +62,28 @@ def _stability_runs(stable: np.ndarray, fold: np.ndarray) -> list[tuple[bool, np
 
 class _Result:
     __slots__ = ("_data",)
+    #: Where a result's fields live, readable as attributes and listed by ``dir()``: ``""``
+    #: for the data itself, a key for a nested dict, None for no such fields.
+    _FIELDS: str | None = None
+    #: Fields that a property of the same name serves instead.
+    _HIDDEN: tuple[str, ...] = ()
+
+    def _fields(self) -> dict:
+        data = object.__getattribute__(self, "_data")
+        where = type(self)._FIELDS
+        if where is None:
+            return {}
+        return data if where == "" else data[where]
+
+    def __getattr__(self, name):
+        fields = self._fields()
+        if name in fields and name not in type(self)._HIDDEN:
+            return fields[name]
+        raise AttributeError(name)
+
+    def __dir__(self):
+        fields = {k for k in self._fields() if k.isidentifier() and k not in type(self)._HIDDEN}
+        return sorted(set(super().__dir__()) | fields)
 
     def __init__(self, data: dict):
         self._data = data
@@ -113,11 +135,7 @@ class Solution(_Result):
     ``path`` (how Newton got there), ``others`` (other solutions met at the frequency by a
     sweep) and ``stability`` (:class:`Floquet` or None)."""
 
-    def __getattr__(self, name):
-        data = object.__getattribute__(self, "_data")
-        if name in data["solution"]:
-            return data["solution"][name]
-        raise AttributeError(name)
+    _FIELDS = "solution"
 
     @property
     def label(self) -> str:
@@ -305,11 +323,7 @@ class Branch(_Result):
     slip, open per contact, or None); and ``harmonics``, ``method``, ``label``,
     ``penalty``, ``stop`` (why it ended), ``completed``."""
 
-    def __getattr__(self, name):
-        data = object.__getattribute__(self, "_data")
-        if name in data:
-            return data[name]
-        raise AttributeError(name)
+    _FIELDS = ""
 
     def __len__(self):
         return len(self._data["frequency_hz"])
@@ -437,11 +451,7 @@ class Modes(_Result):
     (``redistributed_hz``) model, ``relative_error`` = f_redistributed / f_original − 1,
     and the ``norm`` of the redistribution (``mshbm modes``)."""
 
-    def __getattr__(self, name):
-        data = object.__getattribute__(self, "_data")
-        if name in data:
-            return data[name]
-        raise AttributeError(name)
+    _FIELDS = ""
 
     def to_dict(self) -> dict:
         n = len(self._data["original_hz"])
@@ -464,11 +474,7 @@ class SteadyState(_Result):
     the last period), ``periodic``, ``periods_simulated``, ``period_scatter``,
     ``tolerance``, … (the fields of ``mshbm simulate --steady-state --json``)."""
 
-    def __getattr__(self, name):
-        data = object.__getattribute__(self, "_data")
-        if name in data:
-            return data[name]
-        raise AttributeError(name)
+    _FIELDS = ""
 
     @property
     def solution(self) -> Solution:
@@ -482,11 +488,8 @@ class Simulation(_Result):
     (steps × contacts; length and force units), ``energy``, ``dt`` [s], ``scheme``, and
     ``steady_state`` (:class:`SteadyState` or None)."""
 
-    def __getattr__(self, name):
-        data = object.__getattribute__(self, "_data")
-        if name in data and name != "steady_state":
-            return data[name]
-        raise AttributeError(name)
+    _FIELDS = ""
+    _HIDDEN = ("steady_state",)
 
     @property
     def steady_state(self) -> SteadyState | None:
