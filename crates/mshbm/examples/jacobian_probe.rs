@@ -18,6 +18,14 @@
 use mshbm::method::settings::MethodSettings;
 use mshbm::model::file::load_model;
 
+/// `(R₊ − R₋) / 2h`.
+fn central(plus: &[f64], minus: &[f64], h: f64) -> Vec<f64> {
+    plus.iter()
+        .zip(minus)
+        .map(|(p, m)| (p - m) / (2.0 * h))
+        .collect()
+}
+
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
@@ -122,11 +130,7 @@ fn main() {
         let plus: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a + eps * b).collect();
         let minus: Vec<f64> = x.iter().zip(&v).map(|(a, b)| a - eps * b).collect();
         let (rp, rm) = (residual(&plus), residual(&minus));
-        let fd: Vec<f64> = rp
-            .iter()
-            .zip(&rm)
-            .map(|(p, m)| (p - m) / (2.0 * eps))
-            .collect();
+        let fd = central(&rp, &rm, eps);
         let difference: Vec<f64> = fd.iter().zip(&jv).map(|(f, j)| f - j).collect();
         println!(
             "central difference, step {eps:e} |x|: |FD - J v| / |J v| = {:e} \
@@ -149,11 +153,7 @@ fn main() {
             let mut minus = x.clone();
             minus[j] -= eps;
             let (rp, rm) = (residual(&plus), residual(&minus));
-            let fd: Vec<f64> = rp
-                .iter()
-                .zip(&rm)
-                .map(|(p, m)| (p - m) / (2.0 * eps))
-                .collect();
+            let fd = central(&rp, &rm, eps);
             let column: Vec<f64> = (0..x.len()).map(|i| dense[(i, j)]).collect();
             let difference: Vec<f64> = fd.iter().zip(&column).map(|(a, b)| a - b).collect();
             let error = norm(&difference) / norm(&fd).max(norm(&column));

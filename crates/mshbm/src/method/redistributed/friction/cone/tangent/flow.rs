@@ -87,17 +87,7 @@ fn series_columns(
 /// `Y X` for the closed set's `Y` (`k × k`) and `X` (`k × ncol`), on the calling thread.
 fn y_times(closed: &Closed, x: faer::MatRef<'_, f64>) -> Mat<f64> {
     let k = closed.rows.len();
-    let y = faer::MatRef::from_row_major_slice(&closed.y, k, k);
-    let mut out = Mat::<f64>::zeros(k, x.ncols());
-    faer::linalg::matmul::matmul(
-        out.as_mut(),
-        faer::Accum::Replace,
-        y,
-        x,
-        1.0,
-        faer::Par::Seq,
-    );
-    out
+    crate::dense::sequential_product(faer::MatRef::from_row_major_slice(&closed.y, k, k), x)
 }
 
 impl March<'_> {
