@@ -1,12 +1,17 @@
-//! faer's LU with partial pivoting for the small dense systems of [`super`]
-//! (`solve_small_lu`, `solve_small_lu_columns`), factored and applied on the calling thread.
+//! faer's LU with partial pivoting for the dense systems of [`super`] (`solve_small_lu`,
+//! `solve_small_lu_columns`): small ones factored and applied on the calling thread, large
+//! ones (an LCP's active block on a 3D interface) with faer's global parallelism.
 
 use faer::Mat;
 
-/// faer's LU with partial pivoting of a small row-major matrix, factored and applied on the
-/// calling thread: the global parallelism would hand these tiny factorisations and their
-/// many right-hand sides to rayon, whose workers then spin (the friction cone's tangent
-/// solved millions of them; a third of its time went to `sched_yield`).
+/// Below this order the factorisation and its solves stay on the calling thread.
+const SEQUENTIAL_BELOW: usize = 128;
+
+/// faer's LU with partial pivoting of a row-major matrix. Below [`SEQUENTIAL_BELOW`] rows
+/// it is factored and applied on the calling thread: the global parallelism would hand
+/// these tiny factorisations and their many right-hand sides to rayon, whose workers then
+/// spin (the friction cone's tangent solved millions of them; a third of its time went to
+/// `sched_yield`).
 pub(super) struct SmallLu {
     factors: Mat<f64>,
     forward: Vec<usize>,
@@ -19,7 +24,7 @@ impl SmallLu {
         use faer::linalg::lu::partial_pivoting::factor::{lu_in_place, lu_in_place_scratch};
         let mut factors = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
         let (mut forward, mut inverse) = (vec![0usize; n], vec![0usize; n]);
-        let par = faer::Par::Seq;
+        let par = parallelism(n);
         let mut mem = MemBuffer::new(lu_in_place_scratch::<usize, f64>(
             n,
             n,
@@ -51,7 +56,7 @@ impl SmallLu {
         use faer::dyn_stack::{MemBuffer, MemStack};
         use faer::linalg::lu::partial_pivoting::solve::{solve_in_place, solve_in_place_scratch};
         let n = self.factors.nrows();
-        let par = faer::Par::Seq;
+        let par = parallelism(n);
         let mut mem = MemBuffer::new(solve_in_place_scratch::<usize, f64>(n, b.ncols(), par));
         let permutation = faer::perm::PermRef::new_checked(&self.forward, &self.inverse, n);
         solve_in_place(
@@ -62,5 +67,14 @@ impl SmallLu {
             par,
             MemStack::new(&mut mem),
         );
+    }
+}
+
+/// The parallelism of an LU of order `n`.
+fn parallelism(n: usize) -> faer::Par {
+    if n < SEQUENTIAL_BELOW {
+        faer::Par::Seq
+    } else {
+        faer::get_global_parallelism()
     }
 }
