@@ -279,20 +279,7 @@ fn the_scanner_finds_imports_and_prints() {
 
 /// Circles between modules that are known, with the reason they stay; each must be removed
 /// when its reason goes away (the test fails when a listed circle no longer exists).
-const KNOWN_CYCLES: &[(&[&str], &str)] = &[
-    (
-        &["method/hbm_aft/jenkins.rs", "method/hbm_aft/penalty.rs"],
-        "the penalty law's `ContactState` holds the Jenkins elements' `SliderState`, and \
-         the Jenkins element reads `ContactState`: both belong in one file of the samples' \
-         state, a move left for when the friction code is not being reworked",
-    ),
-    (
-        &["method/memory.rs", "method/redistributed/mod.rs"],
-        "the memory plan of the redistributed MS-HBM needs `takes_every_mode` and \
-         `MAX_CACHED_INSTANTS` of method/redistributed/mod.rs, which calls it; breaking it \
-         means editing method/redistributed/, which another change is rewriting now",
-    ),
-];
+const KNOWN_CYCLES: &[(&[&str], &str)] = &[];
 
 /// The module path of a file below `src`: `method/memory.rs` → `method::memory`,
 /// `method/redistributed/mod.rs` → `method::redistributed`, `lib.rs` → the root.

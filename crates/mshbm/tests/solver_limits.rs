@@ -1,4 +1,4 @@
-//! The solvers' memory plans (`mshbm::method::memory`) against what a solve really
+//! The solvers' memory plans (`mshbm::method::memory`, `mshbm::method::redistributed::memory_plan`) against what a solve really
 //! allocates, measured by a counting global allocator (an independent measurement), and
 //! the limits they enforce: a solve whose plan exceeds the budget is refused before it
 //! allocates, with an error naming what was asked (docs/safety.md, "Resource limits of the
@@ -15,7 +15,7 @@ use std::sync::Mutex;
 use mshbm::harmonic::Sampling;
 use mshbm::limits::{Limits, GIB};
 use mshbm::method::default_samples;
-use mshbm::method::memory;
+use mshbm::method::redistributed;
 use mshbm::method::settings::MethodSettings;
 use mshbm::model::bar::BarParameters;
 use mshbm::solve::{solve_periodic, SolveSettings};
@@ -98,7 +98,7 @@ fn check_plan_against_peaks(model: &Model) {
     let system = model.system(MassKind::Redistributed).unwrap();
     for harmonics in [5, 20, 80] {
         let samples = default_samples(harmonics);
-        let plan = memory::redistributed(&system, harmonics, samples)
+        let plan = redistributed::memory_plan(&system, harmonics, samples)
             .total()
             .unwrap();
         let method = MethodSettings::redistributed(harmonics);
@@ -124,7 +124,7 @@ fn a_solve_over_the_budget_is_refused_before_it_allocates() {
     let system = model.system(MassKind::Redistributed).unwrap();
     let harmonics = 120;
     let samples = default_samples(harmonics);
-    let plan = memory::redistributed(&system, harmonics, samples)
+    let plan = redistributed::memory_plan(&system, harmonics, samples)
         .total()
         .unwrap();
     let base = CURRENT.load(Ordering::SeqCst);

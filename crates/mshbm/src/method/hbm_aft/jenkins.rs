@@ -17,25 +17,13 @@
 //! samples the dependence on the sample where the run began ([`StickRun`]), which couples
 //! the coefficients through the basis at that sample.
 
-use super::penalty::{ContactState, PenaltyGroup};
+pub use super::samples::SliderMode;
+use super::samples::{AnchorTerm, ContactState, PenaltyGroup, SliderState, StickRun};
 use super::{HbmAft, Penalty};
 use crate::error::{Error, Result};
 use crate::harmonic::n_coefficients;
 use crate::model::System;
 use crate::solution::FrictionSeries;
-
-/// The state of the slider of one contact at one sample (T162).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum SliderMode {
-    /// No friction limit (the contact is open, or `μ = 0`): the slider follows, `λ_T = 0`.
-    Free,
-    /// The slider holds: `λ_T = −k_t (u_T − a)` with `|λ_T| ≤ μ λ_N`.
-    Stick,
-    /// The slider is dragged forward (`a = u_T − μλ_N/k_t`): `λ_T = −μ λ_N`.
-    SlipPositive,
-    /// The slider is dragged back (`a = u_T + μλ_N/k_t`): `λ_T = +μ λ_N`.
-    SlipNegative,
-}
 
 /// The Jenkins elements of a model's frictional contacts.
 #[derive(Clone, Debug)]
@@ -155,33 +143,6 @@ pub fn periodic_slider(u: &[f64], limit: &[f64], kt: f64) -> SliderPeriod {
         position,
         start,
     }
-}
-
-/// One term `weight · α_sᵀ dq_s` of the derivative of a stuck slider's position (T165).
-#[derive(Clone, Debug)]
-pub(super) struct AnchorTerm {
-    pub(super) sample: usize,
-    pub(super) weight: f64,
-    /// `α_s` (`n`).
-    pub(super) alpha: Vec<f64>,
-}
-
-/// A maximal run of stuck samples of one contact and the derivative of its slider position.
-#[derive(Clone, Debug)]
-pub(super) struct StickRun {
-    pub(super) contact: usize,
-    pub(super) samples: Vec<usize>,
-    pub(super) anchor: Vec<AnchorTerm>,
-}
-
-/// The Jenkins elements at the samples.
-pub(super) struct SliderState {
-    /// `λ_T,c(τ_j)` (`j·n_c + c`).
-    pub(super) force: Vec<f64>,
-    /// `μ_c λ_N,c(τ_j)` (`j·n_c + c`).
-    pub(super) limit: Vec<f64>,
-    pub(super) modes: Vec<SliderMode>,
-    pub(super) runs: Vec<StickRun>,
 }
 
 impl HbmAft {

@@ -100,8 +100,9 @@ mod homotopy;
 pub mod jenkins;
 mod penalty;
 mod periodic_problem;
+mod samples;
 
-use penalty::{ContactState, PenaltyGroup};
+use samples::{ContactState, PenaltyGroup};
 
 use faer::linalg::solvers::Solve;
 use faer::{c64, Mat};

@@ -5,7 +5,7 @@
 
 use std::collections::HashMap;
 
-use super::jenkins::SliderState;
+use super::samples::{ContactState, PenaltyGroup};
 use super::HbmAft;
 use crate::error::Result;
 use crate::harmonic::{
@@ -14,29 +14,6 @@ use crate::harmonic::{
 use crate::method::check_dimension;
 use crate::problem::PeriodicProblem;
 use crate::roots::find_sign_change;
-
-/// Contact state of the samples at one `x`.
-pub(super) struct ContactState {
-    /// Penalty force `λ_c(τ_j)` (`j·n_c + c`).
-    pub(super) force: Vec<f64>,
-    /// Gap `g_c(τ_j)` (`j·n_c + c`).
-    pub(super) gap: Vec<f64>,
-    /// `q_N(τ_j)` (`j·n + i`).
-    pub(super) displacement: Vec<f64>,
-    /// The Jenkins elements of the frictional contacts (docs/theory.md (T162)); `None`
-    /// without friction.
-    pub(super) slider: Option<SliderState>,
-}
-
-/// Samples (sampled quadrature) or intervals (exact) over which the same penalty springs act:
-/// the penalty force there is `−K_A q_N − s_A`, and its Fourier coefficients `−(Γ_A ⊗ K_A) x −
-/// Γ_A[:,0] ⊗ s_A`.
-pub(super) struct PenaltyGroup {
-    /// `Γ_A` (`(2H+1)²`, row-major).
-    pub(super) gram: Vec<f64>,
-    /// `K_A = Σ_{c∈A} k_p,c w_c w_cᵀ` (`n × n`, row-major).
-    pub(super) stiffness: Vec<f64>,
-}
 
 impl HbmAft {
     /// The AFT: `q_N(τ_j)`, gaps and penalty forces at every sample.

@@ -33,7 +33,9 @@ mod frictional;
 mod frictional_floquet;
 mod interval_signal;
 mod jacobian;
+mod memory_plan;
 mod outputs;
+pub use memory_plan::memory_plan;
 use outputs::refine_extremum;
 pub mod quadrature;
 mod small_jacobian;
@@ -335,7 +337,7 @@ impl RedistributedMsHbm {
     }
 
     /// [`RedistributedMsHbm::new`], refusing before allocating when the method's memory
-    /// estimate ([`super::memory::redistributed`]) exceeds `limits`.
+    /// estimate ([`memory_plan`]) exceeds `limits`.
     pub fn within(model: &Model, options: &RedistributedOptions, limits: &Limits) -> Result<Self> {
         Self::within_observed(model, options, limits, None)
     }
@@ -377,7 +379,7 @@ impl RedistributedMsHbm {
         limits.cancel.check()?;
         // with friction the contact coordinates are the normals, then the tangents (T150)
         let (system, friction) = frictional::with_tangent_coordinates(system, &model.source)?;
-        super::memory::redistributed(&system, h, samples).check(
+        memory_plan(&system, h, samples).check(
             &format!("the redistributed MS-HBM with {h} harmonics and {samples} samples"),
             limits,
         )?;
@@ -484,7 +486,7 @@ impl RedistributedMsHbm {
     pub fn set_harmonics(&mut self, harmonics: usize, samples: Option<usize>) -> Result<()> {
         let samples = samples.unwrap_or_else(|| default_samples(harmonics));
         super::check_resolution(harmonics, samples, "samples")?;
-        super::memory::redistributed(&self.system, harmonics, samples).check(
+        memory_plan(&self.system, harmonics, samples).check(
             &format!("the redistributed MS-HBM with {harmonics} harmonics and {samples} samples"),
             &self.limits,
         )?;
