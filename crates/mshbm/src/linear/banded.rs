@@ -315,6 +315,14 @@ pub trait BatchSystems {
     fn matrix(&self, s: usize) -> usize;
     /// Right-hand side `s`.
     fn column(&mut self, s: usize) -> &mut [c64];
+    /// The right-hand sides `s .. s + count` as one column-major block, where they belong to
+    /// one matrix and lie next to each other in memory (sparse factors then solve them
+    /// together, by matrix products instead of one product with a vector per column);
+    /// `None` (the default) solves them one by one.
+    fn block(&mut self, s: usize, count: usize) -> Option<&mut [c64]> {
+        let _ = (s, count);
+        None
+    }
 }
 
 impl BatchSystems for [(usize, &mut [c64])] {

@@ -32,6 +32,11 @@ use crate::sparse::SparseMatrix;
 /// and allocations for the chains and beams that have such a band.
 pub const BANDED_BANDWIDTH: usize = 16;
 
+/// Columns of one sparse factor solved together (when the caller stores them as one
+/// block, [`BatchSystems::block`]): the supernodal triangular solves then run as matrix
+/// products; the solve's scratch is about `n × SPARSE_SOLVE_BLOCK` complex numbers.
+pub(crate) const SPARSE_SOLVE_BLOCK: usize = 32;
+
 /// Stiffness `K`, mass `M` and damping `C` of one block (the same rows and columns of each)
 /// of a structural system, with the dynamic stiffness `A_k(ω) = K − (kω)² M + i kω C` of
 /// harmonic `k` and its frequency derivative `∂A_k/∂ω = −2k²ω M + i k C` (docs/theory.md
@@ -150,7 +155,7 @@ enum Analysis {
 }
 
 /// The factors of `A_k(ω)`, `k = 0..=H`.
-enum Factors {
+pub(super) enum Factors {
     /// One sparse LU per harmonic.
     Sparse(Vec<Lu<usize, c64>>),
     /// The band LUs of every harmonic, side by side.
@@ -160,7 +165,7 @@ enum Factors {
 /// The factored `A_k(ω)` for `k = 0..=H`.
 pub struct HarmonicFactors {
     pub omega: f64,
-    factors: Factors,
+    pub(super) factors: Factors,
     /// `kω` per harmonic (kept, so that factoring again allocates nothing).
     frequencies: Vec<f64>,
 }
@@ -368,12 +373,26 @@ impl HarmonicFactors {
         match &self.factors {
             Factors::Banded(batch) => batch.solve_systems(systems),
             Factors::Sparse(lus) => {
-                for s in 0..systems.count() {
+                let mut s = 0;
+                while s < systems.count() {
                     cancel.check()?;
                     let k = systems.matrix(s);
-                    let b = systems.column(s);
-                    let n = b.len();
-                    lus[k].solve_in_place(faer::MatMut::from_column_major_slice_mut(b, n, 1));
+                    let n = systems.column(s).len();
+                    // the longest run of columns of A_k stored as one block, up to
+                    // SPARSE_SOLVE_BLOCK
+                    let mut count = (systems.count() - s).min(SPARSE_SOLVE_BLOCK);
+                    while count > 1 && systems.block(s, count).is_none() {
+                        count /= 2;
+                    }
+                    let b = match systems.block(s, count) {
+                        Some(b) if count > 1 => b,
+                        _ => {
+                            count = 1;
+                            systems.column(s)
+                        }
+                    };
+                    lus[k].solve_in_place(faer::MatMut::from_column_major_slice_mut(b, n, count));
+                    s += count;
                 }
             }
         }

@@ -20,6 +20,7 @@
 pub mod banded;
 pub mod condensation;
 pub mod dynamic_stiffness;
+pub mod exact_receptance;
 pub mod modal_receptance;
 pub mod partitioned;
 pub mod receptance;
@@ -28,11 +29,10 @@ use faer::c64;
 
 pub use condensation::{Condensation, CondensedFrequency, ExactCondensation, LinearResponse};
 pub use dynamic_stiffness::{HarmonicFactors, LinearPart, StructuralBlock};
+pub use exact_receptance::ExactReceptance;
 pub use modal_receptance::ModalReceptance;
 pub use partitioned::{PartLoad, PartitionedSystem};
-pub use receptance::{
-    ContactCoordinates, ExactReceptance, Receptance, ReceptanceAtFrequency, StaticPlusLowRank,
-};
+pub use receptance::{ContactCoordinates, Receptance, ReceptanceAtFrequency, StaticPlusLowRank};
 
 /// The complex zero.
 pub(crate) const ZERO: c64 = c64::new(0.0, 0.0);

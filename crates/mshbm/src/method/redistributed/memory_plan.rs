@@ -44,6 +44,14 @@ pub fn memory_plan(system: &System, harmonics: usize, samples: usize) -> MemoryP
             ],
         );
     }
+    plan.add_product(
+        "the scratch of the sparse solves of a block of columns",
+        &[
+            system.n_dofs() as u64,
+            crate::linear::dynamic_stiffness::SPARSE_SOLVE_BLOCK as u64,
+            16,
+        ],
+    );
     plan.add(
         "the static contact problem (K_NN⁻¹W, Delassus matrix)",
         mul(&[n_n.saturating_add(contacts), contacts, 8]),
