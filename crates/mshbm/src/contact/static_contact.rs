@@ -143,7 +143,7 @@ impl ActiveSet {
     }
 
     /// Bytes the set holds.
-    fn bytes(&self) -> usize {
+    pub(crate) fn bytes(&self) -> usize {
         8 * self.restricted.len() + 9 * self.closed.len() + 64
     }
 

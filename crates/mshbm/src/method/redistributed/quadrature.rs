@@ -27,8 +27,8 @@
 use std::collections::HashMap;
 use std::rc::Rc;
 
-use crate::contact::static_contact::{ActiveSet, StaticContact};
-use crate::error::Result;
+use crate::contact::static_contact::{ActiveSet, StaticContact, ACTIVE_SET_CACHE_BYTES};
+use crate::error::{Error, Result};
 use crate::harmonic::{add_interval_gram, basis_into, n_coefficients, Quadrature, Sampling};
 
 mod cell_scan;
@@ -98,12 +98,34 @@ struct Groups<'a> {
     /// Gram blocks of an earlier integration, to fill again.
     spare: &'a mut Vec<Vec<f64>>,
     size: usize,
+    /// Bytes of the distinct sets the groups hold, and the most they may hold (the exact
+    /// quadrature; `usize::MAX` for the sampled one, bounded by its samples).
+    held: usize,
+    budget: usize,
 }
 
 impl Groups<'_> {
-    fn of(&mut self, set: &Rc<ActiveSet>) -> usize {
+    /// The group of `set`, a new one the first time the set is met; refused (the exact
+    /// quadrature on a large interface) when the sets held would exceed the budget.
+    fn of(&mut self, set: &Rc<ActiveSet>) -> Result<usize> {
         if let Some(&g) = self.index.get(&Rc::as_ptr(set)) {
-            return g;
+            return Ok(g);
+        }
+        self.held = self.held.saturating_add(set.bytes());
+        if self.held > self.budget {
+            return Err(Error::argument(
+                "quadrature",
+                format!(
+                    "the exact quadrature met more than {} active sets of the {} contacts in \
+                     one period, more than the {} their force maps may hold (the sets a \
+                     period passes through grow with the contacts that switch); use the \
+                     sampled quadrature (`--quadrature sampled`, `Quadrature::Sampled`) on \
+                     an interface this large",
+                    self.groups.len(),
+                    set.closed.len(),
+                    crate::limits::human_bytes(self.budget as u64),
+                ),
+            ));
         }
         let mut gram = self.spare.pop().unwrap_or_default();
         gram.clear();
@@ -113,7 +135,7 @@ impl Groups<'_> {
             gram,
         });
         self.index.insert(Rc::as_ptr(set), self.groups.len() - 1);
-        self.groups.len() - 1
+        Ok(self.groups.len() - 1)
     }
 }
 
@@ -153,6 +175,9 @@ pub struct QuadratureWorkspace {
     free_gap: Vec<f64>,
     basis: Vec<f64>,
     closed: Vec<bool>,
+    /// Bytes the active sets of one exact integration may hold; `None`:
+    /// [`ACTIVE_SET_CACHE_BYTES`], as much as the static problem's cache.
+    pub(super) set_budget: Option<usize>,
 }
 
 /// [`integrate`] into `out` (its storage reused), with the working storage `workspace`.
@@ -176,6 +201,11 @@ pub fn integrate_into(
         groups: &mut out.groups,
         spare: &mut workspace.spare_grams,
         size: ncoef,
+        held: 0,
+        budget: match quadrature {
+            Quadrature::Exact => workspace.set_budget.unwrap_or(ACTIVE_SET_CACHE_BYTES),
+            Quadrature::Sampled => usize::MAX,
+        },
     };
     match quadrature {
         Quadrature::Sampled => {
@@ -235,7 +265,7 @@ fn sampled(
     let mut free_gap = vec![0.0; nc];
     for (j, &tau) in sampling.taus.iter().enumerate() {
         sampling.synthesize_into(j, gamma, nc, &mut free_gap);
-        let g = groups.of(&contact.solve(&free_gap)?);
+        let g = groups.of(&contact.solve(&free_gap)?)?;
         sampling.add_sample_gram(j, &mut groups.groups[g].gram);
         // the sample's set holds on its cell [τ_j, τ_j+1)
         let end = sampling.taus.get(j + 1).copied().unwrap_or(two_pi);
@@ -392,7 +422,7 @@ fn exact(
             sampling.synthesize_into(j, gamma, nc, free_gap);
             let solved = contact.solve(free_gap)?;
             if !Rc::ptr_eq(&solved, &set) {
-                let g = groups.of(&set);
+                let g = groups.of(&set)?;
                 add_interval_gram(h, run_start, a, &mut groups.groups[g].gram);
                 intervals.push((run_start, a, g));
                 run_start = a;
@@ -421,7 +451,7 @@ fn exact(
             let Some((root, component)) = scan.earliest_root(&grid.coefs, ncoef) else {
                 break;
             };
-            let g = groups.of(&set);
+            let g = groups.of(&set)?;
             add_interval_gram(h, run_start, root, &mut groups.groups[g].gram);
             intervals.push((run_start, root, g));
             switches.push(Switch { tau: root });
@@ -458,83 +488,11 @@ fn exact(
             start_known = false;
         }
     }
-    let g = groups.of(&set);
+    let g = groups.of(&set)?;
     add_interval_gram(h, run_start, two_pi, &mut groups.groups[g].gram);
     intervals.push((run_start, two_pi, g));
     Ok(())
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sparse::SparseMatrix;
-    use std::f64::consts::PI;
-
-    /// Coefficients `[a_0, a_1, b_1]` of `max(0, −γ)` for `γ(τ) = α (cos(τ − φ) − cos ψ)`:
-    /// the force of an uncoupled contact of unit compliance with free gap `γ`, closed on
-    /// `(φ + ψ, φ + 2π − ψ)`; in closed form, from the integrals over that interval.
-    fn closed_form_force(alpha: f64, phi: f64, psi: f64) -> [f64; 3] {
-        let mean = (2.0 * PI - 2.0 * psi) * psi.cos() + 2.0 * psi.sin();
-        let first = -(PI - psi) - (2.0 * psi).sin() / 2.0;
-        let c1 = alpha * first / PI;
-        [alpha * mean / (2.0 * PI), c1 * phi.cos(), c1 * phi.sin()]
-    }
-
-    /// The coefficients `[1, cos τ, sin τ]` of that `γ`.
-    fn free_gap(alpha: f64, phi: f64, psi: f64) -> [f64; 3] {
-        [-alpha * psi.cos(), alpha * phi.cos(), alpha * phi.sin()]
-    }
-
-    /// Two contacts that close 3e-13 apart — the first with a gap ten thousand times
-    /// flatter — and a third far open. Just after the second switch the first contact's gap
-    /// is below the LCP's tolerance (relative to the open gap), and an LCP warm-started
-    /// from the last grid sample's set (the second contact closed, the first open) keeps
-    /// the first one open there. The set just after must come from the located switches;
-    /// the forces' coefficients must equal the closed form.
-    #[test]
-    fn switches_at_one_instant_keep_every_closed_contact() {
-        let nc = 3;
-        let k = SparseMatrix::from_triplets(nc, nc, &[(0, 0, 1.0), (1, 1, 1.0), (2, 2, 1.0)]);
-        let w: Vec<f64> = (0..nc * nc)
-            .map(|e| if e / nc == e % nc { 1.0 } else { 0.0 })
-            .collect();
-        let mut contact = StaticContact::new(&k, w, vec![0.0; nc]).unwrap();
-        let theta = 2.0 * PI * 3.3 / 16.0;
-        // (α, φ, ψ): the flat contact closes at θ − 3e-13 and opens at 2π − θ; the steep
-        // one closes at θ and stays closed over the last grid sample and τ = 0
-        let flat = (1e-4, 0.0, theta - 3e-13);
-        let steep = (1.0, theta - 0.5, 0.5);
-        let gaps = [
-            free_gap(flat.0, flat.1, flat.2),
-            free_gap(steep.0, steep.1, steep.2),
-            [1.0, 0.0, 0.0],
-        ];
-        // harmonic-major: coefficient m of contact c at m·n_c + c
-        let gamma: Vec<f64> = (0..3 * nc).map(|e| gaps[e % nc][e / nc]).collect();
-        let sampling = Sampling::new(1, 16);
-        let integration = integrate(&mut contact, &gamma, &sampling, Quadrature::Exact).unwrap();
-        let mut lambda = [[0.0; 3]; 3];
-        for group in &integration.groups {
-            for n in 0..3 {
-                let force = group.set.force(&gamma[n * nc..(n + 1) * nc]);
-                for (c, l) in lambda.iter_mut().enumerate() {
-                    for (m, lm) in l.iter_mut().enumerate() {
-                        *lm += group.gram[m * 3 + n] * force[c];
-                    }
-                }
-            }
-        }
-        assert_eq!(lambda[2], [0.0; 3], "the third contact stays open");
-        for (c, (alpha, phi, psi)) in [flat, steep].into_iter().enumerate() {
-            let exact = closed_form_force(alpha, phi, psi);
-            for m in 0..3 {
-                assert!(
-                    (lambda[c][m] - exact[m]).abs() <= 1e-12 * alpha,
-                    "contact {c}, coefficient {m}: {} instead of {}",
-                    lambda[c][m],
-                    exact[m]
-                );
-            }
-        }
-    }
-}
+mod tests;
