@@ -367,14 +367,21 @@ impl March<'_> {
                 da
             })
             .collect();
-        let unit_gamma = vec![vec![0.0; m * ncoef]; 2 * s];
-        let unit_anchors: Vec<Vec<f64>> = component
+        // the rates' variations at a stage along the columns and along unit `δa` of the
+        // slipping components (A of (T222)) in one evaluation: the columns first
+        let stage_gamma: Vec<Vec<f64>> = d_gamma
             .iter()
-            .map(|&r| {
+            .cloned()
+            .chain(std::iter::repeat_n(vec![0.0; m * ncoef], 2 * s))
+            .collect();
+        let stage_anchors: Vec<Vec<f64>> = held_columns
+            .iter()
+            .cloned()
+            .chain(component.iter().map(|&r| {
                 let mut e = vec![0.0; 2 * n];
                 e[r] = 1.0;
                 e
-            })
+            }))
             .collect();
         let mut tangent: Vec<Vec<f64>> = d_anchors
             .iter()
@@ -413,21 +420,21 @@ impl March<'_> {
                 let mut rhs = Mat::<f64>::zeros(3 * w, ncol);
                 for (i, a) in stage_a.iter().enumerate() {
                     let tau = t + RADAU_C[i] * length;
-                    let by_columns = this.rates(tau, modes, a, &closed, d_gamma, &held_columns)?;
-                    let by_units =
-                        this.rates(tau, modes, a, &closed, &unit_gamma, &unit_anchors)?;
+                    let d_rate = this
+                        .rates(tau, modes, a, &closed, &stage_gamma, &stage_anchors)?
+                        .d_rate;
                     // row block i of (I − h a_ik A_k): column block k gets A_k's entries
                     for k in 0..3 {
-                        for q in 0..by_units.d_rate.ncols() {
+                        for q in 0..w {
                             for (p, &r) in component.iter().enumerate() {
-                                let entry = -length * RADAU_A[k][i] * by_units.d_rate[(r, q)];
+                                let entry = -length * RADAU_A[k][i] * d_rate[(r, ncol + q)];
                                 system[(k * w + p) * 3 * w + i * w + q] += entry;
                             }
                         }
                     }
                     for j in 0..ncol {
                         for (p, &r) in component.iter().enumerate() {
-                            let b = by_columns.d_rate[(r, j)];
+                            let b = d_rate[(r, j)];
                             for k in 0..3 {
                                 rhs[(k * w + p, j)] += length * RADAU_A[k][i] * b;
                             }
