@@ -41,11 +41,7 @@ impl Evaluation {
             v: Vec::new(),
             omega: f64::NAN,
             residual: Vec::new(),
-            integration: Rc::new(Integration {
-                groups: Vec::new(),
-                switches: Vec::new(),
-                intervals: Vec::new(),
-            }),
+            integration: Rc::new(Integration::default()),
             phi: Vec::new(),
             forces: Vec::new(),
             friction: None,

@@ -50,6 +50,7 @@ pub struct Switch {
 }
 
 /// The active-set decomposition of one period.
+#[derive(Default)]
 pub struct Integration {
     pub groups: Vec<Group>,
     /// Located switching times (exact quadrature only).
@@ -147,11 +148,7 @@ pub fn integrate(
     sampling: &Sampling,
     quadrature: Quadrature,
 ) -> Result<Integration> {
-    let mut out = Integration {
-        groups: Vec::new(),
-        switches: Vec::new(),
-        intervals: Vec::new(),
-    };
+    let mut out = Integration::default();
     integrate_into(
         contact,
         gamma,

@@ -97,11 +97,7 @@ fn the_exact_quadrature_refuses_more_active_sets_than_its_budget() {
             set_budget: budget,
             ..QuadratureWorkspace::default()
         };
-        let mut out = Integration {
-            groups: Vec::new(),
-            switches: Vec::new(),
-            intervals: Vec::new(),
-        };
+        let mut out = Integration::default();
         integrate_into(
             contact,
             &gamma,
