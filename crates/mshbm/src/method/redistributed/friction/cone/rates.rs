@@ -100,11 +100,9 @@ impl March<'_> {
         contacts: &[usize],
         lambda: &[f64],
     ) -> Vec<[f64; 2]> {
-        let n = self.law.n;
         let mut direction = self.directions(contacts, lambda);
-        let apex = BOUNDARY_TOLERANCES * INDICATOR_TOLERANCE * self.force_scale;
         for (i, &c) in contacts.iter().enumerate() {
-            if lambda[n + c].hypot(lambda[2 * n + c]) <= apex {
+            if self.at_apex(lambda, c) {
                 let rate = self.stick_rate(tau, closed, c);
                 let norm = rate[0].hypot(rate[1]);
                 if norm > 0.0 {
@@ -115,9 +113,17 @@ impl March<'_> {
         direction
     }
 
+    /// Whether contact `c`'s tangential force `λ_T,c` is within ten tolerances of (T153) of
+    /// the cone's apex, where its slip direction is its rate's (T193), (T223).
+    pub(super) fn at_apex(&self, lambda: &[f64], c: usize) -> bool {
+        let n = self.law.n;
+        let apex = BOUNDARY_TOLERANCES * INDICATOR_TOLERANCE * self.force_scale;
+        lambda[n + c].hypot(lambda[2 * n + c]) <= apex
+    }
+
     /// `λ̇_T,c` of a closed contact with friction while no contact slips, `−(Y_C γ̇_C)_T,c`
     /// (T186).
-    fn stick_rate(&self, tau: f64, closed: &Closed, c: usize) -> [f64; 2] {
+    pub(super) fn stick_rate(&self, tau: f64, closed: &Closed, c: usize) -> [f64; 2] {
         let n = self.law.n;
         let k = closed.rows.len();
         let mut g = vec![0.0; 3 * n];

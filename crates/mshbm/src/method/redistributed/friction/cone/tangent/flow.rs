@@ -178,15 +178,30 @@ impl March<'_> {
         // δe of (T215) (`2s` rows), and `w − u` with `u_T,c = κ_c δe_c` on the slipping
         // contacts' tangent rows
         let mut de = Mat::<f64>::zeros(2 * s, ncol);
+        // `Y δγ̇_K`, whose tangent rows are `−δλ̇_T` of a stuck contact: the variation of the
+        // direction at the apex (T223), computed where some slipping contact is there
+        let apex_rates = active
+            .iter()
+            .any(|&(_, c)| self.at_apex(&ev.lambda, c))
+            .then(|| y_times(closed, w.as_ref()));
         for (q, &(i, c)) in active.iter().enumerate() {
             let e = ev.direction[i];
             let t = closed.tangent_row[c].expect("a slipping contact is closed with friction");
             let norm = ev.lambda[n + c].hypot(ev.lambda[2 * n + c]);
-            // 1/|λ_T| regularised at the apex, where the direction is the force's rate's
-            // (T193) and its variation relaxes at once
-            let inverse = norm / (norm * norm + apex * apex);
+            // at the apex the direction is that of the stuck force's rate `s = −(Y γ̇_K)_T`
+            // (T193), and its variation `−(I − e eᵀ) δs/|s|`, bounded (T223); elsewhere the
+            // force's, with 1/|λ_T| regularised where it vanishes
+            let at_rate = match &apex_rates {
+                Some(y_rates) if self.at_apex(&ev.lambda, c) => {
+                    let rate = self.stick_rate(tau, closed, c);
+                    let rate_norm = rate[0].hypot(rate[1]);
+                    (rate_norm > 0.0).then_some((y_rates, -1.0 / rate_norm))
+                }
+                _ => None,
+            };
+            let (columns, inverse) = at_rate.unwrap_or((&dl_k, norm / (norm * norm + apex * apex)));
             for j in 0..ncol {
-                let dt = [dl_k[(t, j)], dl_k[(t + 1, j)]];
+                let dt = [columns[(t, j)], columns[(t + 1, j)]];
                 let along = e[0] * dt[0] + e[1] * dt[1];
                 let d = [
                     -(dt[0] - e[0] * along) * inverse,
