@@ -239,63 +239,6 @@ impl March<'_> {
         ode.step(&mut f, tau, x, h, out, tolerance)
     }
 
-    /// The displacements at `τ` within `phase`, its slip flow integrated from its start.
-    pub(super) fn flow_to(&mut self, phase: &ConePhase, tau: f64) -> Result<Vec<f64>> {
-        let n = self.law.n;
-        let slipping = self.slipping(&phase.modes);
-        let mut anchors = phase.anchors.clone();
-        if slipping.is_empty() || tau <= phase.start {
-            return Ok(anchors);
-        }
-        let closed = self.closed(&phase.modes)?;
-        let dim = 2 * slipping.len() * (1 + n_coefficients(self.harmonics));
-        let mut x = vec![0.0; dim];
-        for (i, &c) in slipping.iter().enumerate() {
-            x[2 * i] = anchors[c];
-            x[2 * i + 1] = anchors[n + c];
-        }
-        let mut ode = Dop853::new(dim);
-        let mut next = vec![0.0; dim];
-        let (mut t, mut h) = (phase.start, 2.0 * PI / self.cells as f64);
-        while t < tau {
-            let length = h.min(tau - t);
-            let error = self.step(
-                &mut ode,
-                t,
-                &x,
-                length,
-                &mut next,
-                &phase.modes,
-                &anchors,
-                &closed,
-            )?;
-            if error <= 1.0 {
-                t = if length == tau - t { tau } else { t + length };
-                for (i, &c) in slipping.iter().enumerate() {
-                    anchors[c] = next[2 * i];
-                    anchors[n + c] = next[2 * i + 1];
-                }
-                self.project(t, &phase.modes, &mut anchors, &closed)?;
-                for (i, &c) in slipping.iter().enumerate() {
-                    next[2 * i] = anchors[c];
-                    next[2 * i + 1] = anchors[n + c];
-                }
-                x.copy_from_slice(&next);
-            }
-            h = Dop853::next_step(length, error).min(2.0 * PI / self.cells as f64);
-            if h <= 1e-15 {
-                return Err(Error::Numerical(
-                    "friction cone: the slip flow's step fell below round-off".into(),
-                ));
-            }
-        }
-        for (i, &c) in slipping.iter().enumerate() {
-            anchors[c] = x[2 * i];
-            anchors[n + c] = x[2 * i + 1];
-        }
-        Ok(anchors)
-    }
-
     /// One march of the period from `(modes, anchors)` at `τ = 0` (T186)–(T190).
     pub(super) fn run(&mut self, modes0: &[ConeMode], anchors0: &[f64]) -> Result<Marched> {
         let n = self.law.n;
@@ -327,6 +270,7 @@ impl March<'_> {
             let mut next = vec![0.0; dim];
             let mut held = anchors.clone();
             let mut event: Option<(usize, Watch)> = None;
+            let (mut grid, mut track) = (Vec::new(), Vec::new());
             while tau < 2.0 * PI {
                 let length = h.min(2.0 * PI - tau).min(cell);
                 let error = self.step(
@@ -362,6 +306,10 @@ impl March<'_> {
                     h = Dop853::next_step(length, error);
                     tau = end;
                     x.copy_from_slice(&next);
+                    if s > 0 {
+                        grid.push(tau);
+                        track.extend_from_slice(&x[..2 * s]);
+                    }
                     continue;
                 }
                 // the earliest sign change among the crossing indicators: the first root of
@@ -447,6 +395,10 @@ impl March<'_> {
                         next[2 * q + 1] = held[n + c];
                     }
                     x.copy_from_slice(&next);
+                    if s > 0 {
+                        grid.push(tau + hh);
+                        track.extend_from_slice(&x[..2 * s]);
+                    }
                 }
                 tau += hh;
                 event = Some((ind[i].1, ind[i].2));
@@ -474,6 +426,8 @@ impl March<'_> {
                 modes: modes.clone(),
                 anchors: start_anchors,
                 event,
+                grid,
+                track,
             });
             if let Some((c, watch)) = event {
                 events += 1;

@@ -56,6 +56,13 @@ pub struct ConePhase {
     pub anchors: Vec<f64>,
     /// The contact and the indicator whose root ended the phase (none for the last).
     event: Option<(usize, march::Watch)>,
+    /// The ends of the march's accepted steps through the phase (the last is `end`; empty
+    /// without slip), and after each the slipping contacts' displacements (two per slipping
+    /// contact, in their order): the outputs at an instant start from these (T221), so that
+    /// they follow the march's path where the slip flow is not unique (a contact slipping
+    /// at the cone's apex with a normal force at round-off).
+    grid: Vec<f64>,
+    track: Vec<f64>,
 }
 
 /// The periodic contact forces of a free-gap signal.
@@ -214,8 +221,8 @@ impl ConeContacts {
         )))
     }
 
-    /// The forces (`3n`) at `τ` of a periodic state, the slip flow integrated again from the
-    /// start of `τ`'s phase.
+    /// The forces (`3n`) at `τ` of a periodic state, the slip flow integrated from the
+    /// march's last step before `τ` (T221).
     pub fn force_at(&self, periodic: &ConePeriodic, tau: f64) -> Result<Vec<f64>> {
         let tau = tau.rem_euclid(2.0 * PI);
         let phase = periodic

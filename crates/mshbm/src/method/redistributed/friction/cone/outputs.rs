@@ -52,50 +52,34 @@ impl ConeContacts {
     }
 
     /// The state of `periodic` at each of `taus` (taken modulo the period), the slip flow
-    /// integrated once through each phase from one asked instant to the next (T221).
+    /// integrated from the march's last step before each instant (T221).
     pub fn states_at(&self, periodic: &ConePeriodic, taus: &[f64]) -> Result<Vec<ConeState>> {
         let m = 3 * self.n;
         let mut march = March::new(self, periodic.harmonics, &periodic.gamma, 64);
-        let mut order: Vec<(usize, f64)> = taus
-            .iter()
-            .map(|t| t.rem_euclid(2.0 * PI))
-            .enumerate()
-            .collect();
-        order.sort_by(|a, b| a.1.total_cmp(&b.1));
-        let mut out: Vec<Option<ConeState>> = vec![None; taus.len()];
+        let mut out = Vec::with_capacity(taus.len());
         let mut gamma = vec![0.0; m];
-        let mut walk: Option<(usize, ConePhase)> = None;
-        for (i, tau) in order {
-            let p = phase_index(&periodic.phases, tau)?;
-            let phase = &periodic.phases[p];
-            // continue the walk through this phase, or start it at the phase's start
-            let from = match walk.take() {
-                Some((q, w)) if q == p && w.start <= tau => w,
-                _ => phase.clone(),
-            };
-            let anchors = march.flow_to(&from, tau)?;
+        for tau in taus.iter().map(|t| t.rem_euclid(2.0 * PI)) {
+            let phase = &periodic.phases[phase_index(&periodic.phases, tau)?];
+            let anchors = march.flow_to(phase, tau)?;
             let closed = march.closed(&phase.modes)?;
             let lambda = march.evaluate(tau, &phase.modes, &anchors, &closed)?.lambda;
             march.gamma_at(tau, &mut gamma, None);
             let y = (0..m)
                 .map(|r| gamma[r] + (0..m).map(|k| self.d(r, k) * lambda[k]).sum::<f64>())
                 .collect();
-            out[i] = Some(ConeState {
+            out.push(ConeState {
                 lambda,
                 y,
                 modes: phase.modes.clone(),
             });
-            let mut next = from;
-            next.start = tau;
-            next.anchors = anchors;
-            walk = Some((p, next));
         }
-        Ok(out.into_iter().map(|s| s.expect("every instant")).collect())
+        Ok(out)
     }
 
     /// The energy the friction forces dissipate over one period, `−∮ λ_Tᵀ dy_T = ∮ Σ κ_c
     /// |λ_T,c| dτ` over the slipping contacts (T221), by 8-point Gauss–Legendre on pieces of
-    /// each slip phase no longer than `2π/(8H)`, the slip flow marched from piece to piece.
+    /// each slip phase no longer than `2π/(8H)`, the slip flow integrated from the march's
+    /// last step before each node.
     pub fn dissipated_energy(&self, periodic: &ConePeriodic) -> Result<f64> {
         let n = self.n;
         let mut march = March::new(self, periodic.harmonics, &periodic.gamma, 64);
@@ -109,12 +93,11 @@ impl ConeContacts {
             let closed = march.closed(&phase.modes)?;
             let pieces = ((phase.end - phase.start) / longest).ceil().max(1.0) as usize;
             let width = (phase.end - phase.start) / pieces as f64;
-            let mut walk = phase.clone();
             for piece in 0..pieces {
                 let a = phase.start + piece as f64 * width;
                 for (x, w) in GAUSS_8 {
                     let tau = a + 0.5 * width * (1.0 + x);
-                    let anchors = march.flow_to(&walk, tau)?;
+                    let anchors = march.flow_to(phase, tau)?;
                     let e = march.evaluate(tau, &phase.modes, &anchors, &closed)?;
                     let power: f64 = slipping
                         .iter()
@@ -123,12 +106,86 @@ impl ConeContacts {
                         .map(|(&c, s)| s * e.lambda[n + c].hypot(e.lambda[2 * n + c]))
                         .sum();
                     total += 0.5 * width * w * power;
-                    walk.start = tau;
-                    walk.anchors = anchors;
                 }
             }
         }
         Ok(total)
+    }
+}
+
+impl March<'_> {
+    /// The displacements at `τ` within `phase`: the march's state at the last of its steps
+    /// that ends before `τ` (T221), the slip flow integrated from there.
+    pub(super) fn flow_to(&mut self, phase: &ConePhase, tau: f64) -> Result<Vec<f64>> {
+        let n = self.law.n;
+        let slipping = self.slipping(&phase.modes);
+        let mut anchors = phase.anchors.clone();
+        if slipping.is_empty() || tau <= phase.start {
+            return Ok(anchors);
+        }
+        let s = slipping.len();
+        let dim = 2 * s * (1 + n_coefficients(self.harmonics));
+        let mut x = vec![0.0; dim];
+        let passed = phase.grid.partition_point(|&t| t <= tau);
+        let from = if passed == 0 {
+            for (i, &c) in slipping.iter().enumerate() {
+                x[2 * i] = anchors[c];
+                x[2 * i + 1] = anchors[n + c];
+            }
+            phase.start
+        } else {
+            x[..2 * s].copy_from_slice(&phase.track[(passed - 1) * 2 * s..passed * 2 * s]);
+            for (i, &c) in slipping.iter().enumerate() {
+                anchors[c] = x[2 * i];
+                anchors[n + c] = x[2 * i + 1];
+            }
+            phase.grid[passed - 1]
+        };
+        if tau <= from {
+            return Ok(anchors);
+        }
+        let closed = self.closed(&phase.modes)?;
+        let mut ode = Dop853::new(dim);
+        let mut next = vec![0.0; dim];
+        // the march's step from `from` was at least this long and within the tolerance
+        let (mut t, mut h) = (from, tau - from);
+        while t < tau {
+            let length = h.min(tau - t);
+            let error = self.step(
+                &mut ode,
+                t,
+                &x,
+                length,
+                &mut next,
+                &phase.modes,
+                &anchors,
+                &closed,
+            )?;
+            if error <= 1.0 {
+                t = if length == tau - t { tau } else { t + length };
+                for (i, &c) in slipping.iter().enumerate() {
+                    anchors[c] = next[2 * i];
+                    anchors[n + c] = next[2 * i + 1];
+                }
+                self.project(t, &phase.modes, &mut anchors, &closed)?;
+                for (i, &c) in slipping.iter().enumerate() {
+                    next[2 * i] = anchors[c];
+                    next[2 * i + 1] = anchors[n + c];
+                }
+                x.copy_from_slice(&next);
+            }
+            h = Dop853::next_step(length, error);
+            if h <= 1e-15 {
+                return Err(Error::Numerical(
+                    "friction cone: the slip flow's step fell below round-off".into(),
+                ));
+            }
+        }
+        for (i, &c) in slipping.iter().enumerate() {
+            anchors[c] = x[2 * i];
+            anchors[n + c] = x[2 * i + 1];
+        }
+        Ok(anchors)
     }
 }
 
