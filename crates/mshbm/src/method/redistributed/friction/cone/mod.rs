@@ -87,12 +87,15 @@ const INDICATOR_TOLERANCE: f64 = 1e-11;
 const FLOW_TOLERANCE: f64 = 1e-12;
 /// Passes of one period before the fixed point is given up.
 const MAX_PASSES: usize = 400;
+/// Pairs of start and end of the period's march that Anderson mixing combines (T224).
+const MIXING_MEMORY: usize = 5;
 /// Mode changes in one period before the march is given up (a chattering contact).
 const MAX_EVENTS_PER_CONTACT: usize = 1000;
 
 mod flow;
 mod fourier;
 mod march;
+mod mixing;
 mod outputs;
 mod rates;
 mod tangent;
@@ -190,6 +193,7 @@ impl ConeContacts {
         march.gamma_at(0.0, &mut g0, None);
         let (mut modes0, mut anchors0) = self.initial_state(&g0)?;
         let scale = march.gamma_scale.max(f64::MIN_POSITIVE);
+        let mut mixing = mixing::Anderson::new(MIXING_MEMORY);
         for pass in 1..=MAX_PASSES {
             march.steps = 0;
             march.trial_steps = 0;
@@ -213,8 +217,24 @@ impl ConeContacts {
                     gamma: gamma.to_vec(),
                 });
             }
+            // the next start: mixed from the last passes while the modes at τ = 0 repeat
+            // (the closed contacts with friction: their anchors are the unknowns) (T224)
+            let unknowns: Vec<usize> = (0..n)
+                .filter(|&c| modes0[c] != ConeMode::Open && self.mu[c] > 0.0)
+                .flat_map(|c| [c, n + c])
+                .collect();
+            let mut next = anchors_end.clone();
+            if modes_end == modes0 && !unknowns.is_empty() {
+                let x: Vec<f64> = unknowns.iter().map(|&r| anchors0[r]).collect();
+                let g: Vec<f64> = unknowns.iter().map(|&r| anchors_end[r]).collect();
+                for (r, v) in unknowns.iter().zip(mixing.next(&x, &g)) {
+                    next[*r] = v;
+                }
+            } else {
+                mixing.reset();
+            }
             modes0 = modes_end;
-            anchors0 = anchors_end;
+            anchors0 = next;
         }
         Err(Error::Numerical(format!(
             "friction cone: the contact state did not become periodic in {MAX_PASSES} periods"

@@ -8,6 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::march::March;
+use super::mixing::Anderson;
 use super::*;
 
 mod flow;
@@ -18,7 +19,8 @@ use flow::series_at;
 /// How the periodic anchors' system (T218) is solved.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(in super::super) enum Anchors {
-    /// The cheaper of the two below by the count of columns marched.
+    /// The cheaper of the two below by the count of columns marched (with the slipping
+    /// contacts' unit columns every march carries).
     Cheaper,
     /// `2|R|` unit anchors as further columns of one march, then `(I − P_RR)` factored.
     #[cfg_attr(not(test), allow(dead_code))] // chosen by the tests, to compare
@@ -98,10 +100,18 @@ impl ConeContacts {
             d_anchors.push(z_tangent[j].iter().map(|v| v * factor).collect());
             factors.push(factor);
         }
-        // the march's cost grows with its columns: `2|R|` unit anchors once, or the
-        // directions once per pass of the iteration, about as many passes as the law's
+        // a march costs about its columns plus the `2|S|` unit columns of the slipping
+        // contacts' rates it always carries (T222), `w` on average over the period: `2|R|`
+        // unit anchors once, or the directions once per pass of the iteration, about as many
+        // passes as the law's (both mixed, (T224))
+        let w = phases
+            .iter()
+            .map(|p| (p.end - p.start) * 2.0 * march.slipping(&p.modes).len() as f64)
+            .sum::<f64>()
+            / (2.0 * PI);
+        let (columns, unit_cost) = (ndir as f64 + w, (ndir + r_rows.len()) as f64 + w);
         let iterate = match how {
-            Anchors::Cheaper => periodic.passes * ndir < r_rows.len(),
+            Anchors::Cheaper => periodic.passes as f64 * columns < unit_cost,
             Anchors::UnitColumns => false,
             Anchors::Iteration => true,
         };
@@ -111,6 +121,9 @@ impl ConeContacts {
             // unit anchors are used after all
             let mut start = d_anchors.clone();
             let mut previous = f64::INFINITY;
+            // each column's iteration is affine in its anchors: mixed as the law's (T224)
+            let mut mixing: Vec<Anderson> =
+                (0..ndir).map(|_| Anderson::new(MIXING_MEMORY)).collect();
             for pass in 0..=MAX_PASSES {
                 let mut end = start.clone();
                 let forces = self.march_columns(&mut march, phases, &d_gamma, &mut end)?;
@@ -133,16 +146,15 @@ impl ConeContacts {
                 } else {
                     f64::INFINITY
                 };
-                if how == Anchors::Cheaper
-                    && pass >= 1
-                    && remaining * ndir as f64 > (r_rows.len() + ndir) as f64
-                {
+                if how == Anchors::Cheaper && pass >= 1 && remaining * columns > unit_cost {
                     break;
                 }
                 previous = change;
                 for j in 0..ndir {
-                    for &row in &r_rows {
-                        start[j][row] = end[j][row];
+                    let x: Vec<f64> = r_rows.iter().map(|&row| start[j][row]).collect();
+                    let g: Vec<f64> = r_rows.iter().map(|&row| end[j][row]).collect();
+                    for (&row, v) in r_rows.iter().zip(mixing[j].next(&x, &g)) {
+                        start[j][row] = v;
                     }
                 }
             }
