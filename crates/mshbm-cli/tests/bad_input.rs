@@ -417,18 +417,19 @@ fn usage_errors_exit_with_1_in_at_most_three_lines() {
 #[test]
 fn overflowing_parameters_are_named() {
     // E·A/h = 1e308 / 0.2 overflows
-    for (set, field) in [("bar.young=1e308", "bar.young")] {
-        let err = fails(&[
-            "solve",
-            &example("clamped_bar.toml"),
-            "--frequency",
-            "30000",
-            "--set",
-            set,
-        ]);
-        assert!(err.contains(field) && err.contains("overflows"), "{err}");
-        assert!(!err.contains("damping"), "{err}");
-    }
+    let err = fails(&[
+        "solve",
+        &example("clamped_bar.toml"),
+        "--frequency",
+        "30000",
+        "--set",
+        "bar.young=1e308",
+    ]);
+    assert!(
+        err.contains("bar.young") && err.contains("overflows"),
+        "{err}"
+    );
+    assert!(!err.contains("damping"), "{err}");
 }
 
 /// Issue 46, item 5: a negative mass diagonal is refused naming the matrix, by `modes`

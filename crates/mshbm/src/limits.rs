@@ -254,6 +254,8 @@ fn address_space_left() -> Option<u64> {
         {
             continue;
         }
+        // `rlim_t` is `u64` here and narrower or signed on other platforms
+        #[allow(clippy::unnecessary_cast)]
         let mut rest = (limit.rlim_cur as u64).saturating_sub(used.unwrap_or(0));
         if resource == libc::RLIMIT_AS {
             // the address space the dense kernels reserve on their first product, touched

@@ -500,7 +500,7 @@ fn the_methods_that_model_plane_friction_refuse_the_cone() {
     let mut p = ms_hbm(&model, 2);
     let omega = hz(250.0);
     let x = p.initial_guess(omega).unwrap();
-    let e = p.floquet(&x, omega).err().expect("refused").to_string();
+    let e = p.floquet(&x, omega).expect_err("refused").to_string();
     assert!(e.contains("Coulomb cone"), "{e}");
 }
 
@@ -547,7 +547,9 @@ fn the_cone_laws_derivative_through_an_opening_from_slip_is_its_central_differen
         let direction: Vec<f64> = (0..gamma.len())
             .map(|i| (((i as f64 + 1.0) * 0.7548776662 * f64::from(seed)).fract() - 0.5) * scale)
             .collect();
-        let tangent = law.tangent(&periodic, &[direction.clone()], cells).unwrap();
+        let tangent = law
+            .tangent(&periodic, std::slice::from_ref(&direction), cells)
+            .unwrap();
         let step = 1e-5;
         let forces = |sign: f64| {
             let g: Vec<f64> = gamma

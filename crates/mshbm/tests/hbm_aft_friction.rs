@@ -46,6 +46,7 @@ const OSCILLATOR: Oscillator = Oscillator {
 /// Stiffness of the normal DOFs (to ground) in the oscillator models.
 const K_NORMAL: f64 = 10.0;
 
+#[allow(clippy::too_many_arguments)] // the oscillators' parts, named where they are built
 fn model(
     name: &str,
     mass: Vec<(usize, usize, f64)>,

@@ -182,6 +182,7 @@ impl CoulombContacts {
                     lambda[t] = lambda[t].clamp(-mu * lambda[c], mu * lambda[c]);
                 }
             }
+            #[allow(clippy::needless_range_loop)] // `dot_row` borrows `self` beside `self.y`
             for r in 0..self.m {
                 self.y[r] = y_free[r] + self.dot_row(r, &lambda);
             }

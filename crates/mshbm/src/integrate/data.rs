@@ -4,6 +4,9 @@
 
 use crate::sparse::SparseMatrix;
 
+/// The tangent `w_T` (sparse: DOF, weight) and `μ` of one contact's friction.
+pub(crate) type ContactFriction = (Vec<(usize, f64)>, f64);
+
 /// Contacts in system numbering: `g = Σ w q + g0`, with Coulomb friction along a tangent
 /// `y_T = Σ w_T q` where given (docs/theory.md (T170)).
 #[derive(Clone, Debug)]
@@ -11,7 +14,7 @@ pub(crate) struct Contacts {
     pub(crate) w: Vec<Vec<(usize, f64)>>,
     pub(crate) gap: Vec<f64>,
     /// Per contact: the tangent `w_T` and `μ` of its friction, `None` without.
-    pub(crate) friction: Vec<Option<(Vec<(usize, f64)>, f64)>>,
+    pub(crate) friction: Vec<Option<ContactFriction>>,
 }
 
 impl Contacts {

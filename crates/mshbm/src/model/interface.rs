@@ -450,6 +450,10 @@ fn interface_gaps<'a>(
     }
 }
 
+/// What [`read_node_table`] returns: the values by node, the nodes listed with where (file
+/// and line), and the file as shown in messages.
+type NodeTable = (HashMap<usize, f64>, Vec<(usize, String)>, String);
+
 /// A per-node table (`gap_file`, `mu_file`): CSV lines `node, value` (`#` starts a comment
 /// line), each node once, each value `valid` (described as `requirement` in messages). Returns the values, the nodes listed with
 /// where (file and line), and the file as shown in messages.
@@ -460,7 +464,7 @@ fn read_node_table(
     file: &str,
     value: &str,
     (valid, requirement): (fn(f64) -> bool, &str),
-) -> Result<(HashMap<usize, f64>, Vec<(usize, String)>, String)> {
+) -> Result<NodeTable> {
     let (shown, text) = inputs.read(field, file)?;
     let mut values = HashMap::new();
     let mut listed = Vec::new();

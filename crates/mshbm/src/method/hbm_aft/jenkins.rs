@@ -212,6 +212,7 @@ impl HbmAft {
                 .map(|j| jenkins.mu[c] * state.force[j * nc + c])
                 .collect();
             let period = periodic_slider(&u, &limit, jenkins.stiffness[c]);
+            #[allow(clippy::needless_range_loop)] // sample j of contact c, as (T161) writes it
             for j in 0..ns {
                 out.force[j * nc + c] = period.force[j];
                 out.limit[j * nc + c] = limit[j];
