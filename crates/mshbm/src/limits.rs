@@ -210,15 +210,32 @@ pub fn physical_memory_bytes() -> Option<u64> {
     kib_field(&text, "MemTotal:")
 }
 
-/// The memory this process may use, the default budget: the smallest of the machine's
-/// physical memory (8 GiB when unknown), what is left of the address space under
+/// The share of the machine's physical memory the default budget leaves to a computation:
+/// the rest stays with the system and the other programs.
+pub const MACHINE_SHARE: f64 = 0.75;
+
+/// The memory the machine can give now: the smaller of [`MACHINE_SHARE`] of its physical
+/// memory (`MemTotal`) and the memory available without swapping (`MemAvailable`, which
+/// counts what other programs hold), from `/proc/meminfo`; `None` elsewhere.
+pub fn usable_machine_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let share = (kib_field(&text, "MemTotal:")? as f64 * MACHINE_SHARE) as u64;
+    Some(kib_field(&text, "MemAvailable:").map_or(share, |a| a.min(share)))
+}
+
+/// The memory this process may use, the default budget: the smallest of what the machine
+/// can give now ([`usable_machine_memory_bytes`]: three quarters of its physical memory, or
+/// less where other programs hold more of it; 8 GiB when unknown), what is left of the
+/// address space under
 /// `RLIMIT_AS` (`ulimit -v`, `prlimit --as`) and of the data segment under `RLIMIT_DATA`
 /// (the limit less what the process maps already, `VmSize` or `VmData`), and the memory
 /// limit of the process's cgroup (`memory.max` of cgroup v2, `memory.limit_in_bytes` of
 /// v1). A budget taken from the machine alone let a run under `ulimit -v` abort on an
-/// allocation instead of being refused by its memory plan.
+/// allocation instead of being refused by its memory plan, and the whole physical memory
+/// as the budget let a run whose plan fell short grow until the kernel's OOM killer ended
+/// it and other programs with it.
 pub fn available_memory_bytes() -> u64 {
-    let mut budget = physical_memory_bytes().unwrap_or(FALLBACK_MEMORY_BYTES);
+    let mut budget = usable_machine_memory_bytes().unwrap_or(FALLBACK_MEMORY_BYTES);
     for limit in [address_space_left(), cgroup_memory_limit()]
         .into_iter()
         .flatten()
@@ -506,6 +523,29 @@ mod tests {
         assert!(waited < 1.0, "waited {waited} s");
         // a request already set does not start the call
         assert!(matches!(cancel.wait_for(|| 1), Err(Error::Cancelled)));
+    }
+
+    /// The default budget leaves a quarter of the machine's memory and what other programs
+    /// hold: at most three quarters of `MemTotal`, and at most `MemAvailable` (read before
+    /// and after, which moves while other programs run).
+    #[test]
+    fn the_default_budget_leaves_part_of_the_machine() {
+        let available = || {
+            let text = std::fs::read_to_string("/proc/meminfo").unwrap();
+            kib_field(&text, "MemAvailable:").unwrap()
+        };
+        let Some(total) = physical_memory_bytes() else {
+            return; // not Linux
+        };
+        let before = available();
+        let budget = available_memory_bytes();
+        let after = available();
+        assert!(
+            budget as f64 <= MACHINE_SHARE * total as f64,
+            "{budget} of {total}"
+        );
+        assert!(budget <= before.max(after), "{budget} > {before}, {after}");
+        assert!(Limits::default().memory_bytes <= (MACHINE_SHARE * total as f64) as u64);
     }
 
     #[test]

@@ -35,8 +35,9 @@ pub struct ModelArgs {
 
     /// Memory budget [GiB] that a model and a computation may plan to use; larger ones are
     /// refused before anything is allocated. Default: the memory this process may use, the
-    /// smallest of the machine's physical memory, `ulimit -v` (RLIMIT_AS) and `-d`
-    /// (RLIMIT_DATA) less what is mapped already, and the cgroup's memory limit.
+    /// smallest of three quarters of the machine's physical memory, the memory available
+    /// now (MemAvailable), `ulimit -v` (RLIMIT_AS) and `-d` (RLIMIT_DATA) less what is
+    /// mapped already, and the cgroup's memory limit.
     #[arg(long, value_name = "GIB", value_parser = parse_memory_gib, allow_negative_numbers = true)]
     pub max_memory: Option<f64>,
 }
