@@ -609,3 +609,35 @@ fn the_states_at_the_samples_of_the_converged_damper_are_in_the_cone() {
         &outside[..outside.len().min(4)]
     );
 }
+
+/// docs/theory.md (T221): the dissipated energy of the converged damper (Gauss–Legendre on
+/// the slip phases, the slip speed times `|λ_T|`) against the work of the friction forces
+/// summed over 4096 instants, `−Σ λ_T(τ_k+½) · (y_T(τ_k+1) − y_T(τ_k))`, from the states
+/// alone (midpoint rule: second order between the switches; 1.4e-6 apart when written).
+#[test]
+fn the_dissipated_energy_of_the_converged_damper_is_the_friction_forces_work() {
+    let (law, h, cells, gamma) = law_from(include_str!("data/cone_damper_solution.txt"));
+    let n = law.contacts();
+    let periodic = law.periodic(h, &gamma, cells).unwrap();
+    let energy = law.dissipated_energy(&periodic).unwrap();
+    let samples = 4096;
+    let taus: Vec<f64> = (0..2 * samples + 1)
+        .map(|k| std::f64::consts::PI * k as f64 / samples as f64)
+        .collect();
+    let states = law.states_at(&periodic, &taus).unwrap();
+    let mut work = 0.0;
+    for k in 0..samples {
+        let (a, mid, b) = (&states[2 * k], &states[2 * k + 1], &states[2 * k + 2]);
+        for c in 0..n {
+            for t in [n + c, 2 * n + c] {
+                work -= mid.lambda[t] * (b.y[t] - a.y[t]);
+            }
+        }
+    }
+    assert!(energy > 0.0, "{energy}");
+    let error = (work - energy).abs() / energy;
+    assert!(
+        error < 1e-5,
+        "energy {energy:e}, work {work:e}: relative {error:e}"
+    );
+}
