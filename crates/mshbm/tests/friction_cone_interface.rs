@@ -641,3 +641,121 @@ fn the_dissipated_energy_of_the_converged_damper_is_the_friction_forces_work() {
         "energy {energy:e}, work {work:e}: relative {error:e}"
     );
 }
+
+/// docs/theory.md (T225): a product `S v` is one march of `v` with the anchors' response of
+/// the periodic state (its `2|R|` unit anchors marched and `I − P_RR` inverted once): equal
+/// to the central difference of the law along `v` and to the dense `S` (T220) times `v`, at
+/// the iterate where a contact slips into opening.
+#[test]
+fn a_product_with_the_laws_derivative_is_one_march_of_its_direction() {
+    let (law, h, cells, gamma) = damper_law();
+    let periodic = law.periodic(h, &gamma, cells).unwrap();
+    let response = law.anchor_response(&periodic, cells).unwrap();
+    assert!(
+        response.anchors() > 0,
+        "no anchor is periodic by the march alone"
+    );
+    let dense = law.jacobian_with(&periodic, &response, cells).unwrap();
+    let size = gamma.len();
+    let scale = max_abs(gamma.iter().copied());
+    for seed in [1u32] {
+        let direction: Vec<f64> = (0..size)
+            .map(|i| (((i as f64 + 1.0) * 0.5698402910 * f64::from(seed)).fract() - 0.5) * scale)
+            .collect();
+        let product = law
+            .tangent_with(
+                &periodic,
+                &response,
+                std::slice::from_ref(&direction),
+                cells,
+            )
+            .unwrap()
+            .remove(0);
+        // the central difference's truncation error is ~2e-6 at 1e-5, 8e-7 at 1e-6 and 1e-7
+        let step = 1e-6;
+        let forces = |sign: f64| {
+            let g: Vec<f64> = gamma
+                .iter()
+                .zip(&direction)
+                .map(|(g, d)| g + sign * step * d)
+                .collect();
+            law.periodic(h, &g, cells).unwrap().forces
+        };
+        let (plus, minus) = (forces(1.0), forces(-1.0));
+        let central: Vec<f64> = plus
+            .iter()
+            .zip(&minus)
+            .map(|(p, m)| (p - m) / (2.0 * step))
+            .collect();
+        let norm = max_abs(central.iter().copied());
+        let error = max_abs(central.iter().zip(&product).map(|(c, t)| c - t)) / norm;
+        assert!(
+            error < 1e-6,
+            "direction {seed}: against central differences {error:e}"
+        );
+        let s_v: Vec<f64> = dense
+            .chunks_exact(size)
+            .map(|row| row.iter().zip(&direction).map(|(a, b)| a * b).sum())
+            .collect();
+        let error = max_abs(s_v.iter().zip(&product).map(|(c, t)| c - t)) / norm;
+        assert!(
+            error < 1e-10,
+            "direction {seed}: against the dense S {error:e}"
+        );
+    }
+}
+
+/// docs/theory.md (T225), §18: the operator Jacobian with the cone applies `J` by products
+/// with `S` (no dense `S` until its preconditioner is refreshed) and gives the dense
+/// Jacobian's action; `∂R/∂ω` (one product) is its central difference in ω.
+#[test]
+fn the_operator_jacobian_with_the_cone_applies_the_dense_jacobian() {
+    use mshbm::harmonic::Quadrature;
+    use mshbm::method::redistributed::{JacobianForm, RedistributedMsHbm, RedistributedOptions};
+    use mshbm::problem::Jacobian;
+    let model = damper(Some(0.1), 2.0, 0.6, 0.3, "");
+    let with = |jacobian: JacobianForm| {
+        RedistributedMsHbm::new(
+            &model,
+            &RedistributedOptions {
+                quadrature: Quadrature::Exact,
+                jacobian,
+                ..RedistributedOptions::new(H)
+            },
+        )
+        .unwrap()
+    };
+    let omega = hz(250.0);
+    let (mut operator, mut dense) = (with(JacobianForm::Operator), with(JacobianForm::Dense));
+    let x = perturbed(&operator.initial_guess(omega).unwrap());
+    let a = operator.linearize(&x, omega).unwrap();
+    let b = dense.linearize(&x, omega).unwrap();
+    let (Jacobian::Operator(op), Jacobian::Dense(m)) = (&a.jacobian, &b.jacobian) else {
+        panic!("the forms asked for");
+    };
+    let n = x.len();
+    for seed in [1u32] {
+        let v: Vec<f64> = (0..n)
+            .map(|i| ((i as f64 + 1.0) * 0.7548776662 * f64::from(seed)).fract() - 0.5)
+            .collect();
+        let mut applied = vec![0.0; n];
+        op.apply(&v, &mut applied);
+        let expected: Vec<f64> = (0..n)
+            .map(|i| (0..n).map(|j| m[(i, j)] * v[j]).sum())
+            .collect();
+        let error = max_abs(expected.iter().zip(&applied).map(|(e, a)| e - a))
+            / max_abs(expected.iter().copied());
+        assert!(error < 1e-7, "J v, direction {seed}: {error:e}");
+    }
+    let step = 1e-5 * omega;
+    let r = |p: &mut RedistributedMsHbm, w: f64| p.residual(&x, w).unwrap();
+    let (plus, minus) = (r(&mut dense, omega + step), r(&mut dense, omega - step));
+    let central: Vec<f64> = plus
+        .iter()
+        .zip(&minus)
+        .map(|(p, m)| (p - m) / (2.0 * step))
+        .collect();
+    let error = max_abs(central.iter().zip(&a.d_omega).map(|(c, d)| c - d))
+        / max_abs(central.iter().copied());
+    assert!(error < 1e-5, "∂R/∂ω against central differences: {error:e}");
+}

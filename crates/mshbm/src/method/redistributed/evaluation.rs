@@ -240,17 +240,8 @@ impl RedistributedMsHbm {
         times_each_coefficient_into(n, self.contact.delassus(), &s.psi, &mut s.d_psi);
         s.s_d_psi.resize(len, 0.0);
         match friction {
-            // S = dλ̂/dγ̂ of the frictional law (T158)
-            Some(law) => {
-                let jacobian = law.jacobian()?;
-                for (row, o) in s.s_d_psi.iter_mut().enumerate() {
-                    *o = jacobian[row * len..(row + 1) * len]
-                        .iter()
-                        .zip(&s.d_psi)
-                        .map(|(a, b)| a * b)
-                        .sum();
-                }
-            }
+            // S = dλ̂/dγ̂ of the frictional law (T158), one product (T225)
+            Some(law) => s.s_d_psi = law.product(&s.d_psi, self.operator_jacobian)?,
             None => assemble_forces_into(
                 n,
                 self.harmonics,

@@ -13,7 +13,7 @@ use std::cell::OnceCell;
 use std::rc::Rc;
 
 use super::frequency_maps::{FrequencyMatrices, Map};
-use super::friction::cone::{ConeContacts, ConePeriodic};
+use super::friction::cone::{AnchorResponse, ConeContacts, ConePeriodic};
 use super::friction::{FrictionalContacts, PeriodicContact};
 use super::outputs::{dof_response, NodeHarmonics};
 use super::{n_dof_coefficients, refine_extremum, RedistributedMsHbm, MAX_CACHED_INSTANTS};
@@ -120,6 +120,8 @@ pub(super) enum PeriodicFriction {
         periodic: ConePeriodic,
         /// `S`, row-major (T220), computed when first asked (a residual alone needs none).
         jacobian: OnceCell<Vec<f64>>,
+        /// The anchors' response for products `S v` (T225), computed when first asked.
+        anchors: OnceCell<AnchorResponse>,
         cells: usize,
     },
 }
@@ -154,6 +156,7 @@ impl Law {
                 law: Rc::clone(law),
                 periodic: law.periodic(harmonics, gamma, cells)?,
                 jacobian: OnceCell::new(),
+                anchors: OnceCell::new(),
                 cells,
             },
         })
@@ -181,12 +184,55 @@ impl PeriodicFriction {
                 law,
                 periodic,
                 jacobian,
+                anchors,
                 cells,
             } => {
                 if jacobian.get().is_none() {
-                    let _ = jacobian.set(law.jacobian(periodic, *cells)?);
+                    let s = match anchors.get() {
+                        Some(response) => law.jacobian_with(periodic, response, *cells)?,
+                        None => {
+                            let (s, response) = law.jacobian_and_response(periodic, *cells)?;
+                            let _ = anchors.set(response);
+                            s
+                        }
+                    };
+                    let _ = jacobian.set(s);
                 }
                 Ok(jacobian.get().expect("set above"))
+            }
+        }
+    }
+
+    /// `S v` (T158), (T225): by the dense `S` (formed if need be), or for the cone where
+    /// `marched` and `S` is not formed, one tangent march of `v` with the anchors' response
+    /// of the periodic state.
+    pub(super) fn product(&self, v: &[f64], marched: bool) -> Result<Vec<f64>> {
+        let dense = |s: &[f64]| -> Vec<f64> {
+            s.chunks_exact(v.len())
+                .map(|row| crate::dense::dot(row, v))
+                .collect()
+        };
+        match self {
+            PeriodicFriction::Plane(p) => Ok(dense(&p.jacobian)),
+            PeriodicFriction::Cone {
+                law,
+                periodic,
+                jacobian,
+                anchors,
+                cells,
+            } => {
+                if let Some(s) = jacobian.get() {
+                    return Ok(dense(s));
+                }
+                if !marched {
+                    return Ok(dense(self.jacobian()?));
+                }
+                if anchors.get().is_none() {
+                    let _ = anchors.set(law.anchor_response(periodic, *cells)?);
+                }
+                let response = anchors.get().expect("set above");
+                let mut columns = law.tangent_with(periodic, response, &[v.to_vec()], *cells)?;
+                Ok(columns.pop().expect("one direction"))
             }
         }
     }

@@ -465,13 +465,12 @@ impl JacobianOperator for ContactJacobian {
         let d_x = self.matrices.apply(Map::Scaled, n, x);
         let complement: Vec<f64> = x.iter().zip(&d_x).map(|(a, b)| a - b).collect();
         let forces = match &self.law {
-            // (T133) with the frictional law: S u = dλ̂/du · u (T158), a dense product
+            // (T133) with the frictional law: S u = dλ̂/du · u (T158), (T225); a law that
+            // fails here makes the product not a number, which GMRES and the dense
+            // fallback report as a singular Jacobian
             Some(law) => law
-                .jacobian()
-                .expect("the linearisation computed S for ∂R/∂ω first")
-                .chunks_exact(complement.len())
-                .map(|row| crate::dense::dot(row, &complement))
-                .collect(),
+                .product(&complement, true)
+                .unwrap_or_else(|_| vec![f64::NAN; complement.len()]),
             None => assemble_forces(n, self.harmonics, &self.integration, &complement),
         };
         let scaled = times_each_coefficient(n, &self.residual_scale, &forces);
@@ -488,14 +487,18 @@ impl JacobianOperator for ContactJacobian {
 
     fn dense(&self) -> Mat<f64> {
         if let Some(law) = &self.law {
-            return super::frictional::dense_jacobian(
-                self.n,
-                self.harmonics,
-                &self.matrices,
-                &self.residual_scale,
-                law.jacobian()
-                    .expect("the linearisation computed S for ∂R/∂ω first"),
-            );
+            let size = self.dimension();
+            return match law.jacobian() {
+                Ok(s) => super::frictional::dense_jacobian(
+                    self.n,
+                    self.harmonics,
+                    &self.matrices,
+                    &self.residual_scale,
+                    s,
+                ),
+                // not a number: reported as a singular Jacobian (see `apply`)
+                Err(_) => Mat::from_fn(size, size, |_, _| f64::NAN),
+            };
         }
         dense_jacobian(
             self.n,

@@ -101,6 +101,7 @@ mod rates;
 mod tangent;
 
 pub use outputs::ConeState;
+pub use tangent::AnchorResponse;
 
 use march::March;
 

@@ -33,22 +33,29 @@ impl ConeContacts {
     /// `S = dλ̂/dγ̂` of `periodic` (T220), row-major, `3n(2H+1)` square: its columns are the
     /// tangent (T191) along the unit directions of the free gap's coefficients.
     pub fn jacobian(&self, periodic: &ConePeriodic, cells: usize) -> Result<Vec<f64>> {
-        let size = periodic.gamma.len();
-        let directions: Vec<Vec<f64>> = (0..size)
-            .map(|j| {
-                let mut d = vec![0.0; size];
-                d[j] = 1.0;
-                d
-            })
-            .collect();
-        let columns = self.tangent(periodic, &directions, cells)?;
-        let mut s = vec![0.0; size * size];
-        for (j, column) in columns.iter().enumerate() {
-            for (i, v) in column.iter().enumerate() {
-                s[i * size + j] = *v;
-            }
-        }
-        Ok(s)
+        Ok(self.jacobian_and_response(periodic, cells)?.0)
+    }
+
+    /// [`ConeContacts::jacobian`] and the anchors' response (T225) from the same march.
+    pub fn jacobian_and_response(
+        &self,
+        periodic: &ConePeriodic,
+        cells: usize,
+    ) -> Result<(Vec<f64>, super::AnchorResponse)> {
+        let (columns, response) =
+            self.tangent_and_response(periodic, &unit_directions(periodic), cells)?;
+        Ok((row_major(columns), response))
+    }
+
+    /// [`ConeContacts::jacobian`] with the anchors' response of `periodic` (T225).
+    pub fn jacobian_with(
+        &self,
+        periodic: &ConePeriodic,
+        response: &super::AnchorResponse,
+        cells: usize,
+    ) -> Result<Vec<f64>> {
+        let columns = self.tangent_with(periodic, response, &unit_directions(periodic), cells)?;
+        Ok(row_major(columns))
     }
 
     /// The state of `periodic` at each of `taus` (taken modulo the period), the slip flow
@@ -244,4 +251,28 @@ impl From<ConeMode> for ContactState {
             ConeMode::Slip => ContactState::Slip,
         }
     }
+}
+
+/// The unit directions of the free gap's coefficients of `periodic`.
+fn unit_directions(periodic: &ConePeriodic) -> Vec<Vec<f64>> {
+    let size = periodic.gamma.len();
+    (0..size)
+        .map(|j| {
+            let mut d = vec![0.0; size];
+            d[j] = 1.0;
+            d
+        })
+        .collect()
+}
+
+/// Columns as one row-major square matrix.
+fn row_major(columns: Vec<Vec<f64>>) -> Vec<f64> {
+    let size = columns.len();
+    let mut s = vec![0.0; size * size];
+    for (j, column) in columns.iter().enumerate() {
+        for (i, v) in column.iter().enumerate() {
+            s[i * size + j] = *v;
+        }
+    }
+    s
 }
