@@ -80,7 +80,7 @@ pub enum ReceptanceArg {
 /// How Newton's linear systems are solved (redistributed MS-HBM).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum JacobianArg {
-    /// Dense below 1000 unknowns (5000 with the Coulomb cone), the operator from there.
+    /// Dense below 1000 unknowns, the operator from there.
     Auto,
     /// The dense Jacobian and its LU.
     Dense,
@@ -173,7 +173,7 @@ pub struct MethodArgs {
     /// Newton's linear systems (redistributed MS-HBM, docs/theory.md §18): dense (form the
     /// Jacobian, LU) or operator (GMRES on its action, preconditioned by the factors of an
     /// earlier Jacobian; for many contacts times harmonics). Default: auto (the operator
-    /// from 1000 unknowns, 5000 with the Coulomb cone).
+    /// from 1000 unknowns).
     #[arg(long, value_enum, default_value_t = JacobianArg::Auto)]
     pub jacobian: JacobianArg,
 }

@@ -168,7 +168,7 @@ def solve(
     DOF, exact otherwise), ``"exact"`` or ``"modal"`` (the
     lowest ``receptance_modes`` modes, default 200, plus the exact static compliance;
     docs/theory.md §17). ``jacobian``: Newton's linear systems, ``"auto"`` (dense below
-    1000 unknowns, 5000 with the Coulomb cone, the operator above), ``"dense"`` (LU) or ``"operator"`` (GMRES on the
+    1000 unknowns, the operator above), ``"dense"`` (LU) or ``"operator"`` (GMRES on the
     Jacobian's action; docs/theory.md §18). ``start``: ``"auto"``
     (linear response, then continuation from a lower frequency if Newton fails),
     ``"linear"``, or a :class:`Solution` to start from (``--from-solution``);

@@ -89,20 +89,6 @@ pub struct RedistributedOptions {
 /// under [`JacobianForm::Auto`] (below it the dense LU is faster; docs/theory.md §18).
 pub const OPERATOR_JACOBIAN_UNKNOWNS: usize = 1000;
 
-/// [`OPERATOR_JACOBIAN_UNKNOWNS`] for the Coulomb cone (T225): a product `S v` is a tangent
-/// march of its own and the dense `S` of `N` columns costs about `1 + N/170` such marches
-/// (BENCHMARKS.md §14d), so the operator pays where that exceeds the products GMRES makes
-/// before it refreshes its preconditioner (with the dense `S`): `1 + N/170 > 30`.
-pub const CONE_OPERATOR_JACOBIAN_UNKNOWNS: usize = 5000;
-
-/// The size from which [`JacobianForm::Auto`] takes the operator for the contacts' law.
-fn operator_threshold(friction: &Option<frictional::Law>) -> usize {
-    match friction {
-        Some(frictional::Law::Cone(_)) => CONE_OPERATOR_JACOBIAN_UNKNOWNS,
-        _ => OPERATOR_JACOBIAN_UNKNOWNS,
-    }
-}
-
 /// How the Jacobian (T129) reaches Newton and the continuation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum JacobianForm {
@@ -120,14 +106,8 @@ pub enum JacobianForm {
 impl JacobianForm {
     /// Whether a system of `unknowns` unknowns uses the operator.
     pub fn is_operator(self, unknowns: usize) -> bool {
-        self.is_operator_from(unknowns, OPERATOR_JACOBIAN_UNKNOWNS)
-    }
-
-    /// Whether a system of `unknowns` unknowns uses the operator, [`JacobianForm::Auto`]
-    /// from `threshold` unknowns.
-    pub fn is_operator_from(self, unknowns: usize, threshold: usize) -> bool {
         match self {
-            JacobianForm::Auto => unknowns >= threshold,
+            JacobianForm::Auto => unknowns >= OPERATOR_JACOBIAN_UNKNOWNS,
             JacobianForm::Dense => false,
             JacobianForm::Operator => true,
         }
@@ -463,10 +443,7 @@ impl RedistributedMsHbm {
             residual_scale: Rc::new(residual_scale),
             preconditioner: Default::default(),
             jacobian_form: options.jacobian,
-            operator_jacobian: options.jacobian.is_operator_from(
-                n_contacts * n_coefficients(h),
-                operator_threshold(&friction),
-            ),
+            operator_jacobian: options.jacobian.is_operator(n_contacts * n_coefficients(h)),
             friction,
             stiffness_nn,
             directions,
@@ -515,10 +492,9 @@ impl RedistributedMsHbm {
         )?;
         self.sampling = Sampling::within(harmonics, samples, &self.limits)?;
         self.harmonics = harmonics;
-        self.operator_jacobian = self.jacobian_form.is_operator_from(
-            self.n() * n_coefficients(harmonics),
-            operator_threshold(&self.friction),
-        );
+        self.operator_jacobian = self
+            .jacobian_form
+            .is_operator(self.n() * n_coefficients(harmonics));
         // everything sized by H: the prepared frequency, the preconditioner's factors, the
         // Floquet analysis' per-set data
         self.frequency = None;

@@ -11,9 +11,11 @@ use super::march::March;
 use super::mixing::Anderson;
 use super::*;
 
+mod collocation;
 mod flow;
 mod switch;
 
+use collocation::{PathMode, PathStep};
 use flow::series_at;
 
 /// How the periodic anchors' system (T218) is solved.
@@ -28,6 +30,16 @@ pub(in super::super) enum Anchors {
     /// `δa₀,R ← δa_end,R` repeated with the directions' columns alone, until it settles.
     #[cfg_attr(not(test), allow(dead_code))]
     Iteration,
+}
+
+/// The numbers the recorded slip paths of one periodic state may hold (T225): 128 MiB.
+const PATH_RECORD_NUMBERS: usize = 1 << 24;
+
+/// What a tangent march does with the slip phases' primal paths (T225), by phase.
+enum Paths<'a> {
+    Free,
+    Record(&'a mut Vec<Option<Vec<PathStep>>>),
+    Replay(&'a [Option<Vec<PathStep>>]),
 }
 
 /// Where the iteration of the periodic anchors' derivative has settled, relative to the
@@ -45,6 +57,9 @@ pub struct AnchorResponse {
     r_rows: Vec<usize>,
     /// `G`, `3n(2H+1) × 2|R|`.
     gain: Mat<f64>,
+    /// The slip phases' primal paths, by phase, for the products' marches to replay (none
+    /// past [`PATH_RECORD_NUMBERS`]).
+    paths: Vec<Option<Vec<PathStep>>>,
 }
 
 impl AnchorResponse {
@@ -263,7 +278,14 @@ impl ConeContacts {
             a[row] = scale;
             d_anchors.push(a);
         }
-        let mut d_forces = self.march_columns(march, &periodic.phases, &d_gamma, &mut d_anchors)?;
+        let mut paths = vec![None; periodic.phases.len()];
+        let mut d_forces = self.march_columns(
+            march,
+            &periodic.phases,
+            &d_gamma,
+            &mut d_anchors,
+            Paths::Record(&mut paths),
+        )?;
         let gain = if nr == 0 {
             Mat::zeros(size, 0)
         } else {
@@ -286,7 +308,12 @@ impl ConeContacts {
             let unit = Mat::<f64>::from_fn(size, nr, |i, q| d_forces[ndir + q][i] / scale);
             crate::dense::sequential_product(unit.as_ref(), inverse.as_ref())
         };
-        let response = AnchorResponse { z, r_rows, gain };
+        let response = AnchorResponse {
+            z,
+            r_rows,
+            gain,
+            paths,
+        };
         d_forces.truncate(ndir);
         d_anchors.truncate(ndir);
         let result = response.combine(d_forces, &d_anchors, &factors);
@@ -304,7 +331,13 @@ impl ConeContacts {
         let scale = march.gamma_scale.max(f64::MIN_POSITIVE);
         let (d_gamma, mut d_anchors, factors) =
             self.scaled_columns(periodic, &response.z, directions, scale)?;
-        let d_forces = self.march_columns(march, &periodic.phases, &d_gamma, &mut d_anchors)?;
+        let d_forces = self.march_columns(
+            march,
+            &periodic.phases,
+            &d_gamma,
+            &mut d_anchors,
+            Paths::Replay(&response.paths),
+        )?;
         Ok(response.combine(d_forces, &d_anchors, &factors))
     }
 
@@ -328,7 +361,8 @@ impl ConeContacts {
         let mut mixing: Vec<Anderson> = (0..ndir).map(|_| Anderson::new(MIXING_MEMORY)).collect();
         for pass in 0..=MAX_PASSES {
             let mut end = start.clone();
-            let forces = self.march_columns(march, &periodic.phases, &d_gamma, &mut end)?;
+            let forces =
+                self.march_columns(march, &periodic.phases, &d_gamma, &mut end, Paths::Free)?;
             let change = (0..ndir)
                 .flat_map(|j| r_rows.iter().map(move |&row| (j, row)))
                 .fold(0.0f64, |c, (j, row)| {
@@ -379,8 +413,10 @@ impl ConeContacts {
         phases: &[ConePhase],
         d_gamma: &[Vec<f64>],
         d_anchors: &mut [Vec<f64>],
+        mut paths: Paths<'_>,
     ) -> Result<Vec<Vec<f64>>> {
         let harmonics = march.harmonics;
+        let mut recorded = 0;
         let ncol = d_gamma.len();
         let (m, ncoef) = (3 * self.n, n_coefficients(march.harmonics));
         let mut d_forces = vec![vec![0.0; m * ncoef]; ncol];
@@ -394,7 +430,21 @@ impl ConeContacts {
                     vec![vec![0.0; 2 * slipping.len() * (1 + ncoef)]; ncol],
                 )
             } else {
-                march.tangent_phase(phase, d_gamma, d_anchors)?
+                let mode = match &mut paths {
+                    Paths::Record(all) if recorded < PATH_RECORD_NUMBERS => {
+                        PathMode::Record(all[p].insert(Vec::new()))
+                    }
+                    Paths::Replay(all) => match all.get(p).and_then(Option::as_ref) {
+                        Some(steps) => PathMode::Replay(steps),
+                        None => PathMode::Free,
+                    },
+                    _ => PathMode::Free,
+                };
+                let out = march.tangent_phase(phase, d_gamma, d_anchors, mode)?;
+                if let Paths::Record(all) = &paths {
+                    recorded += all[p].iter().flatten().map(PathStep::size).sum::<usize>();
+                }
+                out
             };
             for j in 0..ncol {
                 let column = March::new(self, harmonics, &d_gamma[j], march.cells);
