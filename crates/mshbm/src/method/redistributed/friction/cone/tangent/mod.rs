@@ -35,6 +35,9 @@ pub(in super::super) enum Anchors {
 /// The numbers the recorded slip paths of one periodic state may hold (T225): 128 MiB.
 const PATH_RECORD_NUMBERS: usize = 1 << 24;
 
+/// Columns scaled to the free gap's size: `δγ̂`, the `δa` they start from, and their factors.
+type ScaledColumns = (Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<f64>);
+
 /// What a tangent march does with the slip phases' primal paths (T225), by phase.
 enum Paths<'a> {
     Free,
@@ -219,7 +222,7 @@ impl ConeContacts {
         z: &[usize],
         directions: &[Vec<f64>],
         scale: f64,
-    ) -> Result<(Vec<Vec<f64>>, Vec<Vec<f64>>, Vec<f64>)> {
+    ) -> Result<ScaledColumns> {
         let m = 3 * self.n;
         let ncoef = n_coefficients(periodic.harmonics);
         let z_tangent = self.initial_tangent(periodic.harmonics, &periodic.gamma, z, directions)?;
