@@ -529,6 +529,30 @@ fn law_from(text: &str) -> (ConeContacts, usize, usize, Vec<f64>) {
     (law, head[0] as usize, head[1] as usize, gamma)
 }
 
+/// The central difference of the law's periodic forces at `gamma` along `direction`.
+fn law_central_difference(
+    law: &ConeContacts,
+    h: usize,
+    cells: usize,
+    gamma: &[f64],
+    direction: &[f64],
+    step: f64,
+) -> Vec<f64> {
+    let forces = |sign: f64| {
+        let g: Vec<f64> = gamma
+            .iter()
+            .zip(direction)
+            .map(|(g, d)| g + sign * step * d)
+            .collect();
+        law.periodic(h, &g, cells).unwrap().forces
+    };
+    let (plus, minus) = (forces(1.0), forces(-1.0));
+    plus.iter()
+        .zip(&minus)
+        .map(|(p, m)| (p - m) / (2.0 * step))
+        .collect()
+}
+
 /// docs/theory.md (T223): where a slipping contact's force reaches the apex before it opens,
 /// the slip direction is the stuck force's rate's, and the tangent must vary that direction,
 /// not the force's (which made it 10³–10⁴ times its central difference and Newton stall).
@@ -550,21 +574,7 @@ fn the_cone_laws_derivative_through_an_opening_from_slip_is_its_central_differen
         let tangent = law
             .tangent(&periodic, std::slice::from_ref(&direction), cells)
             .unwrap();
-        let step = 1e-5;
-        let forces = |sign: f64| {
-            let g: Vec<f64> = gamma
-                .iter()
-                .zip(&direction)
-                .map(|(g, d)| g + sign * step * d)
-                .collect();
-            law.periodic(h, &g, cells).unwrap().forces
-        };
-        let (plus, minus) = (forces(1.0), forces(-1.0));
-        let central: Vec<f64> = plus
-            .iter()
-            .zip(&minus)
-            .map(|(p, m)| (p - m) / (2.0 * step))
-            .collect();
+        let central = law_central_difference(&law, h, cells, &gamma, &direction, 1e-5);
         let error = max_abs(central.iter().zip(&tangent[0]).map(|(c, t)| c - t))
             / max_abs(central.iter().copied());
         assert!(error < 1e-6, "direction {seed}: relative error {error:e}");
@@ -673,21 +683,7 @@ fn a_product_with_the_laws_derivative_is_one_march_of_its_direction() {
         .unwrap()
         .remove(0);
     // the central difference's truncation error is ~2e-6 at 1e-5, 8e-7 at 1e-6 and 1e-7
-    let step = 1e-6;
-    let forces = |sign: f64| {
-        let g: Vec<f64> = gamma
-            .iter()
-            .zip(&direction)
-            .map(|(g, d)| g + sign * step * d)
-            .collect();
-        law.periodic(h, &g, cells).unwrap().forces
-    };
-    let (plus, minus) = (forces(1.0), forces(-1.0));
-    let central: Vec<f64> = plus
-        .iter()
-        .zip(&minus)
-        .map(|(p, m)| (p - m) / (2.0 * step))
-        .collect();
+    let central = law_central_difference(&law, h, cells, &gamma, &direction, 1e-6);
     let norm = max_abs(central.iter().copied());
     let error = max_abs(central.iter().zip(&product).map(|(c, t)| c - t)) / norm;
     assert!(error < 1e-6, "against central differences {error:e}");
