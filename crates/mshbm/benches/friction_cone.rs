@@ -1,7 +1,8 @@
 //! The cost of the 3D friction cone law (docs/theory.md (T186)–(T194)) against the number of
 //! contacts, on a dense coupled Delassus matrix (BENCHMARKS.md §14d):
 //! `cargo bench -p mshbm --bench friction_cone`. Two drives: most contacts slipping most of
-//! the period, and a preloaded patch where only the edge slips (a joint's microslip).
+//! the period, and a preloaded patch where only the edge slips (a joint's microslip), with
+//! the cost of a product `S v` (T225) against the dense `S` there.
 
 use std::time::Instant;
 
@@ -67,6 +68,39 @@ fn run(label: &str, n: usize, gamma: &[f64], seed: u64) {
                         start.elapsed().as_secs_f64()
                     ),
                     Err(e) => println!("  tangent along {columns} direction(s) failed: {e}"),
+                }
+            }
+            // products `S v` (T225): the anchors' response once, then one march per product
+            // (its primal path replayed); the dense `S` of the `3n(2H+1)` columns beside
+            // them at 50 contacts
+            if label == "microslip" {
+                let cells = 8 * (2 * h + 1);
+                let start = Instant::now();
+                let Ok(response) = law.anchor_response(&p, cells) else {
+                    println!("  the anchors' response failed");
+                    return;
+                };
+                let response_time = start.elapsed().as_secs_f64();
+                let v: Vec<f64> = (0..gamma.len())
+                    .map(|i| ((i as f64 + 1.0) * 0.7548776662).fract() - 0.5)
+                    .collect();
+                let start = Instant::now();
+                let product = law.tangent_with(&p, &response, &[v], cells);
+                println!(
+                    "  anchors' response ({} anchors): {response_time:.2} s; a product: {:.2} s{}",
+                    response.anchors(),
+                    start.elapsed().as_secs_f64(),
+                    if product.is_ok() { "" } else { " (failed)" }
+                );
+                if n <= 50 {
+                    let start = Instant::now();
+                    let dense = law.jacobian_with(&p, &response, cells);
+                    println!(
+                        "  the dense S ({} columns): {:.2} s{}",
+                        gamma.len(),
+                        start.elapsed().as_secs_f64(),
+                        if dense.is_ok() { "" } else { " (failed)" }
+                    );
                 }
             }
         }
