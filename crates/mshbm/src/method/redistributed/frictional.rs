@@ -213,20 +213,13 @@ impl PeriodicFriction {
                 .collect()
         };
         match self {
-            PeriodicFriction::Plane(p) => Ok(dense(&p.jacobian)),
             PeriodicFriction::Cone {
                 law,
                 periodic,
                 jacobian,
                 anchors,
                 cells,
-            } => {
-                if let Some(s) = jacobian.get() {
-                    return Ok(dense(s));
-                }
-                if !marched {
-                    return Ok(dense(self.jacobian()?));
-                }
+            } if marched && jacobian.get().is_none() => {
                 if anchors.get().is_none() {
                     let _ = anchors.set(law.anchor_response(periodic, *cells)?);
                 }
@@ -234,6 +227,7 @@ impl PeriodicFriction {
                 let mut columns = law.tangent_with(periodic, response, &[v.to_vec()], *cells)?;
                 Ok(columns.pop().expect("one direction"))
             }
+            _ => Ok(dense(self.jacobian()?)),
         }
     }
 

@@ -169,7 +169,7 @@ impl ConeContacts {
             }
         }
         Ok(self
-            .march_with_units(&mut march, periodic, z, r_rows, directions)?
+            .march_with_units(&mut march, periodic, z, r_rows, directions, false)?
             .0)
     }
 
@@ -184,7 +184,7 @@ impl ConeContacts {
         self.check_directions(periodic, directions)?;
         let mut march = March::new(self, periodic.harmonics, &periodic.gamma, cells.max(1));
         let (z, r_rows) = self.anchor_split(&periodic.phases)?;
-        self.march_with_units(&mut march, periodic, z, r_rows, directions)
+        self.march_with_units(&mut march, periodic, z, r_rows, directions, true)
     }
 
     fn check_directions(&self, periodic: &ConePeriodic, directions: &[Vec<f64>]) -> Result<()> {
@@ -254,12 +254,15 @@ impl ConeContacts {
         z: Vec<usize>,
         r_rows: Vec<usize>,
     ) -> Result<AnchorResponse> {
-        Ok(self.march_with_units(march, periodic, z, r_rows, &[])?.1)
+        Ok(self
+            .march_with_units(march, periodic, z, r_rows, &[], true)?
+            .1)
     }
 
     /// `δλ̂` along `directions` and the anchors' response (T225) from one march of the
     /// directions and the `2|R|` unit anchors together (a march's fixed part, the primal path
-    /// and the rates' unit columns (T222), is paid once).
+    /// and the rates' unit columns (T222), is paid once); the slip paths recorded for later
+    /// products where `record`.
     fn march_with_units(
         &self,
         march: &mut March,
@@ -267,6 +270,7 @@ impl ConeContacts {
         z: Vec<usize>,
         r_rows: Vec<usize>,
         directions: &[Vec<f64>],
+        record: bool,
     ) -> Result<(Vec<Vec<f64>>, AnchorResponse)> {
         let n = self.n;
         let size = 3 * n * n_coefficients(march.harmonics);
@@ -287,7 +291,11 @@ impl ConeContacts {
             &periodic.phases,
             &d_gamma,
             &mut d_anchors,
-            Paths::Record(&mut paths),
+            if record {
+                Paths::Record(&mut paths)
+            } else {
+                Paths::Free
+            },
         )?;
         let gain = if nr == 0 {
             Mat::zeros(size, 0)
